@@ -1,0 +1,51 @@
+// burrbench: thin entry point. Verbs live in verb_*.cpp, one file per verb.
+#include <algorithm>
+#include <exception>
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/provenance.hpp"
+#include "burrbench/data_schema/version.hpp"
+#include "verb_registry.hpp"
+
+namespace burrbench::apps {
+std::vector<VerbEntry>& verb_registry() {
+  static std::vector<VerbEntry> v;
+  return v;
+}
+namespace {
+int g_exit_code = 0;
+}
+void set_exit_code(int code) { g_exit_code = code; }
+int exit_code() { return g_exit_code; }
+}  // namespace burrbench::apps
+
+int main(int argc, char** argv) {
+  using namespace burrbench;
+  set_invocation(argc, argv);
+  CLI::App app{"burrbench — validate and calibrate a voxel burr–bone drilling model "
+               "against a physical drilling rig"};
+  app.set_version_flag("--version", std::string(software_version()));
+  app.require_subcommand(1);
+  auto& verbs = apps::verb_registry();
+  std::sort(verbs.begin(), verbs.end(), [](auto& a, auto& b) { return a.name < b.name; });
+  for (const auto& v : verbs) v.setup(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);  // prints help/version or the parse error
+    return rc == 0 ? 0 : 2;
+  } catch (const InputError& e) {
+    std::cerr << "burrbench: " << e.what() << "\n";
+    return 2;
+  } catch (const InvariantError& e) {
+    std::cerr << "burrbench: " << e.what() << " — please report this\n";
+    return 3;
+  } catch (const std::exception& e) {
+    std::cerr << "burrbench: error: " << e.what() << "\n";
+    return 3;
+  }
+  return apps::exit_code();
+}

@@ -1,0 +1,32 @@
+#pragma once
+// Model constants per bone class: what a simulator release consumes (TOML,
+// format "burrbench.params"). Units: α and C1 in N/mm² (α = mJ/mm³), μ dimensionless.
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <string>
+
+namespace burrbench::data_schema {
+
+inline constexpr const char* kParamsFormat = "burrbench.params";
+inline constexpr int kParamsVersionMajor = 1;
+inline constexpr int kParamsVersionMinor = 0;
+
+struct ClassParams {
+  std::string name;                                          // "compact", "trabecular"
+  double alpha_N_per_mm2 = std::numeric_limits<double>::infinity();  // ∞: no erosion
+  double c1_N_per_mm2 = 0;
+  double mu = 0;
+};
+
+struct ParameterSet {
+  std::map<std::uint8_t, ClassParams> classes;  // by class label
+  std::string notes;
+};
+
+void validate(const ParameterSet& p, const std::string& file_for_messages);
+void write_params(const std::filesystem::path& path, const ParameterSet& p);
+ParameterSet read_params(const std::filesystem::path& path);  // validates
+
+}  // namespace burrbench::data_schema

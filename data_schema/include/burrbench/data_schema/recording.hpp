@@ -1,0 +1,87 @@
+#pragma once
+// A drilling session: one stream per device, events and metadata. Stored as HDF5
+// (format "burrbench.recording"); docs/formats.md lists every field with unit and frame.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "burrbench/data_schema/provenance.hpp"
+
+namespace burrbench::data_schema {
+
+inline constexpr const char* kRecordingFormat = "burrbench.recording";
+inline constexpr int kRecordingVersionMajor = 1;
+inline constexpr int kRecordingVersionMinor = 0;
+
+// Canonical channel names (decoded, in MODEL.md units).
+inline constexpr const char* kForce = "force_N";        // n×3, sensor frame, force on sample
+inline constexpr const char* kTorque = "torque_Nmm";    // n×3, sensor frame
+inline constexpr const char* kPosition = "position_mm"; // n×3, rig frame, burr centre
+inline constexpr const char* kSpindle = "spindle_rpm";  // n×1
+
+struct Channel {
+  std::string name;            // canonical name or a device-specific one
+  std::string unit;            // "N", "N*mm", "mm", "rpm", ...
+  std::size_t width = 1;       // columns per sample (3 for vectors)
+  std::vector<double> values;  // row-major, samples × width
+  std::size_t samples() const { return width ? values.size() / width : 0; }
+};
+
+// One device's samples. All per-sample vectors have the same length n (counter and
+// raw_registers may be empty when the device has none).
+struct Stream {
+  std::string name;                  // "ft_sensor", "stage", "spindle", ...
+  std::vector<std::int64_t> t_ns;    // host monotonic timestamp = (send+recv)/2
+  std::vector<std::int64_t> t_send_ns, t_recv_ns;  // request send / reply receive
+  std::size_t registers_per_sample = 0;
+  std::vector<std::uint16_t> raw_registers;        // n × registers_per_sample
+  std::vector<std::int64_t> device_counter;        // device's own sample counter
+  std::vector<std::uint8_t> stale;                 // 1 = value repeated, not fresh
+  std::vector<Channel> channels;
+  std::size_t samples() const { return t_ns.size(); }
+  const Channel* channel(const std::string& name) const;
+};
+
+struct Event {
+  std::int64_t t_ns = 0;  // host monotonic
+  std::string kind;       // start, stop, tare, fault, reconnect, gap, duplicate, ...
+  std::string stream;     // device stream, "" for the session
+  std::string detail;
+};
+
+struct RecordingMeta {
+  std::string sample_id, rig_id, operator_name;
+  double burr_radius_mm = 0;
+  glm::dvec3 burr_axis_rig{0, 0, 1};  // shaft direction, unit vector, rig frame
+  int spin_sign = 1;                   // +1: ω along burr_axis_rig, -1: against
+  std::string sensor_model, sensor_serial;
+  std::vector<double> sensor_calibration;  // 36 values (6×6 row-major) or empty
+  std::string sensor_calibration_date;
+  std::vector<double> bias;                // 6 values: Fx,Fy,Fz N, Tx,Ty,Tz N·mm; or empty
+  std::int64_t bias_t_ns = 0;              // when the bias was taken (host monotonic)
+  std::string register_map_toml;           // the map used, verbatim
+  std::int64_t session_wall_ns = 0;        // wall clock (Unix ns) ...
+  std::int64_t session_monotonic_ns = 0;   // ... paired with this monotonic instant
+  std::string notes;
+};
+
+struct Recording {
+  RecordingMeta meta;
+  std::vector<Stream> streams;
+  std::vector<Event> events;
+  Provenance provenance;
+  const Stream* stream(const std::string& name) const;
+  // The stream holding a canonical channel, or nullptr.
+  const Stream* stream_with(const std::string& channel) const;
+};
+
+// Throws InputError naming file and field on any defect (lengths, NaN/Inf, version...).
+void validate(const Recording& rec, const std::string& file_for_messages);
+void write_recording(const std::filesystem::path& path, const Recording& rec);
+Recording read_recording(const std::filesystem::path& path);  // validates
+
+}  // namespace burrbench::data_schema

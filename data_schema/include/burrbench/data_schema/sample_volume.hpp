@@ -1,0 +1,54 @@
+#pragma once
+// A CT-derived sample: per-voxel class label and bone fraction χ on a cubic grid.
+// Stored as HDF5 (format "burrbench.sample"). Index order: x fastest, then y, then z
+// (HDF5 dataset shape [nz][ny][nx], as NRRD stores it).
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "burrbench/data_schema/provenance.hpp"
+
+namespace burrbench::data_schema {
+
+inline constexpr const char* kSampleFormat = "burrbench.sample";
+inline constexpr int kSampleVersionMajor = 1;
+inline constexpr int kSampleVersionMinor = 0;
+
+inline constexpr std::uint8_t kEmpty = 0;
+inline constexpr std::uint8_t kCompact = 1;
+inline constexpr std::uint8_t kTrabecular = 2;
+
+struct SampleVolume {
+  std::array<std::size_t, 3> dims{0, 0, 0};  // nx, ny, nz
+  double voxel_mm = 0;                        // cubic voxel side l
+  glm::dvec3 origin_mm{0, 0, 0};              // centre of voxel (0,0,0), volume frame
+  std::vector<std::uint8_t> labels;           // class id per voxel (0 = empty)
+  std::vector<float> fraction;                // χ ∈ [0,1] per voxel
+  std::map<std::uint8_t, std::string> classes{{1, "compact"}, {2, "trabecular"}};
+  std::vector<InputFile> sources;             // files it was made from
+  std::string segmentation_json;              // settings used, as JSON text ("{}" if none)
+  Provenance provenance;
+
+  std::size_t voxel_count() const { return dims[0] * dims[1] * dims[2]; }
+  std::size_t index(std::size_t x, std::size_t y, std::size_t z) const {
+    return x + dims[0] * (y + dims[1] * z);
+  }
+  glm::dvec3 centre_mm(std::size_t x, std::size_t y, std::size_t z) const {
+    return origin_mm + voxel_mm * glm::dvec3(double(x), double(y), double(z));
+  }
+};
+
+// How χ is stored on disk: float32, or the paper's 8-bit counter χ = n/255.
+enum class FractionEncoding { kFloat32, kCounter8 };
+
+void validate(const SampleVolume& v, const std::string& file_for_messages);
+void write_sample(const std::filesystem::path& path, const SampleVolume& v,
+                  FractionEncoding enc = FractionEncoding::kFloat32);
+SampleVolume read_sample(const std::filesystem::path& path);  // validates
+
+}  // namespace burrbench::data_schema

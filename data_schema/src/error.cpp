@@ -1,0 +1,27 @@
+#include "burrbench/data_schema/error.hpp"
+
+#include <fmt/format.h>
+
+namespace burrbench {
+
+namespace {
+std::string compose(const std::string& file, const std::string& field,
+                    const std::string& expected, const std::string& got) {
+  std::string m = fmt::format("{}: {}: expected {}", file.empty() ? "<input>" : file,
+                              field.empty() ? "<file>" : field, expected);
+  if (!got.empty()) m += fmt::format(", got {}", got);
+  return m;
+}
+}  // namespace
+
+InputError::InputError(std::string file, std::string field, std::string expected,
+                       std::string got)
+    : std::runtime_error(compose(file, field, expected, got)),
+      file_(std::move(file)),
+      field_(std::move(field)) {}
+
+void invariant_failed(const char* expr, const char* file, int line, const std::string& detail) {
+  throw InvariantError(fmt::format("internal check failed: {} ({}:{}) {}", expr, file, line, detail));
+}
+
+}  // namespace burrbench
