@@ -1,0 +1,95 @@
+#pragma once
+// Result of a calibration (JSON, format "burrbench.fit"). NaN is not representable in
+// JSON: a NaN (e.g. the estimate of a non-identifiable parameter) is stored as null and
+// read back as NaN; ±∞ (alpha fixed at "no erosion") is stored as the string "inf"/"-inf".
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/data_schema/provenance.hpp"
+
+namespace burrbench::data_schema {
+
+inline constexpr const char* kFitFormat = "burrbench.fit";
+inline constexpr int kFitVersionMajor = 1;
+inline constexpr int kFitVersionMinor = 0;
+
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+struct FitParameter {
+  std::uint8_t class_id = 0;
+  std::string class_name;
+  std::string name;  // "alpha" | "c1" | "mu"
+  std::string unit;  // "N/mm^2" for alpha and c1, "1" for mu
+  double estimate = kNaN, std_error = kNaN, ci95_low = kNaN, ci95_high = kNaN;
+  double bootstrap_ci95_low = kNaN, bootstrap_ci95_high = kNaN;  // NaN: not computed
+  bool fixed = false;
+  bool identifiable = true;
+  std::string reason;  // why not identifiable ("" when identifiable)
+};
+
+struct FitNuisance {
+  std::string recording_id;
+  std::string name;  // "bias_x" | "bias_y" | "bias_z" | "lag" | "depth_offset"
+  std::string unit;  // "N", "ms", "mm"
+  double estimate = kNaN, std_error = kNaN, ci95_low = kNaN, ci95_high = kNaN;
+  bool fixed = false;
+};
+
+// A square matrix with named rows/columns, stored row-major (n×n values).
+struct NamedMatrix {
+  std::vector<std::string> names;
+  std::vector<double> matrix;
+  std::size_t size() const { return names.size(); }
+  double at(std::size_t r, std::size_t c) const { return matrix[r * names.size() + c]; }
+};
+
+struct ResidualsSummary {
+  std::uint64_t samples_used = 0, samples_buried = 0, samples_excluded = 0;
+  double sigma_N = kNaN;
+  double rms_normalised = kNaN;
+};
+
+struct SolverSummary {
+  std::uint64_t iterations = 0;
+  double initial_cost = kNaN, final_cost = kNaN;
+  double wall_s = 0;
+  std::uint64_t replays = 0;
+  std::string termination;  // Ceres termination type / message
+  std::uint64_t multistart = 1;
+};
+
+struct CrossValidationFold {
+  std::string held_out;  // recording id (or segment label) left out
+  nlohmann::json metrics = nlohmann::json::object();
+};
+
+struct FitResult {
+  std::vector<FitParameter> parameters;
+  std::vector<FitNuisance> nuisance;
+  NamedMatrix covariance, correlation;
+  ResidualsSummary residuals_summary;
+  SolverSummary solver;
+  std::vector<CrossValidationFold> cross_validation;
+  nlohmann::json metrics = nlohmann::json::object();   // analysis fills it
+  nlohmann::json settings = nlohmann::json::object();  // loss, buried policy, ...
+  Provenance provenance;
+  std::string experiment_path, experiment_sha256;
+
+  const FitParameter* parameter(std::uint8_t class_id, const std::string& name) const;
+};
+
+void validate(const FitResult& f, const std::string& file_for_messages);
+void write_fit(const std::filesystem::path& path, const FitResult& f);
+FitResult read_fit(const std::filesystem::path& path);  // validates
+
+// The estimates as a parameter set (what a simulator release consumes); InputError if a
+// class lacks a finite estimate of c1 or mu.
+ParameterSet parameter_set_from(const FitResult& f, const std::string& file_for_messages);
+
+}  // namespace burrbench::data_schema

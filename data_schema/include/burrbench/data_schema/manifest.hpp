@@ -1,0 +1,133 @@
+#pragma once
+// Experiment manifest (TOML, format "burrbench.experiment"): which samples and recordings,
+// the rig→volume registration, burr and sensor geometry, time segments, and what to fit.
+// docs/formats.md lists every key. Paths in the file are relative to the manifest's
+// folder; after read_manifest every path here is absolute.
+//
+// Matrices: TOML writes them row by row ([[r00,r01,r02],[r10,...],...]); glm is
+// column-major, so TOML rotation[i][j] == glm matrix[j][i]. x_vol = R·x_rig + t.
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace burrbench::data_schema {
+
+inline constexpr const char* kManifestFormat = "burrbench.experiment";
+inline constexpr int kManifestVersionMajor = 1;
+inline constexpr int kManifestVersionMinor = 0;
+
+struct SampleRef {
+  std::string id;
+  std::filesystem::path path;  // absolute
+};
+
+struct BurrConfig {
+  double radius_mm = 0;
+  glm::dvec3 shaft_axis_rig{0, 0, 1};  // unit vector (normalised on read)
+  int spin_sign = 1;                    // +1: ω along shaft_axis_rig; -1: against
+  glm::dvec3 tool_offset_mm{0, 0, 0};   // burr centre minus stage-reported position, rig frame
+};
+
+enum class SensorMeasures { kForceOnSample, kForceOnBurr };
+
+struct SensorConfig {
+  glm::dmat3 rotation_sensor_to_rig{1.0};  // proper rotation: v_rig = R·v_sensor
+  SensorMeasures measures = SensorMeasures::kForceOnSample;
+  std::optional<double> sigma_N;           // absent → estimated from no-contact samples
+};
+
+// Rig → volume, x_vol = rotation·x_rig + translation_mm; either given directly or as
+// ≥ 3 non-collinear fiducial pairs (then rotation/translation stay identity/zero here and
+// the model's registration code fits them).
+struct Registration {
+  glm::dmat3 rotation{1.0};
+  glm::dvec3 translation_mm{0, 0, 0};
+  std::vector<glm::dvec3> fiducials_rig_mm, fiducials_vol_mm;
+  bool from_fiducials() const { return !fiducials_rig_mm.empty(); }
+};
+
+struct Segment {
+  double start_s = 0;  // seconds from the recording's first sample
+  double end_s = 0;
+  bool use = true;     // false: skip this span
+  std::string label;
+};
+
+enum class RecordingRole { kCalibrate, kValidate };
+
+struct RecordingRef {
+  std::string id;
+  std::filesystem::path path;  // absolute
+  std::string sample;          // a SampleRef id
+  RecordingRole role = RecordingRole::kCalibrate;
+  double lag_ms = 0;           // initial / fixed position→force lag
+  Registration registration;
+  std::vector<Segment> segments;  // empty: the whole recording
+};
+
+// One fitted constant. Free: lower < initial < upper. Fixed: initial is used as is
+// (alpha may be +inf = no erosion); lower/upper default to initial when absent.
+struct ParamSpec {
+  double initial = 0, lower = 0, upper = 0;
+  bool fixed = false;
+};
+
+struct ClassFitSpec {
+  std::string key;        // as written in [fit.classes.<key>]: a class name or an id
+  std::uint8_t label = 0; // resolved against the samples' class tables
+  ParamSpec alpha;        // N/mm²
+  ParamSpec c1;           // N/mm²
+  ParamSpec mu;           // dimensionless
+};
+
+enum class LossKind { kNone, kHuber, kCauchy };
+enum class BuriedPolicy { kExclude, kDownweight };
+
+struct NuisanceSpec {
+  bool bias = true;
+  bool lag = true;
+  std::array<double, 2> lag_bounds_ms{-20.0, 20.0};
+  bool depth_offset = false;
+};
+
+struct FitSpec {
+  LossKind loss = LossKind::kHuber;
+  double loss_scale = 3.0;  // in units of σ
+  BuriedPolicy buried = BuriedPolicy::kExclude;
+  std::uint64_t seed = 1;
+  int multistart = 1;
+  std::vector<ClassFitSpec> classes;
+  NuisanceSpec nuisance;
+};
+
+struct ExperimentManifest {
+  std::filesystem::path file;  // absolute path of the manifest itself ("" if built in code)
+  std::string name, description;
+  std::vector<SampleRef> samples;
+  BurrConfig burr;
+  SensorConfig sensor;
+  std::vector<RecordingRef> recordings;
+  FitSpec fit;
+
+  const SampleRef* sample(const std::string& id) const;
+  const RecordingRef* recording(const std::string& id) const;
+};
+
+const char* to_string(SensorMeasures m);
+const char* to_string(RecordingRole r);
+const char* to_string(LossKind l);
+const char* to_string(BuriedPolicy b);
+
+// Structural checks (ids unique, references, bounds, rotations, fiducials, files exist).
+void validate(const ExperimentManifest& m, const std::string& file_for_messages);
+// Parses, resolves paths, validates, resolves class keys against the samples' class tables.
+ExperimentManifest read_manifest(const std::filesystem::path& path);
+// Writes paths relative to the manifest's folder when they lie below it.
+void write_manifest(const std::filesystem::path& path, const ExperimentManifest& m);
+
+}  // namespace burrbench::data_schema
