@@ -1,0 +1,46 @@
+#pragma once
+// Contact evaluation (MODEL.md "Forces") and erosion (MODEL.md "Erosion") for a spherical
+// burr in a Volume. Forces are on the burr, in the volume frame, in N.
+#include <array>
+#include <cstdint>
+
+#include <glm/glm.hpp>
+
+#include "burrbench/model/model_params.hpp"
+#include "burrbench/model/volume.hpp"
+
+namespace burrbench::model {
+
+// |M₁| < kBuriedMoment·M·R → the contact normal is ill-defined ("buried"). In flat bone
+// this happens for immersion b ≳ 1.7 R (see docs/model.md).
+inline constexpr double kBuriedMoment = 0.05;
+
+struct ContactResult {
+  glm::dvec3 force_N{0};  // total force on the burr, volume frame
+  glm::dvec3 elastic_N{0}, friction_N{0};
+  double depth_b_mm = 0;
+  glm::dvec3 normal{0};         // n̂ = −M₁/|M₁| (0 when there is no bone or M₁ = 0)
+  double bone_volume_mm3 = 0;   // M
+  double contact_radius_mm = 0; // a = √(2Rb − b²)
+  double power_W_mJ_per_s = 0;  // Σ W_i (friction power), N·mm/s
+  std::uint8_t class_mask = 0;  // bit k set: class k in contact
+  bool buried = false;          // normal ill-defined (|M₁| < kBuriedMoment·M·R)
+  // Exact partials at fixed geometry, per class label k:
+  //   F_e = Σ_k C1_k · dF_dC1[k];  F_μ = Σ_k μ_k · dFmu_dmu[k]  (F_μ also scales with
+  //   |F_e|, i.e. linearly with the C1's: dF_μ/dC1_k = F_μ · |dF_dC1[k]| / |F_e|).
+  std::array<glm::dvec3, kMaxClasses> dF_dC1{};
+  std::array<glm::dvec3, kMaxClasses> dFmu_dmu{};
+};
+
+ContactResult evaluate(const Volume&, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
+                       double radius_mm, const ModelParams&);
+
+// evaluate, then erode over dt_s with the friction power at this position (forward
+// Euler). Removed volume (mm³) and friction energy (mJ, = Σ W_i·dt, before clamping χ at 0)
+// are ADDED per class label to the arrays.
+ContactResult step(Volume&, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
+                   double radius_mm, const ModelParams&, double dt_s,
+                   std::array<double, kMaxClasses>& removed_mm3,
+                   std::array<double, kMaxClasses>* energy_mJ = nullptr);
+
+}  // namespace burrbench::model

@@ -1,0 +1,46 @@
+#pragma once
+// The replay engine: drives the burr through a trajectory in the volume frame at a fixed
+// internal step, eroding the volume, and reports the contact at every sample time.
+#include <array>
+#include <cstddef>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "burrbench/data_schema/progress.hpp"
+#include "burrbench/model/contact.hpp"
+
+namespace burrbench::model {
+
+struct Trajectory {                          // the burr's path in the VOLUME frame
+  std::vector<double> t_s;                   // sample times, strictly increasing
+  std::vector<glm::dvec3> centre_vol_mm;     // burr centre at each t
+  std::vector<glm::dvec3> omega_vol_rad_s;   // angular velocity vector at each t
+};
+
+struct ReplayOptions {
+  double step_s = 0;     // internal step; 0 → half the median sample period
+  bool erosion = true;   // false: forces only (as α = ∞ for every class)
+};
+
+struct ReplaySample { ContactResult contact; };  // at each trajectory time
+
+struct ReplayResult {
+  std::vector<ReplaySample> samples;
+  std::array<double, kMaxClasses> removed_mm3{};
+  std::array<double, kMaxClasses> friction_energy_mJ{};
+  std::size_t steps = 0;   // internal erosion steps taken
+  double wall_s = 0;       // wall-clock time (the only non-deterministic field)
+};
+
+// Each sample interval [t_k, t_k+1] is split into n = ceil(Δt_k/step) equal sub-steps;
+// position and ω are interpolated linearly; the contact reported at t_k is evaluated on
+// the volume as eroded up to t_k. Replays from the volume's current state; leaves the
+// volume ERODED unless `restore` is true (then rolls back through the undo log).
+// Bad trajectory (sizes differ, times not strictly increasing, non-finite) or bad
+// radius/step → InputError.
+ReplayResult replay(Volume&, double radius_mm, const ModelParams&, const Trajectory&,
+                    const ReplayOptions& = {}, bool restore = true,
+                    Progress* progress = nullptr);
+
+}  // namespace burrbench::model
