@@ -1,0 +1,91 @@
+"""pymodbus datastore for the three virtual devices.
+
+The register values are computed from the source at the moment of the read (the
+device counter is a function of time), so no background task is needed and a
+multi-register read is always one consistent sample. Images are cached per
+sample index: at 1 kHz polling most reads hit the cache.
+"""
+import time
+
+from pymodbus.interfaces import IModbusSlaveContext
+
+import registers as R
+
+READ_HOLDING = 3
+
+_UNITS = {"ft": (R.FT_UNIT, R.FT_SIZE), "stage": (R.STAGE_UNIT, R.STAGE_SIZE),
+          "spindle": (R.SPINDLE_UNIT, R.SPINDLE_SIZE)}
+
+
+class Playback:
+    """Shared clock and register images of every device."""
+
+    def __init__(self, source):
+        self.source = source
+        self.start_ns = time.monotonic_ns()
+        self.counter_base = {d: 0 for d in source.devices()}  # subtracted after a reset
+        self._cache = {}
+
+    def t_s(self):
+        return (time.monotonic_ns() - self.start_ns) * 1e-9
+
+    def reset_counters(self):
+        """A device reboot: counters restart at 0 from the current sample."""
+        t = self.t_s()
+        for d in self.counter_base:
+            self.counter_base[d] = self.source.index(d, t)
+        self._cache.clear()
+
+    def image(self, device):
+        k = self.source.index(device, self.t_s())
+        hit = self._cache.get(device)
+        if hit is not None and hit[0] == k:
+            return hit[1]
+        regs = self._build(device, k)
+        self._cache[device] = (k, regs)
+        return regs
+
+    def _build(self, device, k):
+        src = self.source
+        counter = k - self.counter_base[device]
+        if device == "ft":
+            fifo = [src.value("ft", i) if i >= 0 and i - self.counter_base[device] >= 0 else None
+                    for i in range(k - R.FIFO_DEPTH + 1, k + 1)]
+            return R.ft_image(counter, src.value("ft", k), fifo)
+        if device == "stage":
+            return R.stage_image(counter, src.value("stage", k))
+        return R.spindle_image(counter, src.value("spindle", k))
+
+
+class DeviceContext(IModbusSlaveContext):
+    """One unit id: read-only holding registers 0..size-1, zero-based addresses.
+
+    Addressing is zero-based by construction (the equivalent of pymodbus'
+    zero_mode=True: register 180 is protocol address 180). Only function 3 is
+    valid here; writes are refused earlier with ILLEGAL_FUNCTION (server.py).
+    """
+
+    def __init__(self, playback, device):
+        self.playback = playback
+        self.device = device
+        self.unit, self.size = _UNITS[device]
+
+    def __str__(self):
+        return f"virtual {self.device} (unit {self.unit})"
+
+    def reset(self):
+        pass
+
+    def validate(self, fc_as_hex, address, count=1):
+        return fc_as_hex == READ_HOLDING and address >= 0 and address + count <= self.size
+
+    def getValues(self, fc_as_hex, address, count=1):
+        return self.playback.image(self.device)[address:address + count]
+
+    def setValues(self, fc_as_hex, address, values):
+        raise PermissionError("the virtual rig is read-only")
+
+
+def make_contexts(playback):
+    """unit id -> context, for every device the source provides."""
+    return {_UNITS[d][0]: DeviceContext(playback, d) for d in playback.source.devices()}

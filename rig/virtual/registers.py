@@ -1,0 +1,131 @@
+"""Register images of the three virtual devices (CONTRACTS section E).
+
+Each function turns one device sample into the list of 16-bit holding-register
+values of that device's whole address space (zero-based). Gaps read as 0.
+Byte order inside a register is Modbus big-endian; 32-bit word orders are named
+as in CONTRACTS E: ABCD = high word first, CDAB = low word first, BADC = high
+word first with the bytes of each word swapped, DCBA = fully reversed.
+"""
+import math
+import struct
+
+FT_UNIT = 9       # force/torque sensor (Robotiq FT 300 style)
+STAGE_UNIT = 1    # feed stage (Oriental Motor AZ style)
+SPINDLE_UNIT = 2  # spindle
+
+FT_SIZE = 420     # addresses 0..419 exist on unit 9
+STAGE_SIZE = 8
+SPINDLE_SIZE = 4
+
+FT_INT16 = 180    # Fx,Fy,Fz N*100 ; Mx,My,Mz N*m*1000 (= N*mm)
+FT_FLOAT = 200    # Fx,Fy,Fz N, Tx,Ty,Tz N*mm, float32 ABCD
+FT_COUNTER = 220  # uint32 ABCD
+FIFO_COUNTER = 300
+FIFO_DATA = 302
+FIFO_DEPTH = 8
+CONST_FLOAT = 400  # 123456.0 in ABCD, CDAB, BADC, DCBA
+CONST_INT = 410    # 123456 in ABCD, CDAB, BADC, DCBA
+CONST_VALUE = 123456
+WORD_ORDERS = ("ABCD", "CDAB", "BADC", "DCBA")
+
+INT16_MAX = 32767
+
+
+def sat_int16(x):
+    """Round and saturate to int16 (a real sensor clips, it never wraps)."""
+    if math.isnan(x):
+        return 0
+    return max(-INT16_MAX, min(INT16_MAX, int(round(x))))
+
+
+def u16(v):
+    """int16 -> the unsigned register value carrying the same bits."""
+    return v & 0xFFFF
+
+
+def words_from_bytes(b4, order):
+    """4 big-endian bytes (A B C D) -> two register values in a word order."""
+    a, b, c, d = b4
+    if order == "ABCD":
+        return [(a << 8) | b, (c << 8) | d]
+    if order == "CDAB":
+        return [(c << 8) | d, (a << 8) | b]
+    if order == "BADC":
+        return [(b << 8) | a, (d << 8) | c]
+    if order == "DCBA":
+        return [(d << 8) | c, (b << 8) | a]
+    raise ValueError(f"unknown word order {order}")
+
+
+def f32_words(x):
+    """float32, ABCD."""
+    hi, lo = struct.unpack(">HH", struct.pack(">f", x))
+    return [hi, lo]
+
+
+def u32_words(x):
+    """uint32 (wrapping like a device counter), ABCD."""
+    x &= 0xFFFFFFFF
+    return [x >> 16, x & 0xFFFF]
+
+
+def i32_words(x):
+    """int32, ABCD; saturates instead of wrapping."""
+    x = max(-(2**31), min(2**31 - 1, int(x)))
+    return u32_words(x & 0xFFFFFFFF)
+
+
+def _constant_block():
+    regs = []
+    for order in WORD_ORDERS:
+        regs += words_from_bytes(struct.pack(">f", float(CONST_VALUE)), order)
+    regs_int = []
+    for order in WORD_ORDERS:
+        regs_int += words_from_bytes(struct.pack(">i", CONST_VALUE), order)
+    return regs, regs_int
+
+
+CONST_FLOAT_REGS, CONST_INT_REGS = _constant_block()
+
+
+def ft_image(counter, wrench, fifo):
+    """Unit 9 address space.
+
+    counter: device sample counter of the current sample.
+    wrench: (Fx, Fy, Fz N, Tx, Ty, Tz N*mm) of the current sample.
+    fifo: the newest FIFO_DEPTH wrenches, oldest first (None = not yet sampled, zeros).
+    """
+    regs = [0] * FT_SIZE
+    fx, fy, fz, tx, ty, tz = wrench
+    regs[FT_INT16:FT_INT16 + 6] = [
+        u16(sat_int16(fx * 100.0)), u16(sat_int16(fy * 100.0)), u16(sat_int16(fz * 100.0)),
+        # N*m*1000 is numerically N*mm
+        u16(sat_int16(tx)), u16(sat_int16(ty)), u16(sat_int16(tz))]
+    packed = struct.unpack(">12H", struct.pack(">6f", *wrench))
+    regs[FT_FLOAT:FT_FLOAT + 12] = packed
+    regs[FT_COUNTER:FT_COUNTER + 2] = u32_words(counter)
+    regs[FIFO_COUNTER:FIFO_COUNTER + 2] = u32_words(counter)
+    at = FIFO_DATA
+    for w in fifo:
+        if w is not None:
+            regs[at:at + 12] = struct.unpack(">12H", struct.pack(">6f", *w))
+        at += 12
+    regs[CONST_FLOAT:CONST_FLOAT + 8] = CONST_FLOAT_REGS
+    regs[CONST_INT:CONST_INT + 8] = CONST_INT_REGS
+    return regs
+
+
+def stage_image(counter, position_mm):
+    """Unit 1: position x,y,z int32 micrometres ABCD, counter uint32 ABCD."""
+    regs = []
+    for p in position_mm:
+        regs += i32_words(0 if math.isnan(p) else round(p * 1000.0))
+    return regs + u32_words(counter)
+
+
+def spindle_image(counter, rpm):
+    """Unit 2: |rpm| uint16 (saturated), direction (0 = +, 1 = -), counter."""
+    if math.isnan(rpm):
+        rpm = 0.0
+    mag = min(0xFFFF, int(round(abs(rpm))))
+    return [mag, 1 if rpm < 0 else 0] + u32_words(counter)

@@ -1,0 +1,217 @@
+"""Modbus TCP / RTU serving with deterministic fault injection (pymodbus 3.0).
+
+We run our own asyncio loop and close the pymodbus servers ourselves, which avoids
+ServerStop()'s 10 s sleep. Faults are applied per connection (one RTU port = one
+connection) and counted in requests that reached a known unit id, 1-based.
+"""
+import asyncio
+import sys
+import time
+
+from pymodbus.datastore import ModbusServerContext
+from pymodbus.framer.rtu_framer import ModbusRtuFramer
+from pymodbus.framer.socket_framer import ModbusSocketFramer
+from pymodbus.pdu import ModbusExceptions as merror
+from pymodbus.server.async_io import (ModbusConnectedRequestHandler, ModbusSerialServer,
+                                      ModbusSingleRequestHandler, ModbusTcpServer)
+
+from devices import READ_HOLDING
+
+
+class Faults:
+    """Fault-injection settings (all off by default)."""
+
+    def __init__(self, delay_ms=0.0, late_every=0, late_ms=0.0, exception_every=0,
+                 drop_every_s=0.0, restart_at_s=0.0, restart_down_s=0.0, restart_reset=False):
+        self.delay_ms = delay_ms
+        self.late_every = late_every
+        self.late_ms = late_ms
+        self.exception_every = exception_every
+        self.drop_every_s = drop_every_s
+        self.restart_at_s = restart_at_s
+        self.restart_down_s = restart_down_s
+        self.restart_reset = restart_reset
+        self.silent = False  # set while an RTU device is "restarting"
+
+
+def log_event(kind, **kw):
+    """One line per injected fault on stderr, for people and tests."""
+    detail = " ".join(f"{k}={v}" for k, v in kw.items())
+    print(f"EVENT {kind} t_mono_ns={time.monotonic_ns()} {detail}".rstrip(), file=sys.stderr,
+          flush=True)
+
+
+class _FaultMixin:
+    """Refuses everything but reads, injects exceptions and delays, keeps replies in order."""
+
+    faults = Faults()
+
+    def _fault_init(self):
+        if not hasattr(self, "_n_requests"):
+            self._n_requests = 0
+            self._send_after = 0.0  # loop time of the previous reply: replies stay in order
+            self._delay_s = 0.0
+
+    def execute(self, request, *addr):
+        self._fault_init()
+        self._n_requests += 1
+        n = self._n_requests
+        f = self.faults
+        delay = f.delay_ms * 1e-3
+        if f.late_every and n % f.late_every == 0:
+            delay += f.late_ms * 1e-3
+        self._delay_s = delay
+        if f.silent:
+            return  # a rebooting device on the bus does not answer
+        if request.function_code != READ_HOLDING:
+            # The rig is read-only: a write (or any other function) is refused.
+            self._reply(request, request.doException(merror.IllegalFunction), addr)
+        elif f.exception_every and n % f.exception_every == 0:
+            self._reply(request, request.doException(merror.SlaveBusy), addr)
+        else:
+            super().execute(request, *addr)
+
+    def _reply(self, request, response, addr):
+        response.transaction_id = request.transaction_id
+        response.unit_id = request.unit_id
+        self.send(response, *addr)
+
+    def send(self, message, *addr, **kwargs):
+        self._fault_init()
+        if self._delay_s <= 0 and self._send_after <= 0:
+            super().send(message, *addr, **kwargs)
+            return
+        loop = asyncio.get_running_loop()
+        at = max(loop.time() + self._delay_s, self._send_after)
+        self._send_after = at
+        loop.call_at(at, self._send_later, message, addr, kwargs)
+
+    def _send_later(self, message, addr, kwargs):
+        transport = getattr(self, "transport", None)
+        if transport is None or transport.is_closing():
+            return
+        super().send(message, *addr, **kwargs)
+
+
+class TcpHandler(_FaultMixin, ModbusConnectedRequestHandler):
+    pass
+
+
+class RtuHandler(_FaultMixin, ModbusSingleRequestHandler):
+    pass
+
+
+def _server_context(contexts):
+    return ModbusServerContext(slaves=contexts, single=False)
+
+
+class TcpRig:
+    """Listens on host:port; drop and restart act on the pymodbus server underneath."""
+
+    def __init__(self, contexts, host, port, faults):
+        self.contexts = contexts
+        self.host = host
+        self.port = port
+        self.faults = faults
+        TcpHandler.faults = faults
+        self.server = None
+        self._task = None
+
+    async def start(self):
+        self.server = ModbusTcpServer(
+            _server_context(self.contexts), framer=ModbusSocketFramer,
+            address=(self.host, self.port), handler=TcpHandler, allow_reuse_address=True,
+            ignore_missing_slaves=True, backlog=64)
+        self._task = asyncio.create_task(self.server.serve_forever())
+        serving = asyncio.ensure_future(self.server.serving)
+        done, _ = await asyncio.wait({serving, self._task}, return_when=asyncio.FIRST_COMPLETED)
+        if serving not in done:
+            self._task.result()  # raises the bind error
+            raise RuntimeError("server stopped before listening")
+        self.port = self.server.server.sockets[0].getsockname()[1]
+
+    async def go_down(self):
+        await self.stop()
+
+    async def come_up(self):
+        await self.start()
+
+    def drop_connections(self):
+        n = 0
+        for handler in list(self.server.active_connections.values()) if self.server else []:
+            handler.transport.abort()
+            n += 1
+        return n
+
+    async def stop(self):
+        if self.server is None:
+            return
+        self.drop_connections()
+        server, self.server = self.server, None
+        if server.server is not None:
+            server.server.close()
+        if self._task is not None:
+            self._task.cancel()
+            try:
+                await self._task
+            except (asyncio.CancelledError, Exception):  # pylint: disable=broad-except
+                pass
+        self._task = None
+
+
+class RtuRig:
+    """pymodbus serial server (RTU framer, not the ASCII default) on a pty."""
+
+    def __init__(self, contexts, device, baud, faults):
+        RtuHandler.faults = faults
+        self.server = ModbusSerialServer(
+            _server_context(contexts), framer=ModbusRtuFramer, port=device, baudrate=baud,
+            handler=RtuHandler, ignore_missing_slaves=True)
+        self.faults = faults
+
+    async def start(self):
+        await self.server.start()
+        if self.server.transport is None:
+            raise RuntimeError(f"cannot open {self.server.device}")
+
+    def drop_connections(self):
+        return 0  # a serial line has no connection to drop
+
+    async def go_down(self):
+        self.faults.silent = True
+
+    async def come_up(self):
+        self.faults.silent = False
+
+    async def stop(self):
+        await self.server.shutdown()
+
+
+async def run_fault_schedule(rig, playback, faults):
+    """Periodic drops and the one restart, on a fixed schedule from the start."""
+    t0 = asyncio.get_running_loop().time()
+    tasks = []
+
+    async def dropper():
+        k = 1
+        while True:
+            await asyncio.sleep(max(0.0, t0 + k * faults.drop_every_s - asyncio.get_running_loop().time()))
+            n = rig.drop_connections()
+            log_event("drop", index=k, connections=n)
+            k += 1
+
+    async def restarter():
+        await asyncio.sleep(max(0.0, t0 + faults.restart_at_s - asyncio.get_running_loop().time()))
+        log_event("restart-down", down_s=faults.restart_down_s)
+        await rig.go_down()
+        await asyncio.sleep(faults.restart_down_s)
+        if faults.restart_reset:
+            playback.reset_counters()
+        await rig.come_up()
+        log_event("restart-up", counter_reset=int(faults.restart_reset))
+
+    if faults.drop_every_s > 0:
+        tasks.append(asyncio.create_task(dropper()))
+    if faults.restart_at_s > 0:
+        tasks.append(asyncio.create_task(restarter()))
+    return tasks

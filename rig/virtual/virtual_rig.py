@@ -1,0 +1,138 @@
+#!/usr/bin/python3
+"""burrbench virtual rig: a force/torque sensor, a feed stage and a spindle on Modbus.
+
+Usage (see README.md next to this file):
+  /usr/bin/python3 rig/virtual/virtual_rig.py --pattern ramp --port 0
+  /usr/bin/python3 rig/virtual/virtual_rig.py --recording R.h5 --port 0
+  /usr/bin/python3 rig/virtual/virtual_rig.py --pattern ramp --rtu --baud 115200
+Prints `READY tcp 127.0.0.1:PORT` or `READY rtu /path/to/pty` once serving; stops on
+SIGTERM/SIGINT within a fraction of a second. Exit 2 on bad arguments or input.
+"""
+import argparse
+import asyncio
+import logging
+import os
+import signal
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from devices import Playback, make_contexts  # noqa: E402
+from server import Faults, RtuRig, TcpRig, run_fault_schedule  # noqa: E402
+from sources import PATTERNS, PatternSource, RecordingError, RecordingSource  # noqa: E402
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(
+        prog="virtual_rig.py",
+        description="Serve a burrbench recording or a test pattern as Modbus devices "
+                    "(unit 9 F/T sensor, unit 1 stage, unit 2 spindle).")
+    what = p.add_mutually_exclusive_group(required=True)
+    what.add_argument("--recording", metavar="R.h5", help="play this recording in real time")
+    what.add_argument("--pattern", choices=sorted(PATTERNS), help="serve a deterministic pattern")
+    p.add_argument("--rate-hz", type=float, default=1000.0,
+                   help="device sample rate of --pattern (default 1000)")
+    p.add_argument("--loop", action="store_true",
+                   help="repeat the recording (counters keep counting); default: hold the last sample")
+    p.add_argument("--host", default="127.0.0.1", help="TCP address to bind (default 127.0.0.1)")
+    p.add_argument("--port", type=int, default=0, help="TCP port, 0 = a free one (default)")
+    p.add_argument("--rtu", action="store_true", help="serve Modbus RTU on a pty pair instead of TCP")
+    p.add_argument("--baud", type=int, default=115200, help="RTU baud rate, paced 8N1 (default 115200)")
+    f = p.add_argument_group("fault injection (deterministic; counts are per connection, 1-based)")
+    f.add_argument("--delay-ms", type=float, default=0.0, help="added delay before every reply")
+    f.add_argument("--late-reply-every", type=int, default=0, metavar="N",
+                   help="every Nth request is answered --late-ms later")
+    f.add_argument("--late-ms", type=float, default=0.0, help="extra delay of a late reply")
+    f.add_argument("--exception-every", type=int, default=0, metavar="N",
+                   help="every Nth request gets exception 06 SLAVE_DEVICE_BUSY")
+    f.add_argument("--drop-every-s", type=float, default=0.0, metavar="X",
+                   help="close all TCP connections every X s (the listener stays)")
+    f.add_argument("--restart-at-s", type=float, default=0.0, metavar="X",
+                   help="at X s stop serving (TCP: close listener and connections; RTU: fall silent)")
+    f.add_argument("--restart-down-s", type=float, default=1.0, metavar="Y",
+                   help="then come back on the same port after Y s (default 1)")
+    f.add_argument("--restart-resets-counter", action="store_true",
+                   help="after the restart counters start again at 0 (default: they continue)")
+    p.add_argument("-v", "--verbose", action="store_true", help="pymodbus debug logging")
+    a = p.parse_args(argv)
+    bad = []
+    if a.rate_hz <= 0 or a.rate_hz > 100000:
+        bad.append("--rate-hz: expected 0 < rate <= 100000")
+    if not 0 <= a.port <= 65535:
+        bad.append("--port: expected 0..65535")
+    if a.baud <= 0:
+        bad.append("--baud: expected > 0")
+    for name in ("delay_ms", "late_ms", "drop_every_s", "restart_at_s", "restart_down_s"):
+        if getattr(a, name) < 0:
+            bad.append(f"--{name.replace('_', '-')}: expected >= 0")
+    for name in ("late_reply_every", "exception_every"):
+        if getattr(a, name) < 0:
+            bad.append(f"--{name.replace('_', '-')}: expected >= 0")
+    if a.late_reply_every and a.late_ms <= 0:
+        bad.append("--late-ms: expected > 0 with --late-reply-every")
+    if a.rtu and a.drop_every_s:
+        bad.append("--drop-every-s: expected TCP (an RTU line has no connection to drop)")
+    if bad:
+        p.error("; ".join(bad))
+    return a
+
+
+async def serve(args, source):
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        loop.add_signal_handler(sig, stop.set)
+    faults = Faults(args.delay_ms, args.late_reply_every, args.late_ms, args.exception_every,
+                    args.drop_every_s, args.restart_at_s, args.restart_down_s,
+                    args.restart_resets_counter)
+    playback = Playback(source)
+    contexts = make_contexts(playback)
+    link = None
+    if args.rtu:
+        from rtu_link import RtuLink
+        link = RtuLink(args.baud)
+        try:
+            link.start()
+            rig = RtuRig(contexts, link.server_path, args.baud, faults)
+            await rig.start()
+        except Exception:
+            link.stop()
+            raise
+        ready = f"READY rtu {link.client_path}"
+    else:
+        rig = TcpRig(contexts, args.host, args.port, faults)
+        await rig.start()
+        ready = f"READY tcp {args.host}:{rig.port}"
+    tasks = await run_fault_schedule(rig, playback, faults)
+    print(ready, flush=True)
+    try:
+        await stop.wait()
+    finally:
+        for t in tasks:
+            t.cancel()
+        await rig.stop()
+        if link is not None:
+            link.stop()
+
+
+def main(argv=None):
+    args = parse_args(sys.argv[1:] if argv is None else argv)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.CRITICAL)
+    # pymodbus logs every cancelled handler (each client disconnect) as an ERROR.
+    logging.getLogger("pymodbus").setLevel(logging.DEBUG if args.verbose else logging.CRITICAL)
+    try:
+        source = (RecordingSource(args.recording, loop=args.loop) if args.recording
+                  else PatternSource(args.pattern, args.rate_hz))
+    except RecordingError as exc:
+        print(f"virtual_rig: {exc}", file=sys.stderr)
+        return 2
+    try:
+        asyncio.run(serve(args, source))
+    except OSError as exc:
+        print(f"virtual_rig: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,119 @@
+"""Start and stop the virtual rig (rig/virtual/virtual_rig.py) from pytest.
+
+API (import from tests in tests/rig/; pytest puts this folder on sys.path):
+
+    with start_virtual_rig(["--pattern", "ramp"]) as (proc, host, port):
+        ...   # Modbus TCP on host:port (a free loopback port unless you pass --port)
+    with start_virtual_rig_rtu(["--pattern", "ramp", "--baud", "115200"]) as (proc, pty):
+        ...   # Modbus RTU on the pty path (baud-paced relay in between)
+
+`proc` is the subprocess.Popen of the rig; `proc.stderr_path` is a file holding its
+stderr (fault-injection lines `EVENT <kind> t_mono_ns=<ns> ...`, see events()).
+On leaving the block the rig gets SIGTERM (then SIGKILL after 5 s) and is reaped.
+The READY line must come within `timeout` seconds, else RuntimeError with stderr.
+"""
+import contextlib
+import os
+import select
+import signal
+import subprocess
+import tempfile
+import time
+
+PYTHON = "/usr/bin/python3"
+SOURCE_DIR = os.environ.get(
+    "BURRBENCH_SOURCE_DIR",
+    os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..")))
+RIG_SCRIPT = os.path.join(SOURCE_DIR, "rig", "virtual", "virtual_rig.py")
+
+
+def _read_ready(proc, timeout):
+    deadline = time.monotonic() + timeout
+    buf = b""
+    fd = proc.stdout.fileno()
+    while b"\n" not in buf:
+        left = deadline - time.monotonic()
+        if left <= 0 or proc.poll() is not None:
+            break
+        r, _, _ = select.select([fd], [], [], min(left, 0.1))
+        if r:
+            chunk = os.read(fd, 4096)
+            if not chunk:
+                break
+            buf += chunk
+    line = buf.split(b"\n", 1)[0].decode(errors="replace").strip()
+    if not line.startswith("READY "):
+        with open(proc.stderr_path, errors="replace") as f:
+            err = f.read()
+        raise RuntimeError(f"virtual rig did not get ready (stdout {line!r}); stderr:\n{err}")
+    return line
+
+
+def stop_virtual_rig(proc, grace_s=5.0):
+    """SIGTERM, wait up to grace_s, then SIGKILL. Returns the exit code."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(grace_s)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    proc.stdout.close()
+    return proc.returncode
+
+
+@contextlib.contextmanager
+def _started(args, timeout):
+    err = tempfile.NamedTemporaryFile(prefix="virtual-rig-", suffix=".stderr", delete=False)
+    proc = subprocess.Popen([PYTHON, RIG_SCRIPT, *args], stdout=subprocess.PIPE, stderr=err,
+                            stdin=subprocess.DEVNULL)
+    err.close()
+    proc.stderr_path = err.name
+    try:
+        line = _read_ready(proc, timeout)
+        yield proc, line
+    finally:
+        stop_virtual_rig(proc)
+        os.unlink(err.name)
+
+
+@contextlib.contextmanager
+def start_virtual_rig(args, timeout=10.0):
+    """TCP rig; yields (proc, host, port). Adds --port 0 unless args set --port."""
+    args = list(args)
+    if "--port" not in args:
+        args += ["--port", "0"]
+    with _started(args, timeout) as (proc, line):
+        kind, where = line.split()[1:3]
+        assert kind == "tcp", line
+        host, port = where.rsplit(":", 1)
+        yield proc, host, int(port)
+
+
+@contextlib.contextmanager
+def start_virtual_rig_rtu(args, timeout=10.0):
+    """RTU rig on a pty pair through the baud-paced relay; yields (proc, pty_path)."""
+    args = list(args)
+    if "--rtu" not in args:
+        args.append("--rtu")
+    with _started(args, timeout) as (proc, line):
+        kind, where = line.split()[1:3]
+        assert kind == "rtu", line
+        yield proc, where
+
+
+def events(proc, kind=None):
+    """Fault events logged so far: list of dicts {kind, t_mono_ns, ...}."""
+    out = []
+    with open(proc.stderr_path, errors="replace") as f:
+        for ln in f:
+            parts = ln.split()
+            if len(parts) < 2 or parts[0] != "EVENT":
+                continue
+            ev = {"kind": parts[1]}
+            for p in parts[2:]:
+                k, _, v = p.partition("=")
+                ev[k] = int(v) if v.lstrip("-").isdigit() else v
+            if kind is None or ev["kind"] == kind:
+                out.append(ev)
+    return out
