@@ -23,6 +23,10 @@ inline constexpr std::uint8_t kEmpty = 0;
 inline constexpr std::uint8_t kCompact = 1;
 inline constexpr std::uint8_t kTrabecular = 2;
 
+// How χ is stored on disk: float32, or the paper's 8-bit counter χ = n/255
+// (written as round(255·χ); read back as float(n)/255.0f).
+enum class FractionEncoding { kFloat32, kCounter8 };
+
 struct SampleVolume {
   std::array<std::size_t, 3> dims{0, 0, 0};  // nx, ny, nz
   double voxel_mm = 0;                        // cubic voxel side l
@@ -43,8 +47,22 @@ struct SampleVolume {
   }
 };
 
-// How χ is stored on disk: float32, or the paper's 8-bit counter χ = n/255.
-enum class FractionEncoding { kFloat32, kCounter8 };
+// Memory budget for a sample in memory (labels 1 B + χ 4 B per voxel ≤ 4 GiB): larger
+// volumes are refused from the file header, before anything is allocated.
+inline constexpr std::uint64_t kSampleMemoryBudgetBytes = 4ull << 30;
+inline constexpr std::uint64_t kMaxSampleVoxels = kSampleMemoryBudgetBytes / 5;
+
+// What the file header says, without reading the voxel arrays (cheap; for `inspect`,
+// manifests and budget checks). Checks format, version, dims and the budget.
+struct SampleHeader {
+  std::array<std::size_t, 3> dims{0, 0, 0};
+  double voxel_mm = 0;
+  glm::dvec3 origin_mm{0, 0, 0};
+  std::map<std::uint8_t, std::string> classes;
+  FractionEncoding encoding = FractionEncoding::kFloat32;
+  std::string format_version;
+};
+SampleHeader read_sample_header(const std::filesystem::path& path);
 
 void validate(const SampleVolume& v, const std::string& file_for_messages);
 void write_sample(const std::filesystem::path& path, const SampleVolume& v,
