@@ -1,0 +1,35 @@
+#pragma once
+// Grey CT → class labels + bone fraction χ (see docs/importers.md, "Segmentation").
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "burrbench/data_schema/import/volume.hpp"
+#include "burrbench/data_schema/sample_volume.hpp"
+
+namespace burrbench::data_schema::import {
+
+struct SegmentationSettings {
+  std::optional<double> threshold;    // bone if grey ≥ threshold; absent → Otsu
+  std::optional<double> empty_grey;   // calibration: grey of empty space (χ = 0); absent →
+  std::optional<double> bone_grey;    //   median below / 95th percentile above threshold
+  double bvtv_radius_mm = 0.4;        // half side of the box over which BV/TV is taken
+  double compact_bvtv = 0.8;          // BV/TV ≥ this → compact, else trabecular
+  double envelope_radius_mm = 0.5;    // closing radius that fills pores to make the envelope
+  int bone_open_vox = 0;              // open/close radii (voxels) on the bone mask
+  int bone_close_vox = 0;
+  int compact_close_vox = 1;          // then on the compact region (fills / removes specks)
+  int compact_open_vox = 1;
+};
+
+struct Segmentation {
+  SampleVolume sample;                // labels, χ, geometry; segmentation_json filled
+  nlohmann::json settings_used;       // every setting, including derived values
+};
+
+// `ct` must have cubic voxels (resample first). Throws InputError on unusable settings.
+Segmentation segment_ct(const ImageVolume& ct, const SegmentationSettings& s,
+                        const std::string& file_for_messages);
+
+}  // namespace burrbench::data_schema::import

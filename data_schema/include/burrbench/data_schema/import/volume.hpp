@@ -1,0 +1,82 @@
+#pragma once
+// Grey or label volumes read from the formats labs already have (NRRD, MetaImage,
+// TIFF/PNG slice stacks). Geometry convention everywhere: origin_mm is the CENTRE of the
+// first voxel (index 0,0,0), spacing_mm the distance between voxel centres per axis, both
+// in the file's own world frame (no LPS/RAS conversion). Axis-aligned direction matrices
+// (permutations and flips) are folded into the data so that index axes follow +x,+y,+z;
+// rotated (non-axis-aligned) directions are refused.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace burrbench::data_schema::import {
+
+enum class VoxelType { kUint8, kInt16, kUint16, kFloat32 };
+const char* to_string(VoxelType t);
+std::size_t byte_size(VoxelType t);
+
+// Memory budget: a decoded volume (stored as float32) may not exceed max_bytes. Headers
+// that claim more are refused before anything is allocated.
+inline constexpr std::size_t kDefaultBudgetBytes = std::size_t{2} << 30;  // 2 GiB
+struct ImportLimits {
+  std::size_t max_bytes = kDefaultBudgetBytes;
+};
+
+struct ImageVolume {
+  std::array<std::size_t, 3> dims{0, 0, 0};  // nx, ny, nz (x fastest in `values`)
+  glm::dvec3 spacing_mm{1, 1, 1};
+  glm::dvec3 origin_mm{0, 0, 0};             // centre of voxel (0,0,0)
+  VoxelType source_type = VoxelType::kFloat32;
+  std::vector<float> values;                 // every supported type is exact in float32
+  std::size_t voxel_count() const { return dims[0] * dims[1] * dims[2]; }
+  std::size_t index(std::size_t x, std::size_t y, std::size_t z) const {
+    return x + dims[0] * (y + dims[1] * z);
+  }
+  bool is_integer() const { return source_type != VoxelType::kFloat32; }
+};
+
+// Reads a detached data file named in a header (path relative to the header's folder).
+// Must throw InputError when it cannot (the fuzzers pass one that always refuses).
+using DataFileReader = std::function<std::string(const std::string& name)>;
+
+// NRRD (.nrrd attached, .nhdr detached): raw or gzip, uint8/int16/uint16/float32.
+ImageVolume read_nrrd(const std::filesystem::path& path, const ImportLimits& = {});
+ImageVolume parse_nrrd(std::string_view bytes, const std::string& file_for_messages,
+                       const DataFileReader& data_file, const ImportLimits& = {});
+
+// MetaImage (.mha attached, .mhd + .raw/.zraw), same types.
+ImageVolume read_metaimage(const std::filesystem::path& path, const ImportLimits& = {});
+ImageVolume parse_metaimage(std::string_view bytes, const std::string& file_for_messages,
+                            const DataFileReader& data_file, const ImportLimits& = {});
+
+// A folder of 8/16-bit single-channel TIFF/PNG slices (one per z, sorted by name with
+// digit runs compared as numbers), read through OpenCV, with the given spacing.
+ImageVolume read_slice_stack(const std::filesystem::path& folder, glm::dvec3 spacing_mm,
+                             glm::dvec3 origin_mm = {0, 0, 0}, const ImportLimits& = {});
+
+// By extension: .nrrd/.nhdr → NRRD, .mha/.mhd → MetaImage, a folder → slice stack (then
+// `spacing_mm` is required). `spacing_mm`, when given, overrides the file's spacing.
+ImageVolume read_volume(const std::filesystem::path& path,
+                        std::optional<glm::dvec3> spacing_mm = std::nullopt,
+                        const ImportLimits& = {});
+
+enum class Interpolation { kTrilinear, kNearest };
+// Resamples onto cubic voxels of side voxel_mm (> 0), keeping the origin (centre of the
+// first voxel) and covering the same span of voxel centres.
+ImageVolume resample_cubic(const ImageVolume& in, double voxel_mm, Interpolation,
+                           const ImportLimits& = {});
+bool is_cubic(const ImageVolume& v, double rel_tol = 1e-6);
+
+// Writes a NRRD (attached, gzip) that 3D Slicer opens: "space: left-posterior-superior"
+// is NOT claimed; the volume frame is written as "3D-right-handed".
+void write_nrrd(const std::filesystem::path& path, const ImageVolume& v, VoxelType type);
+
+}  // namespace burrbench::data_schema::import

@@ -1,0 +1,45 @@
+#pragma once
+// Internals shared by the NRRD and MetaImage readers: size budget, file reading, gzip /
+// zlib inflation, sample decoding and folding of axis-aligned direction matrices.
+#include <array>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include <glm/glm.hpp>
+
+#include "burrbench/data_schema/import/volume.hpp"
+
+namespace burrbench::data_schema::import::detail {
+
+// dims product and byte sizes, refused (InputError on `field`) when above the budget or
+// when any dimension is zero.
+std::size_t checked_voxel_count(const std::array<std::size_t, 3>& dims, VoxelType t,
+                                const ImportLimits& lim, const std::string& file,
+                                const std::string& field);
+
+// Whole file, refused when larger than max_bytes (InputError naming the file).
+std::string read_file_limited(const std::filesystem::path& p, std::size_t max_bytes);
+
+// Inflates a gzip or zlib stream (auto-detected) into exactly `expected` bytes; a stream
+// that ends early or is corrupt → InputError naming the file.
+std::string inflate_exact(std::string_view compressed, std::size_t expected,
+                          const std::string& file);
+
+// Raw samples (little or big endian) → floats; NaN/Inf in float data → InputError.
+std::vector<float> decode_samples(std::string_view raw, std::size_t count, VoxelType t,
+                                  bool big_endian, const std::string& file);
+
+// Given per-axis direction vectors (already scaled by spacing) and the origin of voxel 0,
+// reorders/flips `v.values` so index axes run along +x,+y,+z, and sets spacing/origin.
+// Non-axis-aligned directions → InputError on `field`.
+void apply_axis_aligned(ImageVolume& v, const std::array<glm::dvec3, 3>& directions,
+                        glm::dvec3 origin, const std::string& file, const std::string& field);
+
+std::string trim(std::string_view s);
+std::string lower(std::string_view s);
+// Strict number parsing: whole token, finite. nullopt otherwise.
+std::optional<double> to_double(std::string_view s);
+std::optional<long long> to_int(std::string_view s);
+
+}  // namespace burrbench::data_schema::import::detail
