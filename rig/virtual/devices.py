@@ -26,6 +26,11 @@ class Playback:
         self.counter_base = {d: 0 for d in source.devices()}  # subtracted after a reset
         self._cache = {}
 
+    def restart_clock(self):
+        """Sample 0 is now (CLOCK_MONOTONIC, the same clock as the host's pollers)."""
+        self.start_ns = time.monotonic_ns()
+        self._cache.clear()
+
     def t_s(self):
         return (time.monotonic_ns() - self.start_ns) * 1e-9
 

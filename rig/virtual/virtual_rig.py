@@ -18,7 +18,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 from devices import Playback, make_contexts  # noqa: E402
-from server import Faults, RtuRig, TcpRig, run_fault_schedule  # noqa: E402
+from server import Faults, RtuRig, TcpRig, log_event, run_fault_schedule  # noqa: E402
 from sources import PATTERNS, PatternSource, RecordingError, RecordingSource  # noqa: E402
 
 
@@ -103,6 +103,9 @@ async def serve(args, source):
         rig = TcpRig(contexts, args.host, args.port, faults)
         await rig.start()
         ready = f"READY tcp {args.host}:{rig.port}"
+    # Playback (sample 0) and the fault schedule start when we announce READY.
+    playback.restart_clock()
+    log_event("start", playback_start_ns=playback.start_ns)
     tasks = await run_fault_schedule(rig, playback, faults)
     print(ready, flush=True)
     try:

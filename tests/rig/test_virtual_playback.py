@@ -1,0 +1,158 @@
+"""Virtual rig playing a recording: the right sample at the right time, per device."""
+import struct
+import time
+
+import h5py
+import numpy as np
+import pytest
+from pymodbus.client import ModbusTcpClient
+
+from virtual_helpers import PYTHON, RIG_SCRIPT, start_virtual_rig
+
+T0_NS = 5_000_000_000  # recordings use host monotonic time: anything but zero
+
+
+def u32(regs):
+    return struct.unpack(">I", struct.pack(">HH", *regs))[0]
+
+
+def floats(regs):
+    return list(struct.unpack(f">{len(regs) // 2}f", struct.pack(f">{len(regs)}H", *regs)))
+
+
+def i32s(regs):
+    return list(struct.unpack(f">{len(regs) // 2}i", struct.pack(f">{len(regs)}H", *regs)))
+
+
+def write_recording(path, ft_hz=200.0, stage_hz=100.0, spindle_hz=50.0, duration_s=1.0,
+                    stage_lag_s=0.1):
+    """A small recording in the docs/formats.md layout: /streams/<name>/{t_ns, channels/<ch>}."""
+    with h5py.File(path, "w") as f:
+        f.attrs["format"] = "burrbench.recording"
+        f.attrs["format_version"] = "1.0"
+        s = f.create_group("streams")
+        n = int(duration_s * ft_hz)
+        g = s.create_group("ft_sensor")
+        g["t_ns"] = T0_NS + np.round(np.arange(n) * 1e9 / ft_hz).astype(np.int64)
+        i = np.arange(n, dtype=np.float64)
+        g.create_group("channels")
+        g["channels/force_N"] = np.stack([0.25 * i, -0.5 * i, 1.0 + i], axis=1)
+        g["channels/torque_Nmm"] = np.stack([10.0 * i, -i, 2.0 * i], axis=1)
+        m = int((duration_s - stage_lag_s) * stage_hz)
+        g = s.create_group("stage")
+        g["t_ns"] = T0_NS + int(stage_lag_s * 1e9) + np.round(np.arange(m) * 1e9 / stage_hz).astype(np.int64)
+        j = np.arange(m, dtype=np.float64)
+        g.create_group("channels")
+        g["channels/position_mm"] = np.stack([0.001 * j, 2.0 - 0.002 * j, -0.5 * j], axis=1)
+        q = int(duration_s * spindle_hz)
+        g = s.create_group("spindle")
+        g["t_ns"] = T0_NS + np.round(np.arange(q) * 1e9 / spindle_hz).astype(np.int64)
+        g.create_group("channels")
+        g["channels/spindle_rpm"] = -(1000.0 + 10.0 * np.arange(q))
+    return {"ft": (n, ft_hz), "stage": (m, stage_hz), "spindle": (q, spindle_hz)}
+
+
+def ft_row(k):
+    return [0.25 * k, -0.5 * k, 1.0 + k, 10.0 * k, -1.0 * k, 2.0 * k]
+
+
+def expected_index(t_rel_s, n, hz, lag_s=0.0):
+    """Index of the newest sample whose time <= t (first sample before it starts)."""
+    return min(n - 1, max(0, int(np.floor((t_rel_s - lag_s) * hz + 1e-9))))
+
+
+def test_playback_values_and_timing(tmp_path):
+    rec = tmp_path / "r.h5"
+    sizes = write_recording(rec)
+    with start_virtual_rig(["--recording", str(rec)]) as (proc, host, port):
+        t_ready = time.monotonic()
+        c = ModbusTcpClient(host, port=port, timeout=2)
+        assert c.connect()
+        checked = 0
+        while time.monotonic() - t_ready < 1.3:
+            t_a = time.monotonic() - t_ready
+            regs = c.read_holding_registers(200, 22, slave=9).registers
+            t_b = time.monotonic() - t_ready
+            k = u32(regs[20:22])
+            assert floats(regs[:12]) == [struct.unpack(">f", struct.pack(">f", v))[0] for v in ft_row(k)]
+            n, hz = sizes["ft"]
+            # playback starts a little before READY is printed: k may run ahead by a few ms.
+            lo = expected_index(t_a - 0.005, n, hz)
+            hi = expected_index(t_b + 0.030, n, hz)
+            assert lo <= k <= hi, (t_a, t_b, k)
+            st = c.read_holding_registers(0, 8, slave=1).registers
+            ks = u32(st[6:8])
+            assert i32s(st[:6]) == [round(0.001 * ks * 1000), round((2.0 - 0.002 * ks) * 1000),
+                                    round(-0.5 * ks * 1000)]
+            t_c = time.monotonic() - t_ready
+            m, shz = sizes["stage"]
+            assert expected_index(t_b - 0.005, m, shz, 0.1) <= ks <= expected_index(t_c + 0.030, m, shz, 0.1)
+            sp = c.read_holding_registers(0, 4, slave=2).registers
+            kq = u32(sp[2:4])
+            assert sp[:2] == [1000 + 10 * kq, 1]  # |rpm|, direction "-"
+            checked += 1
+            time.sleep(0.01)
+        assert checked > 30
+        # After the end the last sample is held and the counters stop.
+        time.sleep(0.1)
+        regs = c.read_holding_registers(220, 2, slave=9).registers
+        assert u32(regs) == sizes["ft"][0] - 1
+        assert u32(c.read_holding_registers(6, 2, slave=1).registers) == sizes["stage"][0] - 1
+        c.close()
+
+
+def test_playback_fifo_holds_newest_eight(tmp_path):
+    rec = tmp_path / "r.h5"
+    write_recording(rec)
+    with start_virtual_rig(["--recording", str(rec)]) as (proc, host, port):
+        c = ModbusTcpClient(host, port=port, timeout=2)
+        assert c.connect()
+        time.sleep(0.2)
+        regs = c.read_holding_registers(300, 98, slave=9).registers
+        newest = u32(regs[:2])
+        assert newest >= 7
+        got = floats(regs[2:])
+        want = [struct.unpack(">f", struct.pack(">f", v))[0]
+                for k in range(newest - 7, newest + 1) for v in ft_row(k)]
+        assert got == want
+        c.close()
+
+
+def test_loop_keeps_counting(tmp_path):
+    rec = tmp_path / "r.h5"
+    sizes = write_recording(rec, duration_s=0.3, stage_lag_s=0.05)
+    with start_virtual_rig(["--recording", str(rec), "--loop"]) as (proc, host, port):
+        c = ModbusTcpClient(host, port=port, timeout=2)
+        assert c.connect()
+        time.sleep(0.8)
+        regs = c.read_holding_registers(200, 22, slave=9).registers
+        k = u32(regs[20:22])
+        n = sizes["ft"][0]
+        assert k > 2 * n  # two laps done, the counter did not restart
+        assert floats(regs[:12]) == [struct.unpack(">f", struct.pack(">f", v))[0] for v in ft_row(k % n)]
+        c.close()
+
+
+@pytest.mark.parametrize("breakage, field", [
+    ("no_streams", "/streams"),
+    ("decreasing_t", "t_ns"),
+    ("bad_shape", "force_N"),
+    ("nan", "force_N"),
+])
+def test_bad_recording_exit_2(tmp_path, breakage, field):
+    import subprocess
+    rec = tmp_path / "bad.h5"
+    with h5py.File(rec, "w") as f:
+        if breakage != "no_streams":
+            g = f.create_group("streams/ft_sensor")
+            g["t_ns"] = np.array([3, 2, 1] if breakage == "decreasing_t" else [1, 2, 3], dtype=np.int64)
+            force = np.zeros((3, 2) if breakage == "bad_shape" else (3, 3))
+            if breakage == "nan":
+                force[1, 1] = np.nan
+            g["channels/force_N"] = force
+    before = rec.read_bytes()
+    r = subprocess.run([PYTHON, RIG_SCRIPT, "--recording", str(rec), "--port", "0"],
+                       capture_output=True, timeout=10)
+    assert r.returncode == 2
+    assert str(rec).encode() in r.stderr and field.encode() in r.stderr
+    assert rec.read_bytes() == before
