@@ -93,12 +93,34 @@ class _FaultMixin:
         super().send(message, *addr, **kwargs)
 
 
-class TcpHandler(_FaultMixin, ModbusConnectedRequestHandler):
-    pass
+class _DirectMixin:
+    """Frame and answer requests right in data_received.
+
+    pymodbus 3.0 queues every chunk and wakes a per-connection task to parse it;
+    doing it inline halves the server's cost per request (measured in README.md).
+    """
+
+    def data_received(self, data):
+        try:
+            self.framer.processIncomingPacket(
+                data=data, callback=self.execute, unit=self._units, single=False)
+        except Exception:  # pylint: disable=broad-except
+            # Same policy as pymodbus' handler: garbage on a stream ends the connection.
+            self.framer.resetFrame()
+            if self._closes_on_error:
+                self.transport.close()
+
+    @property
+    def _units(self):
+        return list(self.server.context.slaves())
 
 
-class RtuHandler(_FaultMixin, ModbusSingleRequestHandler):
-    pass
+class TcpHandler(_FaultMixin, _DirectMixin, ModbusConnectedRequestHandler):
+    _closes_on_error = True
+
+
+class RtuHandler(_FaultMixin, _DirectMixin, ModbusSingleRequestHandler):
+    _closes_on_error = False
 
 
 def _server_context(contexts):

@@ -142,3 +142,16 @@ def test_restart_same_port_counter_continues_or_resets(reset):
         assert after < 900  # restarted at 0 at ~1.1 s
     else:
         assert after >= 1300 and after > before  # kept counting through the outage
+
+
+def test_garbage_from_a_client_does_not_hurt_the_rig():
+    with start_virtual_rig(["--pattern", "ramp"]) as (proc, host, port):
+        bad = socket.create_connection((host, port), timeout=2)
+        bad.sendall(bytes(range(256)) * 4)  # not Modbus: bad lengths, protocol ids, functions
+        bad.sendall(struct.pack(">HHHBB", 1, 0, 2, 9, 0x5A))  # an unknown function code
+        time.sleep(0.2)
+        bad.close()
+        c = RawClient(host, port)
+        assert isinstance(c.read(220, 2)[1], list)
+        c.close()
+        assert proc.poll() is None
