@@ -35,7 +35,7 @@ def sat_int16(x):
     """Round and saturate to int16 (a real sensor clips, it never wraps)."""
     if math.isnan(x):
         return 0
-    return max(-INT16_MAX, min(INT16_MAX, int(round(x))))
+    return int(round(max(-INT16_MAX, min(INT16_MAX, x))))
 
 
 def u16(v):
@@ -71,7 +71,7 @@ def u32_words(x):
 
 def i32_words(x):
     """int32, ABCD; saturates instead of wrapping."""
-    x = max(-(2**31), min(2**31 - 1, int(x)))
+    x = int(round(max(-(2**31), min(2**31 - 1, x))))
     return u32_words(x & 0xFFFFFFFF)
 
 
@@ -119,7 +119,7 @@ def stage_image(counter, position_mm):
     """Unit 1: position x,y,z int32 micrometres ABCD, counter uint32 ABCD."""
     regs = []
     for p in position_mm:
-        regs += i32_words(0 if math.isnan(p) else round(p * 1000.0))
+        regs += i32_words(0 if math.isnan(p) else p * 1000.0)
     return regs + u32_words(counter)
 
 
@@ -127,5 +127,5 @@ def spindle_image(counter, rpm):
     """Unit 2: |rpm| uint16 (saturated), direction (0 = +, 1 = -), counter."""
     if math.isnan(rpm):
         rpm = 0.0
-    mag = min(0xFFFF, int(round(abs(rpm))))
+    mag = int(round(min(0xFFFF, abs(rpm))))
     return [mag, 1 if rpm < 0 else 0] + u32_words(counter)

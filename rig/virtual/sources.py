@@ -57,10 +57,17 @@ class PatternSource:
         return self._fn(device, k)
 
 
+NONFINITE = {
+    "ft": (math.nan, math.inf, -math.inf, math.nan, 0.0, 0.0),
+    "stage": (math.nan, math.inf, -math.inf),
+    "spindle": math.nan,
+}
+
 PATTERNS = {
     "ramp": ramp_value,
     "constants": lambda device, k: CONSTANTS[device],
     "saturate": lambda device, k: SATURATE[device],
+    "nonfinite": lambda device, k: NONFINITE[device],
 }
 
 

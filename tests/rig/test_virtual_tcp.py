@@ -115,6 +115,20 @@ def test_saturation_never_wraps(client_of):
         assert read(c, 0, 2, 2) == [65535, 0]
 
 
+def test_nonfinite_floats_and_clamped_integers(client_of):
+    import math
+    with start_virtual_rig(["--pattern", "nonfinite"]) as (proc, host, port):
+        c = client_of(host, port)
+        fl = read(c, 200, 12, 9)
+        got = [f32(fl[i:i + 2]) for i in range(0, 12, 2)]
+        assert math.isnan(got[0]) and got[1] == math.inf and got[2] == -math.inf
+        assert math.isnan(got[3]) and got[4:] == [0.0, 0.0]
+        assert [i16(r) for r in read(c, 180, 6, 9)] == [0, 32767, -32767, 0, 0, 0]
+        stage = read(c, 0, 6, 1)
+        assert [i32(stage[i:i + 2]) for i in (0, 2, 4)] == [0, 2**31 - 1, -(2**31)]
+        assert read(c, 0, 2, 2) == [0, 0]
+
+
 def test_ramp_one_consistent_sample_per_read(client_of):
     with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "1000"]) as (proc, host, port):
         c = client_of(host, port)
