@@ -7,6 +7,8 @@
 #include <map>
 #include <string>
 
+#include "burrbench/data_schema/provenance.hpp"
+
 namespace burrbench::data_schema {
 
 inline constexpr const char* kParamsFormat = "burrbench.params";
@@ -23,6 +25,8 @@ struct ClassParams {
 struct ParameterSet {
   std::map<std::uint8_t, ClassParams> classes;  // by class label
   std::string notes;
+  Provenance provenance;  // optional in hand-written files; writers always stamp it
+  const ClassParams* by_name(const std::string& name) const;
 };
 
 void validate(const ParameterSet& p, const std::string& file_for_messages);

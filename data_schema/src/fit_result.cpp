@@ -1,0 +1,360 @@
+// Fit result (JSON, format "burrbench.fit"): writer, reader, validator.
+// Non-finite numbers: NaN ↔ null, ±inf ↔ "inf"/"-inf" (JSON has neither).
+#include "burrbench/data_schema/fit_result.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "format_common.hpp"
+
+namespace burrbench::data_schema {
+
+using nlohmann::json;
+
+namespace {
+
+constexpr std::uintmax_t kMaxJsonBytes = 256u << 20;
+
+json num(double x) {
+  if (std::isnan(x)) return nullptr;
+  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
+  return x;
+}
+
+// Strict object reader: names the JSON path in errors, rejects unknown keys in done().
+class JsonView {
+ public:
+  JsonView(const json& j, std::string file, std::string path) : j_(&j), file_(std::move(file)), path_(std::move(path)) {
+    if (!j.is_object()) throw InputError(file_, path_.empty() ? "<root>" : path_, "a JSON object", j.type_name());
+  }
+  std::string field(const std::string& k) const { return path_.empty() ? k : path_ + "." + k; }
+  const json& get(const std::string& k) {
+    used_.insert(k);
+    const auto it = j_->find(k);
+    if (it == j_->end()) throw InputError(file_, field(k), "a value", "missing");
+    return *it;
+  }
+  bool has(const std::string& k) const { return j_->contains(k); }
+  std::string str(const std::string& k) {
+    const json& v = get(k);
+    if (!v.is_string()) throw InputError(file_, field(k), "a string", v.type_name());
+    return v.get<std::string>();
+  }
+  // A number, null (NaN) or "inf"/"-inf".
+  double number(const std::string& k) {
+    const json& v = get(k);
+    if (v.is_null()) return kNaN;
+    if (v.is_number()) return v.get<double>();
+    if (v == "inf") return INFINITY;
+    if (v == "-inf") return -INFINITY;
+    throw InputError(file_, field(k), "a number, null or \"inf\"", v.type_name());
+  }
+  double opt_number(const std::string& k) { return has(k) ? number(k) : kNaN; }
+  std::uint64_t count(const std::string& k) {
+    const json& v = get(k);
+    if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<std::int64_t>() >= 0))
+      throw InputError(file_, field(k), "a non-negative integer", v.dump());
+    return v.get<std::uint64_t>();
+  }
+  bool boolean(const std::string& k) {
+    const json& v = get(k);
+    if (!v.is_boolean()) throw InputError(file_, field(k), "true or false", v.type_name());
+    return v.get<bool>();
+  }
+  const json& array(const std::string& k) {
+    const json& v = get(k);
+    if (!v.is_array()) throw InputError(file_, field(k), "an array", v.type_name());
+    return v;
+  }
+  const json& object(const std::string& k) {
+    const json& v = get(k);
+    if (!v.is_object()) throw InputError(file_, field(k), "an object", v.type_name());
+    return v;
+  }
+  JsonView sub(const std::string& k) { return JsonView(get(k), file_, field(k)); }
+  void done() const {
+    for (auto it = j_->begin(); it != j_->end(); ++it)
+      if (!used_.count(it.key())) throw InputError(file_, field(it.key()), "a known key (see docs/formats.md)", "unknown key");
+  }
+  const std::string& file() const { return file_; }
+
+ private:
+  const json* j_;
+  std::string file_, path_;
+  std::set<std::string> used_;
+};
+
+json matrix_json(const NamedMatrix& m) {
+  json values = json::array();
+  for (double x : m.matrix) values.push_back(num(x));
+  return json{{"names", m.names}, {"matrix", values}};
+}
+
+NamedMatrix read_matrix(JsonView v) {
+  NamedMatrix m;
+  const json& names = v.array("names");
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (!names[i].is_string()) throw InputError(v.file(), v.field(fmt::format("names[{}]", i)), "a string");
+    m.names.push_back(names[i].get<std::string>());
+  }
+  const json& values = v.array("matrix");
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const json& x = values[i];
+    if (x.is_null()) m.matrix.push_back(kNaN);
+    else if (x.is_number()) m.matrix.push_back(x.get<double>());
+    else throw InputError(v.file(), v.field(fmt::format("matrix[{}]", i)), "a number or null", x.type_name());
+  }
+  v.done();
+  return m;
+}
+
+json provenance_json(const Provenance& p) {
+  json inputs = json::array();
+  for (const auto& f : p.inputs) inputs.push_back({{"path", f.path}, {"sha256", f.sha256}});
+  return {{"software_version", p.software_version},
+          {"command_line", p.command_line},
+          {"created_utc", p.created_utc},
+          {"inputs", inputs}};
+}
+
+Provenance read_provenance(JsonView v) {
+  Provenance p;
+  p.software_version = v.str("software_version");
+  p.command_line = v.str("command_line");
+  p.created_utc = v.str("created_utc");
+  const json& inputs = v.array("inputs");
+  for (std::size_t i = 0; i < inputs.size(); ++i) {
+    JsonView f(inputs[i], v.file(), v.field(fmt::format("inputs[{}]", i)));
+    p.inputs.push_back({f.str("path"), f.str("sha256")});
+    f.done();
+  }
+  v.done();
+  return p;
+}
+
+const std::set<std::string> kParamNames{"alpha", "c1", "mu"};
+const std::set<std::string> kNuisanceNames{"bias_x", "bias_y", "bias_z", "lag", "depth_offset"};
+
+}  // namespace
+
+const FitParameter* FitResult::parameter(std::uint8_t class_id, const std::string& name) const {
+  for (const auto& p : parameters)
+    if (p.class_id == class_id && p.name == name) return &p;
+  return nullptr;
+}
+
+void validate(const FitResult& f, const std::string& file) {
+  std::set<std::pair<int, std::string>> seen;
+  for (std::size_t i = 0; i < f.parameters.size(); ++i) {
+    const auto& p = f.parameters[i];
+    const std::string fld = fmt::format("parameters[{}]", i);
+    if (!kParamNames.count(p.name)) throw InputError(file, fld + ".name", "alpha | c1 | mu", "\"" + p.name + "\"");
+    if (p.class_id == 0) throw InputError(file, fld + ".class_id", "a class id 1..255", "0");
+    if (!seen.insert({p.class_id, p.name}).second)
+      throw InputError(file, fld, "each (class_id, name) once", "duplicate");
+    if (p.identifiable && std::isnan(p.estimate))
+      throw InputError(file, fld + ".estimate", "a number for an identifiable parameter", "null");
+    if (!p.identifiable && p.reason.empty())
+      throw InputError(file, fld + ".reason", "why the parameter is not identifiable", "empty");
+    if (!std::isnan(p.ci95_low) && !std::isnan(p.ci95_high) && p.ci95_low > p.ci95_high)
+      throw InputError(file, fld, "ci95_low <= ci95_high", fmt::format("{} > {}", p.ci95_low, p.ci95_high));
+    if (!std::isnan(p.std_error) && p.std_error < 0)
+      throw InputError(file, fld + ".std_error", "a standard error >= 0", fmt::format("{}", p.std_error));
+  }
+  for (std::size_t i = 0; i < f.nuisance.size(); ++i) {
+    const auto& n = f.nuisance[i];
+    if (!kNuisanceNames.count(n.name))
+      throw InputError(file, fmt::format("nuisance[{}].name", i), "bias_x | bias_y | bias_z | lag | depth_offset",
+                       "\"" + n.name + "\"");
+  }
+  for (const auto* m : {&f.covariance, &f.correlation}) {
+    const char* which = m == &f.covariance ? "covariance" : "correlation";
+    if (m->matrix.size() != m->names.size() * m->names.size())
+      throw InputError(file, std::string(which) + ".matrix",
+                       fmt::format("{}×{} values (row-major)", m->names.size(), m->names.size()),
+                       std::to_string(m->matrix.size()));
+  }
+  if (f.correlation.size() && f.correlation.names != f.covariance.names)
+    throw InputError(file, "correlation.names", "the covariance's names");
+  if (!f.metrics.is_object()) throw InputError(file, "metrics", "a JSON object");
+  if (!f.settings.is_object()) throw InputError(file, "settings", "a JSON object");
+  for (std::size_t i = 0; i < f.cross_validation.size(); ++i)
+    if (!f.cross_validation[i].metrics.is_object())
+      throw InputError(file, fmt::format("cross_validation[{}].metrics", i), "a JSON object");
+}
+
+void write_fit(const std::filesystem::path& path, const FitResult& f) {
+  validate(f, path.string());
+  json params = json::array();
+  for (const auto& p : f.parameters) {
+    json j{{"class_id", p.class_id}, {"class_name", p.class_name}, {"name", p.name},
+           {"unit", p.unit},         {"estimate", num(p.estimate)}, {"std_error", num(p.std_error)},
+           {"ci95_low", num(p.ci95_low)}, {"ci95_high", num(p.ci95_high)}, {"fixed", p.fixed},
+           {"identifiable", p.identifiable}, {"reason", p.reason}};
+    if (!std::isnan(p.bootstrap_ci95_low)) j["bootstrap_ci95_low"] = num(p.bootstrap_ci95_low);
+    if (!std::isnan(p.bootstrap_ci95_high)) j["bootstrap_ci95_high"] = num(p.bootstrap_ci95_high);
+    params.push_back(j);
+  }
+  json nuisance = json::array();
+  for (const auto& n : f.nuisance)
+    nuisance.push_back({{"recording_id", n.recording_id}, {"name", n.name}, {"unit", n.unit},
+                        {"estimate", num(n.estimate)}, {"std_error", num(n.std_error)},
+                        {"ci95_low", num(n.ci95_low)}, {"ci95_high", num(n.ci95_high)}, {"fixed", n.fixed}});
+  json cv = json::array();
+  for (const auto& c : f.cross_validation) cv.push_back({{"held_out", c.held_out}, {"metrics", c.metrics}});
+  const auto& r = f.residuals_summary;
+  const auto& s = f.solver;
+  const json root{
+      {"format", kFitFormat},
+      {"format_version", detail::version_string(kFitVersionMajor, kFitVersionMinor)},
+      {"parameters", params},
+      {"nuisance", nuisance},
+      {"covariance", matrix_json(f.covariance)},
+      {"correlation", matrix_json(f.correlation)},
+      {"residuals_summary", {{"samples_used", r.samples_used}, {"samples_buried", r.samples_buried},
+                             {"samples_excluded", r.samples_excluded}, {"sigma_N", num(r.sigma_N)},
+                             {"rms_normalised", num(r.rms_normalised)}}},
+      {"solver", {{"iterations", s.iterations}, {"initial_cost", num(s.initial_cost)},
+                  {"final_cost", num(s.final_cost)}, {"wall_s", num(s.wall_s)}, {"replays", s.replays},
+                  {"termination", s.termination}, {"multistart", s.multistart}}},
+      {"cross_validation", cv},
+      {"metrics", f.metrics},
+      {"settings", f.settings},
+      {"provenance", provenance_json(detail::stamped(f.provenance))},
+      {"experiment", {{"path", f.experiment_path}, {"sha256", f.experiment_sha256}}}};
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    // max_digits10 round trip: nlohmann prints doubles with 17 significant digits.
+    out << root.dump(2) << "\n";
+    if (!out) throw InputError(path.string(), "<file>", "a writable location");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw InputError(path.string(), "<file>", "a writable location", ec.message());
+}
+
+FitResult read_fit(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw InputError(file, "<file>", "an existing regular file");
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec || size > kMaxJsonBytes) throw InputError(file, "<file>", "a JSON file of at most 256 MiB");
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  json j;
+  try {
+    j = json::parse(ss.str());
+  } catch (const json::parse_error& e) {
+    throw InputError(file, fmt::format("byte {}", e.byte), "valid JSON", e.what());
+  }
+  JsonView root(j, file, "");
+  detail::check_format(file, "format", root.str("format"), kFitFormat);
+  detail::check_version(file, "format_version", root.str("format_version"), kFitVersionMajor);
+  FitResult f;
+  const json& params = root.array("parameters");
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    JsonView p(params[i], file, fmt::format("parameters[{}]", i));
+    FitParameter fp;
+    const auto id = p.count("class_id");
+    if (id < 1 || id > 255) throw InputError(file, p.field("class_id"), "a class id 1..255", std::to_string(id));
+    fp.class_id = std::uint8_t(id);
+    fp.class_name = p.str("class_name");
+    fp.name = p.str("name");
+    fp.unit = p.str("unit");
+    fp.estimate = p.number("estimate");
+    fp.std_error = p.number("std_error");
+    fp.ci95_low = p.number("ci95_low");
+    fp.ci95_high = p.number("ci95_high");
+    fp.bootstrap_ci95_low = p.opt_number("bootstrap_ci95_low");
+    fp.bootstrap_ci95_high = p.opt_number("bootstrap_ci95_high");
+    fp.fixed = p.boolean("fixed");
+    fp.identifiable = p.boolean("identifiable");
+    fp.reason = p.str("reason");
+    p.done();
+    f.parameters.push_back(fp);
+  }
+  const json& nuisance = root.array("nuisance");
+  for (std::size_t i = 0; i < nuisance.size(); ++i) {
+    JsonView n(nuisance[i], file, fmt::format("nuisance[{}]", i));
+    FitNuisance fn;
+    fn.recording_id = n.str("recording_id");
+    fn.name = n.str("name");
+    fn.unit = n.str("unit");
+    fn.estimate = n.number("estimate");
+    fn.std_error = n.number("std_error");
+    fn.ci95_low = n.number("ci95_low");
+    fn.ci95_high = n.number("ci95_high");
+    fn.fixed = n.boolean("fixed");
+    n.done();
+    f.nuisance.push_back(fn);
+  }
+  f.covariance = read_matrix(root.sub("covariance"));
+  f.correlation = read_matrix(root.sub("correlation"));
+  {
+    JsonView r = root.sub("residuals_summary");
+    auto& rs = f.residuals_summary;
+    rs.samples_used = r.count("samples_used");
+    rs.samples_buried = r.count("samples_buried");
+    rs.samples_excluded = r.count("samples_excluded");
+    rs.sigma_N = r.number("sigma_N");
+    rs.rms_normalised = r.number("rms_normalised");
+    r.done();
+  }
+  {
+    JsonView s = root.sub("solver");
+    auto& ss2 = f.solver;
+    ss2.iterations = s.count("iterations");
+    ss2.initial_cost = s.number("initial_cost");
+    ss2.final_cost = s.number("final_cost");
+    ss2.wall_s = s.number("wall_s");
+    ss2.replays = s.count("replays");
+    ss2.termination = s.str("termination");
+    ss2.multistart = s.count("multistart");
+    s.done();
+  }
+  const json& cv = root.array("cross_validation");
+  for (std::size_t i = 0; i < cv.size(); ++i) {
+    JsonView c(cv[i], file, fmt::format("cross_validation[{}]", i));
+    f.cross_validation.push_back({c.str("held_out"), c.object("metrics")});
+    c.done();
+  }
+  f.metrics = root.object("metrics");
+  f.settings = root.object("settings");
+  f.provenance = read_provenance(root.sub("provenance"));
+  {
+    JsonView e = root.sub("experiment");
+    f.experiment_path = e.str("path");
+    f.experiment_sha256 = e.str("sha256");
+    e.done();
+  }
+  root.done();
+  validate(f, file);
+  return f;
+}
+
+ParameterSet parameter_set_from(const FitResult& f, const std::string& file) {
+  ParameterSet p;
+  for (const auto& fp : f.parameters) {
+    auto& c = p.classes[fp.class_id];
+    c.name = fp.class_name;
+    if (fp.name == "alpha") c.alpha_N_per_mm2 = fp.estimate;
+    if (fp.name == "c1") c.c1_N_per_mm2 = fp.estimate;
+    if (fp.name == "mu") c.mu = fp.estimate;
+  }
+  for (const auto& [id, c] : p.classes) {
+    if (!f.parameter(id, "c1") || !f.parameter(id, "mu"))
+      throw InputError(file, fmt::format("parameters (class {})", int(id)), "estimates of c1 and mu");
+  }
+  p.provenance = make_provenance({});
+  validate(p, file);
+  return p;
+}
+
+}  // namespace burrbench::data_schema

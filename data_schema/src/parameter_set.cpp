@@ -1,0 +1,95 @@
+// Parameter set (TOML, format "burrbench.params"): per class id, α, C1, μ.
+#include "burrbench/data_schema/parameter_set.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "format_common.hpp"
+#include "toml_util.hpp"
+
+namespace burrbench::data_schema {
+
+const ClassParams* ParameterSet::by_name(const std::string& name) const {
+  for (const auto& [id, c] : classes)
+    if (c.name == name) return &c;
+  return nullptr;
+}
+
+void validate(const ParameterSet& p, const std::string& file) {
+  std::set<std::string> names;
+  for (const auto& [id, c] : p.classes) {
+    const std::string f = "classes." + (c.name.empty() ? std::to_string(id) : c.name);
+    if (id == 0) throw InputError(file, f + ".id", "a class id 1..255 (0 is empty space)", "0");
+    if (c.name.empty()) throw InputError(file, f, "a class name");
+    if (!names.insert(c.name).second) throw InputError(file, f, "unique class names", "duplicate");
+    if (std::isnan(c.alpha_N_per_mm2) || !(c.alpha_N_per_mm2 > 0))
+      throw InputError(file, f + ".alpha_N_per_mm2", "alpha > 0 N/mm² (inf = no erosion)",
+                       fmt::format("{}", c.alpha_N_per_mm2));
+    if (!std::isfinite(c.c1_N_per_mm2) || !(c.c1_N_per_mm2 > 0))
+      throw InputError(file, f + ".c1_N_per_mm2", "a finite C1 > 0 N/mm²", fmt::format("{}", c.c1_N_per_mm2));
+    if (!std::isfinite(c.mu) || c.mu < 0)
+      throw InputError(file, f + ".mu", "a finite mu >= 0", fmt::format("{}", c.mu));
+  }
+}
+
+void write_params(const std::filesystem::path& path, const ParameterSet& p) {
+  validate(p, path.string());
+  toml::table classes;
+  for (const auto& [id, c] : p.classes)
+    classes.insert(c.name, toml::table{{"id", int64_t{id}},
+                                       {"alpha_N_per_mm2", c.alpha_N_per_mm2},
+                                       {"c1_N_per_mm2", c.c1_N_per_mm2},
+                                       {"mu", c.mu}});
+  const toml::table root{{"format", kParamsFormat},
+                         {"format_version", detail::version_string(kParamsVersionMajor, kParamsVersionMinor)},
+                         {"notes", p.notes},
+                         {"classes", classes},
+                         {"provenance", detail::provenance_to_toml(detail::stamped(p.provenance))}};
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << "# burrbench parameter set: model constants per bone class (docs/formats.md).\n"
+           "# Units: alpha_N_per_mm2 and c1_N_per_mm2 in N/mm^2 (alpha = mJ/mm^3, energy to\n"
+           "# remove 1 mm^3 of full-density bone; inf = no erosion); mu dimensionless.\n"
+        << root << "\n";
+    if (!out) throw InputError(path.string(), "<file>", "a writable location");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw InputError(path.string(), "<file>", "a writable location", ec.message());
+}
+
+ParameterSet read_params(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  const toml::table t = detail::parse_toml_file(path);
+  detail::TomlView root(t, file, "");
+  detail::check_format(file, "format", root.str("format"), kParamsFormat);
+  detail::check_version(file, "format_version", root.str("format_version"), kParamsVersionMajor);
+  ParameterSet p;
+  p.notes = root.opt_str("notes").value_or("");
+  auto classes = root.table("classes");
+  for (const auto& name : classes.keys()) {
+    auto c = classes.table(name);
+    const std::int64_t id = c.integer("id");
+    if (id < 1 || id > 255) throw InputError(file, c.field("id"), "a class id 1..255", std::to_string(id));
+    ClassParams cp;
+    cp.name = name;
+    cp.alpha_N_per_mm2 = c.num_or_inf("alpha_N_per_mm2");
+    cp.c1_N_per_mm2 = c.num("c1_N_per_mm2");
+    cp.mu = c.num("mu");
+    c.done();
+    if (!p.classes.emplace(std::uint8_t(id), cp).second)
+      throw InputError(file, c.field("id"), "unique class ids", std::to_string(id) + " twice");
+  }
+  classes.done();
+  if (auto prov = root.opt_table("provenance")) p.provenance = detail::provenance_from_toml(*prov);
+  root.done();
+  validate(p, file);
+  return p;
+}
+
+}  // namespace burrbench::data_schema
