@@ -84,7 +84,8 @@ class RecordingSource:
     sample of any stream, so the lags between streams are kept. Before a
     stream's first sample that first sample is served; after the last one the
     last sample is held (counter stops) unless loop is set, in which case the
-    whole recording repeats and counters keep counting up.
+    whole recording repeats and counters keep counting up. Samples flagged stale
+    by the acquisition are skipped; of samples with equal t_ns the last is shown.
     """
 
     def __init__(self, path, loop=False):
@@ -101,6 +102,11 @@ class RecordingSource:
         except OSError as exc:
             raise RecordingError(f"{self.path}: file: expected an HDF5 recording, got {exc}")
         with f:
+            fmt = f.attrs.get("format")
+            if isinstance(fmt, bytes):
+                fmt = fmt.decode(errors="replace")
+            if fmt is not None and fmt != "burrbench.recording":
+                raise RecordingError(f"{self.path}: /@format: expected burrbench.recording, got {fmt}")
             streams = f.get("streams")
             if streams is None or not hasattr(streams, "keys"):
                 raise RecordingError(f"{self.path}: /streams: expected a group of streams, got none")
@@ -125,9 +131,19 @@ class RecordingSource:
                 n = t.size
                 if n == 0:
                     raise RecordingError(f"{where}/t_ns: expected at least one sample, got 0")
-                if n > 1 and np.any(np.diff(t) <= 0):
-                    raise RecordingError(f"{where}/t_ns: expected strictly increasing, got a step <= 0")
+                if n > 1 and np.any(np.diff(t) < 0):
+                    raise RecordingError(f"{where}/t_ns: expected non-decreasing, got a step back")
                 chans = grp["channels"]
+                # Samples an acquisition marked stale repeat an older value: the device
+                # produced nothing new then, so they are not played as device samples.
+                fresh = np.ones(n, dtype=bool)
+                if "stale" in grp:
+                    st = np.asarray(grp["stale"][...]).reshape(-1)
+                    if st.size != n:
+                        raise RecordingError(f"{where}/stale: expected {n} values, got {st.size}")
+                    fresh = st == 0
+                    if not fresh.any():
+                        raise RecordingError(f"{where}/stale: expected at least one fresh sample, got none")
                 if dev == "ft":
                     v = self._channel(chans, "force_N", n, 3, where)
                     tq = (self._channel(chans, "torque_Nmm", n, 3, where) if "torque_Nmm" in chans
@@ -137,15 +153,15 @@ class RecordingSource:
                     v = self._channel(chans, "position_mm", n, 3, where)
                 else:
                     v = self._channel(chans, "spindle_rpm", n, 1, where)[:, 0]
-                raw_t[dev] = t
-                self._vals[dev] = v
+                raw_t[dev] = t[fresh]
+                self._vals[dev] = v[fresh]
         t0 = min(int(t[0]) for t in raw_t.values())
         for dev, t in raw_t.items():
             self._t[dev] = t - t0
         # One loop lasts until the last sample of any stream plus one median period.
         ends = []
         for t in self._t.values():
-            period = int(np.median(np.diff(t))) if t.size > 1 else 1_000_000
+            period = max(1, int(np.median(np.diff(t)))) if t.size > 1 else 1_000_000
             ends.append(int(t[-1]) + period)
         self.duration_ns = max(ends)
 

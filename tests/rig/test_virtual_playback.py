@@ -133,8 +133,26 @@ def test_loop_keeps_counting(tmp_path):
         c.close()
 
 
+def test_stale_samples_are_not_played(tmp_path):
+    rec = tmp_path / "r.h5"
+    write_recording(rec)
+    with h5py.File(rec, "a") as f:
+        n = f["streams/ft_sensor/t_ns"].shape[0]
+        f["streams/ft_sensor/stale"] = (np.arange(n) % 2).astype(np.uint8)  # odd rows repeat
+    with start_virtual_rig(["--recording", str(rec)]) as (proc, host, port):
+        c = ModbusTcpClient(host, port=port, timeout=2)
+        assert c.connect()
+        time.sleep(0.3)
+        regs = c.read_holding_registers(200, 22, slave=9).registers
+        k = u32(regs[20:22])
+        assert 20 <= k <= 40  # 100 fresh samples per second, not 200
+        assert floats(regs[:12]) == [struct.unpack(">f", struct.pack(">f", v))[0] for v in ft_row(2 * k)]
+        c.close()
+
+
 @pytest.mark.parametrize("breakage, field", [
     ("no_streams", "/streams"),
+    ("wrong_format", "/@format"),
     ("decreasing_t", "t_ns"),
     ("bad_shape", "force_N"),
     ("nan", "force_N"),
@@ -143,6 +161,8 @@ def test_bad_recording_exit_2(tmp_path, breakage, field):
     import subprocess
     rec = tmp_path / "bad.h5"
     with h5py.File(rec, "w") as f:
+        if breakage == "wrong_format":
+            f.attrs["format"] = "burrbench.sample"
         if breakage != "no_streams":
             g = f.create_group("streams/ft_sensor")
             g["t_ns"] = np.array([3, 2, 1] if breakage == "decreasing_t" else [1, 2, 3], dtype=np.int64)
