@@ -176,3 +176,35 @@ def test_bad_recording_exit_2(tmp_path, breakage, field):
     assert r.returncode == 2
     assert str(rec).encode() in r.stderr and field.encode() in r.stderr
     assert rec.read_bytes() == before
+
+
+def test_plays_a_recording_written_by_burrbench(tmp_path):
+    """The C++ writer's file (via `burrbench recording import`), one stream for all channels."""
+    import os
+    import subprocess
+    exe = os.environ.get("BURRBENCH")
+    if not exe:
+        pytest.skip("BURRBENCH (path to the CLI) is set by CTest")
+    csv = tmp_path / "r.csv"
+    rows = ["t_s,x_mm,y_mm,z_mm,fx_N,fy_N,fz_N,tx_Nmm,ty_Nmm,tz_Nmm,spindle_rpm"]
+    for i in range(400):  # 200 Hz for 2 s
+        rows.append(f"{i * 0.005},{0.01 * i},{-0.02 * i},0.5,{0.25 * i},{-0.5 * i},{1 + i},"
+                    f"{10 * i},{-i},{2 * i},{-1000 - 10 * i}")
+    csv.write_text("\n".join(rows) + "\n")
+    rec = tmp_path / "r.h5"
+    subprocess.run([exe, "recording", "import", "--csv", str(csv), "--out", str(rec)],
+                   check=True, capture_output=True, timeout=60)
+    with start_virtual_rig(["--recording", str(rec)]) as (proc, host, port):
+        c = ModbusTcpClient(host, port=port, timeout=2)
+        assert c.connect()
+        time.sleep(0.25)
+        regs = c.read_holding_registers(200, 22, slave=9).registers
+        k = u32(regs[20:22])
+        assert 30 <= k <= 80
+        assert floats(regs[:12]) == [struct.unpack(">f", struct.pack(">f", v))[0] for v in ft_row(k)]
+        st = c.read_holding_registers(0, 8, slave=1).registers
+        ks = u32(st[6:8])
+        assert i32s(st[:6]) == [round(10.0 * ks), round(-20.0 * ks), 500]
+        sp = c.read_holding_registers(0, 4, slave=2).registers
+        assert sp[:2] == [1000 + 10 * u32(sp[2:4]), 1]
+        c.close()
