@@ -38,20 +38,21 @@ def ramp_value(device, k):
 
 
 class PatternSource:
-    """Every device samples at rate_hz from the start of playback."""
+    """Each device samples at its rate (rate_hz unless overridden) from the start of playback."""
 
-    def __init__(self, name, rate_hz):
+    def __init__(self, name, rate_hz, device_rates=None):
         if name not in PATTERNS:
             raise ValueError(f"--pattern: expected one of {', '.join(PATTERNS)}, got {name!r}")
         self.name = name
-        self.rate_hz = rate_hz
+        self.rates = {d: rate_hz for d in DEVICES}
+        self.rates.update({d: r for d, r in (device_rates or {}).items() if r})
         self._fn = PATTERNS[name]
 
     def devices(self):
         return DEVICES
 
     def index(self, device, t_s):
-        return max(0, int(math.floor(t_s * self.rate_hz)))
+        return max(0, int(math.floor(t_s * self.rates[device])))
 
     def value(self, device, k):
         return self._fn(device, k)

@@ -32,6 +32,10 @@ def parse_args(argv):
     what.add_argument("--pattern", choices=sorted(PATTERNS), help="serve a deterministic pattern")
     p.add_argument("--rate-hz", type=float, default=1000.0,
                    help="device sample rate of --pattern (default 1000)")
+    p.add_argument("--stage-rate-hz", type=float, default=0.0,
+                   help="sample rate of the stage (unit 1) with --pattern; default --rate-hz")
+    p.add_argument("--spindle-rate-hz", type=float, default=0.0,
+                   help="sample rate of the spindle (unit 2) with --pattern; default --rate-hz")
     p.add_argument("--loop", action="store_true",
                    help="repeat the recording (counters keep counting); default: hold the last sample")
     p.add_argument("--host", default="127.0.0.1", help="TCP address to bind (default 127.0.0.1)")
@@ -58,6 +62,9 @@ def parse_args(argv):
     bad = []
     if a.rate_hz <= 0 or a.rate_hz > 100000:
         bad.append("--rate-hz: expected 0 < rate <= 100000")
+    for name in ("stage_rate_hz", "spindle_rate_hz"):
+        if getattr(a, name) < 0 or getattr(a, name) > 100000:
+            bad.append(f"--{name.replace('_', '-')}: expected 0 < rate <= 100000")
     if not 0 <= a.port <= 65535:
         bad.append("--port: expected 0..65535")
     if a.baud <= 0:
@@ -125,7 +132,8 @@ def main(argv=None):
     logging.getLogger("pymodbus").setLevel(logging.DEBUG if args.verbose else logging.CRITICAL)
     try:
         source = (RecordingSource(args.recording, loop=args.loop) if args.recording
-                  else PatternSource(args.pattern, args.rate_hz))
+                  else PatternSource(args.pattern, args.rate_hz,
+                                     {"stage": args.stage_rate_hz, "spindle": args.spindle_rate_hz}))
     except RecordingError as exc:
         print(f"virtual_rig: {exc}", file=sys.stderr)
         return 2

@@ -157,14 +157,16 @@ def test_ramp_one_consistent_sample_per_read(client_of):
 
 
 def test_counter_follows_rate(client_of):
-    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "500"]) as (proc, host, port):
+    args = ["--pattern", "ramp", "--rate-hz", "500", "--spindle-rate-hz", "100"]
+    with start_virtual_rig(args) as (proc, host, port):
         c = client_of(host, port)
         t0 = time.monotonic()
-        k0 = u32(read(c, 220, 2, 9))
+        k0 = [u32(read(c, 220, 2, 9)), u32(read(c, 6, 2, 1)), u32(read(c, 2, 2, 2))]
         time.sleep(1.0)
-        k1 = u32(read(c, 220, 2, 9))
+        k1 = [u32(read(c, 220, 2, 9)), u32(read(c, 6, 2, 1)), u32(read(c, 2, 2, 2))]
         dt = time.monotonic() - t0
-        assert abs((k1 - k0) - 500 * dt) < 25
+        for rate, a, b in zip((500, 500, 100), k0, k1):
+            assert abs((b - a) - rate * dt) < 0.05 * rate
 
 
 def test_writes_refused_and_bad_reads(client_of):
