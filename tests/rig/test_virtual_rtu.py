@@ -117,3 +117,12 @@ def test_rtu_prompt_shutdown_cleans_up():
         assert time.monotonic() - t < 2.0 and proc.returncode == 0
         c.close()
     assert not os.path.exists(link_dir)
+
+
+def test_rtu_client_may_close_and_reopen_the_pty():
+    with start_virtual_rig_rtu(["--pattern", "ramp", "--baud", "115200"]) as (proc, pty):
+        for _ in range(3):  # libmodbus closes and reopens the port to recover
+            c = RawRtu(pty)
+            reply, _ = c.transact(read_request(9, 220, 2), 9)
+            assert len(reply) == 9 and reply[-2:] == crc16(reply[:-2])
+            c.close()
