@@ -4,8 +4,8 @@
     /usr/bin/python3 pty_relay.py CLIENT_SIDE_TTY SERVER_SIDE_TTY BAUD
 
 RS-485 is half duplex: both directions share one wire, so every byte (in either
-direction) occupies 10 bit times (8N1: start + 8 data + stop) of that one wire
-and is delivered when its last bit would arrive. A separate process so that
+direction) occupies 10 bit times (8N1: start + 8 data + stop) of that one wire.
+Each chunk one side writes is delivered whole when its last bit would arrive. A separate process so that
 pacing is not disturbed by the Modbus server holding the GIL.
 """
 import os
@@ -26,28 +26,16 @@ def open_raw(path):
 def relay(fd_a, fd_b, baud):
     byte_s = 10.0 / baud
     wire_free = 0.0         # when the wire finishes the last queued byte
-    pending = []            # [due_time, out_fd, byte] in wire order
+    pending = []            # [due_time, out_fd, chunk] in wire order
     other = {fd_a: fd_b, fd_b: fd_a}
     while True:
         now = time.monotonic()
-        # Deliver every byte whose last bit has arrived, grouped per destination.
-        n = 0
-        while n < len(pending) and pending[n][0] <= now:
-            n += 1
-        if n:
-            i = 0
-            while i < n:
-                out = pending[i][1]
-                j = i
-                while j < n and pending[j][1] == out:
-                    j += 1
-                chunk = bytes(p[2] for p in pending[i:j])
-                try:
-                    os.write(out, chunk)
-                except BlockingIOError:
-                    pass  # nobody reads that side: a real line would lose it too
-                i = j
-            del pending[:n]
+        while pending and pending[0][0] <= now:
+            _, out, chunk = pending.pop(0)
+            try:
+                os.write(out, chunk)
+            except (BlockingIOError, OSError):
+                pass  # nobody reads that side: a real line would lose it too
         timeout = None if not pending else max(0.0, pending[0][0] - time.monotonic())
         ready, _, _ = select.select([fd_a, fd_b], [], [], timeout)
         now = time.monotonic()
@@ -61,10 +49,11 @@ def relay(fd_a, fd_b, baud):
             if not data:
                 time.sleep(0.01)
                 continue
-            out = other[fd]
-            for b in data:
-                wire_free = max(wire_free, now) + byte_s
-                pending.append((wire_free, out, b))
+            # What one side wrote at once (a frame, as a rule) is delivered whole when
+            # its last byte would have arrived: one wake-up per frame instead of one
+            # per byte keeps the pacing exact on a busy machine.
+            wire_free = max(wire_free, now) + len(data) * byte_s
+            pending.append((wire_free, other[fd], data))
 
 
 def main():
