@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from pymodbus.client import ModbusTcpClient
 
-from virtual_helpers import PYTHON, RIG_SCRIPT, start_virtual_rig
+from virtual_helpers import PYTHON, RIG_SCRIPT, playback_start_ns, start_virtual_rig
 
 T0_NS = 5_000_000_000  # recordings use host monotonic time: anything but zero
 
@@ -65,7 +65,7 @@ def test_playback_values_and_timing(tmp_path):
     rec = tmp_path / "r.h5"
     sizes = write_recording(rec)
     with start_virtual_rig(["--recording", str(rec)]) as (proc, host, port):
-        t_ready = time.monotonic()
+        t_ready = playback_start_ns(proc) * 1e-9  # same clock as time.monotonic()
         c = ModbusTcpClient(host, port=port, timeout=2)
         assert c.connect()
         checked = 0
@@ -76,9 +76,8 @@ def test_playback_values_and_timing(tmp_path):
             k = u32(regs[20:22])
             assert floats(regs[:12]) == [struct.unpack(">f", struct.pack(">f", v))[0] for v in ft_row(k)]
             n, hz = sizes["ft"]
-            # playback starts a little before READY is printed: k may run ahead by a few ms.
-            lo = expected_index(t_a - 0.005, n, hz)
-            hi = expected_index(t_b + 0.030, n, hz)
+            lo = expected_index(t_a - 0.0005, n, hz)
+            hi = expected_index(t_b + 0.0005, n, hz)
             assert lo <= k <= hi, (t_a, t_b, k)
             st = c.read_holding_registers(0, 8, slave=1).registers
             ks = u32(st[6:8])
@@ -86,7 +85,7 @@ def test_playback_values_and_timing(tmp_path):
                                     round(-0.5 * ks * 1000)]
             t_c = time.monotonic() - t_ready
             m, shz = sizes["stage"]
-            assert expected_index(t_b - 0.005, m, shz, 0.1) <= ks <= expected_index(t_c + 0.030, m, shz, 0.1)
+            assert expected_index(t_b - 0.0005, m, shz, 0.1) <= ks <= expected_index(t_c + 0.0005, m, shz, 0.1)
             sp = c.read_holding_registers(0, 4, slave=2).registers
             kq = u32(sp[2:4])
             assert sp[:2] == [1000 + 10 * kq, 1]  # |rpm|, direction "-"

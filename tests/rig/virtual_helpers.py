@@ -9,6 +9,9 @@ API (import from tests in tests/rig/; pytest puts this folder on sys.path):
 
 `proc` is the subprocess.Popen of the rig; `proc.stderr_path` is a file holding its
 stderr (fault-injection lines `EVENT <kind> t_mono_ns=<ns> ...`, see events()).
+playback_start_ns(proc) is the CLOCK_MONOTONIC instant of device sample 0 (Python's
+time.monotonic_ns() and C++ CLOCK_MONOTONIC share it): with a pattern, sample k of a
+device was taken at playback_start_ns + k * 1e9 / rate.
 On leaving the block the rig gets SIGTERM (then SIGKILL after 5 s) and is reaped.
 The READY line must come within `timeout` seconds, else RuntimeError with stderr.
 """
@@ -117,3 +120,8 @@ def events(proc, kind=None):
             if kind is None or ev["kind"] == kind:
                 out.append(ev)
     return out
+
+
+def playback_start_ns(proc):
+    """CLOCK_MONOTONIC ns of sample 0 (from the rig's `EVENT start` line)."""
+    return events(proc, "start")[0]["playback_start_ns"]
