@@ -78,11 +78,12 @@ class _FaultMixin:
 
     def send(self, message, *addr, **kwargs):
         self._fault_init()
-        if self._delay_s <= 0 and self._send_after <= 0:
+        loop = asyncio.get_running_loop()
+        now = loop.time()
+        if self._delay_s <= 0 and self._send_after <= now:
             super().send(message, *addr, **kwargs)
             return
-        loop = asyncio.get_running_loop()
-        at = max(loop.time() + self._delay_s, self._send_after)
+        at = max(now + self._delay_s, self._send_after)
         self._send_after = at
         loop.call_at(at, self._send_later, message, addr, kwargs)
 

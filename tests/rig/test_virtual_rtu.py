@@ -1,6 +1,5 @@
 """Virtual rig over Modbus RTU on a pty, through the relay that paces bytes at the baud rate."""
 import os
-import statistics
 import struct
 import termios
 import time
@@ -69,25 +68,29 @@ def test_rtu_answers_every_unit():
         c.close()
 
 
-@pytest.mark.parametrize("baud", [19200, 115200])
-def test_rtu_timing_matches_baud(baud):
-    """Round trip of a 42-register read >= wire time of 8 + 89 bytes at 10 bits/byte."""
+@pytest.mark.parametrize("baud, trips, factor, slack_s", [
+    # At 1200 baud one round trip lasts 0.8 s, so scheduling noise of a loaded machine
+    # (tens of ms) stays within a few per cent: pacing at 11 bits/byte would fail.
+    (1200, 2, 1.06, 0.020),
+    # At 115200 the noise can exceed the wire time itself; only gross errors (pacing
+    # per bit instead of per byte, no pacing at all) are caught here. The exact
+    # speed is measured in bench/, not asserted.
+    (115200, 10, 2.0, 0.025),
+])
+def test_rtu_timing_matches_baud(baud, trips, factor, slack_s):
+    """Round trip of a 42-register read vs wire time of 8 + 89 bytes at 10 bits/byte."""
     wire_s = (8 + 5 + 2 * 42) * 10 / baud
     with start_virtual_rig_rtu(["--pattern", "ramp", "--baud", str(baud)]) as (proc, pty):
         c = RawRtu(pty)
         rtts = []
-        for _ in range(10):
-            reply, rtt = c.transact(read_request(9, 180, 42), 5 + 84)
+        for _ in range(trips):
+            reply, rtt = c.transact(read_request(9, 180, 42), 5 + 84, timeout=3 * wire_s + 1)
             assert len(reply) == 89 and reply[:3] == bytes([9, 3, 84])
             assert reply[-2:] == crc16(reply[:-2])
             rtts.append(rtt)
         c.close()
-    # Paced: never faster than the wire. Not over-paced (e.g. 11 bits/byte would add
-    # 10 %): the quickest round trip is within a few ms of the wire time; the others
-    # carry the scheduling delays of a loaded machine (speed is measured in bench/).
-    assert min(rtts) >= 0.97 * wire_s, (rtts, wire_s)
-    assert min(rtts) <= wire_s + 0.004, (rtts, wire_s)
-    assert statistics.median(rtts) < 2 * wire_s + 0.020, (rtts, wire_s)
+    assert min(rtts) >= 0.97 * wire_s, (rtts, wire_s)  # paced: never faster than the wire
+    assert min(rtts) <= factor * wire_s + slack_s, (rtts, wire_s)
 
 
 def test_rtu_faults_late_reply_and_silent_restart():
