@@ -1,0 +1,90 @@
+#pragma once
+// The least-squares objective over all recordings and its Ceres solve.
+//
+// Residual per used sample and axis: r = (predicted sensor force + bias − measured)/σ,
+// then multiplied by √w (w: bootstrap multiplicity × buried weight; 0 = not used).
+// The robust loss is applied per residual (not per recording, which is what a Ceres
+// LossFunction on a whole residual block would do): r̃ = sign(r)·√ρ(r²), so Σ r̃² = Σ ρ(r²).
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "burrbench/calibration/parameters.hpp"
+#include "burrbench/calibration/recording_model.hpp"
+#include "burrbench/data_schema/manifest.hpp"
+#include "burrbench/data_schema/progress.hpp"
+
+namespace burrbench::calibration {
+
+struct ObjectiveSettings {
+  data_schema::LossKind loss = data_schema::LossKind::kHuber;
+  double loss_scale = 3.0;  // in units of σ
+  data_schema::BuriedPolicy buried = data_schema::BuriedPolicy::kExclude;
+  double buried_weight = 0.1;  // squared-residual weight of a buried sample when down-weighted
+  double sigma_N = 0.02;
+};
+
+// Per recording, per force sample: weight of its residuals (0 = not used: outside the
+// used segments, held out, or not drawn by the bootstrap).
+using SampleWeights = std::vector<std::vector<double>>;
+
+struct SolveOptions {
+  int max_iterations = 50;
+  int threads = 2;  // Ceres evaluates recordings concurrently
+  double function_tolerance = 1e-7;
+  Progress* progress = nullptr;
+  std::vector<bool> hold;  // per x entry: true = held constant (empty: none)
+};
+
+struct SolveOutcome {
+  std::vector<double> x;
+  std::uint64_t iterations = 0;
+  double initial_cost = 0, final_cost = 0;
+  std::string termination;
+  bool usable = false;
+  double wall_s = 0;
+};
+
+struct Evaluation {
+  double cost = 0;                    // ½ Σ r̃²
+  std::uint64_t residuals_used = 0;   // residuals with weight > 0
+  std::uint64_t samples_used = 0, samples_buried = 0, samples_excluded = 0;
+  std::vector<Prediction> predictions;  // per recording, without derivative columns
+};
+
+struct CovarianceOutcome {
+  bool ok = false;
+  std::vector<std::size_t> indices;  // x entries covered (free and not held)
+  std::vector<double> cov;           // |indices|² row-major, scaled space, × residual variance
+  double residual_variance = 1;      // 2·cost / (used residuals − parameters)
+  std::vector<double> info_diag;     // diag(JᵀJ) per covered entry
+  std::vector<double> eig_values;    // of the unit-diagonal information matrix (ascending)
+  std::vector<std::vector<double>> eig_vectors;  // eig_vectors[j] = eigenvector of eig_values[j]
+};
+
+class Objective {
+ public:
+  Objective(const Layout& layout, std::vector<const RecordingModel*> models,
+            ObjectiveSettings settings);
+  const Layout& layout() const { return layout_; }
+  const std::vector<const RecordingModel*>& models() const { return models_; }
+  const ObjectiveSettings& settings() const { return settings_; }
+
+  SolveOutcome solve(const std::vector<double>& x0, const SampleWeights& w,
+                     const SolveOptions& options) const;
+  Evaluation evaluate(const std::vector<double>& x, const SampleWeights& w) const;
+  CovarianceOutcome covariance(const std::vector<double>& x, const SampleWeights& w,
+                               const std::vector<bool>& hold) const;
+
+  // Replays done so far through this objective (all threads).
+  std::uint64_t replays() const;
+
+ private:
+  const Layout& layout_;
+  std::vector<const RecordingModel*> models_;
+  ObjectiveSettings settings_;
+  mutable std::atomic<std::uint64_t> replays_{0};
+};
+
+}  // namespace burrbench::calibration

@@ -1,0 +1,98 @@
+#pragma once
+// The fitted parameters and how they are laid out for Ceres.
+//
+// Physics (α, C1, μ per bone class) is positive and spans decades, so the solver works
+// on x = ln θ with bounds ln(lower)..ln(upper); a fixed parameter is not a Ceres block
+// at all (its natural value is used as is, α = +∞ meaning "no erosion"). Nuisances live
+// per recording in natural units: sensor bias (N, sensor frame, 3 values), position→force
+// lag (ms) and depth offset along the burr shaft axis (mm).
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "burrbench/data_schema/manifest.hpp"
+
+namespace burrbench::calibration {
+
+inline constexpr int kLabels = 8;  // == model::kMaxClasses (checked in replay_model.cpp)
+using PerLabel = std::array<double, kLabels>;
+
+enum class PhysKind { kAlpha, kC1, kMu };
+const char* to_string(PhysKind k);  // "alpha" | "c1" | "mu"
+const char* unit_of(PhysKind k);    // "N/mm^2" | "1"
+
+struct PhysicsParam {
+  std::uint8_t label = 0;
+  std::string class_name;
+  PhysKind kind = PhysKind::kAlpha;
+  data_schema::ParamSpec spec;
+  int index = -1;  // position in the free vector x, -1 when fixed
+};
+
+// Natural-unit values of every class constant, by label (α = ∞: no erosion).
+struct PhysicsValues {
+  PerLabel alpha, c1, mu;
+  PhysicsValues() {
+    alpha.fill(std::numeric_limits<double>::infinity());
+    c1.fill(0);
+    mu.fill(0);
+  }
+  double& at(PhysKind k, std::uint8_t label) {
+    return k == PhysKind::kAlpha ? alpha[label] : k == PhysKind::kC1 ? c1[label] : mu[label];
+  }
+  double at(PhysKind k, std::uint8_t label) const {
+    return const_cast<PhysicsValues*>(this)->at(k, label);
+  }
+};
+
+struct RecordingNuisance {
+  std::string recording_id;
+  int bias = -1, lag = -1, depth = -1;  // offsets in x (bias: 3 consecutive), -1 = fixed
+  double lag_fixed_ms = 0;              // value used when the lag is fixed (and start value)
+  std::array<double, 2> lag_bounds_ms{-20, 20};
+  double depth_bound_mm = 0;            // |offset| ≤ this
+};
+
+// Every parameter of one calibration and its place in the free vector x.
+class Layout {
+ public:
+  // `classes`: label → (name, spec) for every class present in the samples.
+  // `depth_bound_mm`: bound on |depth offset| (used when the manifest frees it).
+  Layout(const std::vector<std::pair<std::uint8_t, std::pair<std::string,
+                                                              data_schema::ClassFitSpec>>>& classes,
+         const std::vector<std::pair<std::string, double>>& recordings_lag_ms,
+         const data_schema::NuisanceSpec& nuisance, double depth_bound_mm);
+
+  const std::vector<PhysicsParam>& physics() const { return physics_; }
+  const std::vector<RecordingNuisance>& recordings() const { return recordings_; }
+  std::size_t size() const { return n_; }  // free values
+  std::vector<std::uint8_t> labels() const;
+
+  std::vector<double> initial() const;     // start values of x (scaled)
+  double lower(std::size_t i) const { return lower_[i]; }
+  double upper(std::size_t i) const { return upper_[i]; }
+  PhysicsValues physics_values(const double* x) const;  // natural units
+  // Free-vector names: "compact.alpha", "plunge.bias_x", "plunge.lag", ...
+  const std::string& name(std::size_t i) const { return names_[i]; }
+  // Scaled → natural and the derivative d natural / d scaled (for the delta method).
+  double natural(std::size_t i, double x) const;
+  double dnatural(std::size_t i, double x) const;
+  bool is_log(std::size_t i) const { return log_[i]; }
+  // Block sizes in x order (1 each, 3 for a bias).
+  struct Block { std::size_t offset, size; };
+  const std::vector<Block>& blocks() const { return blocks_; }
+
+ private:
+  std::vector<PhysicsParam> physics_;
+  std::vector<RecordingNuisance> recordings_;
+  std::size_t n_ = 0;
+  std::vector<double> init_, lower_, upper_;
+  std::vector<bool> log_;
+  std::vector<std::string> names_;
+  std::vector<Block> blocks_;
+};
+
+}  // namespace burrbench::calibration

@@ -1,0 +1,50 @@
+#pragma once
+// What the calibration needs from one recording: the measured sensor force at every
+// force sample and a way to predict it (and its derivatives) for given parameters.
+// ReplayRecordingModel (replay_model.hpp) implements it with the voxel model; tests can
+// implement it with a closed-form model to check the solver machinery alone.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "burrbench/calibration/parameters.hpp"
+
+namespace burrbench::calibration {
+
+// A derivative the solver asks for: d(predicted sensor force)/d(column).
+enum class ColumnKind { kLogAlpha, kLogC1, kLogMu, kLagMs, kDepthMm };
+struct Column {
+  ColumnKind kind = ColumnKind::kLogC1;
+  std::uint8_t label = 0;  // class label for the physics columns
+};
+
+struct EvalPoint {
+  PhysicsValues physics;
+  double lag_ms = 0;
+  double depth_mm = 0;
+};
+
+struct Prediction {
+  std::vector<glm::dvec3> force_sensor_N;        // predicted sensor reading without bias
+  std::vector<std::uint8_t> buried;              // 1: normal ill-defined at this sample
+  std::vector<std::uint8_t> class_mask;          // bit k: class k in contact
+  PerLabel removed_mm3{};                        // bone removed per class over the replay
+  std::vector<std::vector<glm::dvec3>> columns;  // one per requested Column, per sample
+  std::uint64_t replays = 0;                     // replays this prediction cost
+};
+
+class RecordingModel {
+ public:
+  virtual ~RecordingModel() = default;
+  virtual const std::string& id() const = 0;
+  virtual std::size_t size() const = 0;                          // force samples
+  virtual const std::vector<double>& t_s() const = 0;            // from the first sample
+  virtual const std::vector<glm::dvec3>& measured_sensor_N() const = 0;
+  // Must be safe to call concurrently for DIFFERENT models (one call per model at a time).
+  virtual void predict(const EvalPoint& at, const std::vector<Column>& columns,
+                       Prediction& out) const = 0;
+};
+
+}  // namespace burrbench::calibration

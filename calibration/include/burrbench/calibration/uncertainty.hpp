@@ -1,0 +1,32 @@
+#pragma once
+// Standard errors, 95 % intervals and correlations of a fit, and the rules that declare a
+// parameter NOT identifiable from the data (then it gets a reason and no number).
+//
+// Rules, checked in this order for every free physics parameter:
+//  1. its class is never in contact in the used samples;
+//  2. (α only) no bone of its class was removed in the replay: α has no effect;
+//  3. the estimate sits at a bound (within 1 % in log space);
+//  4. the information matrix (JᵀJ, scaled to unit diagonal) has an eigenvalue below
+//     1e-8 of the largest whose eigenvector loads on it (|v| > 0.5): a near-null direction;
+//  5. its 95 % interval is wider than ×/÷ 10 (SE of ln θ > ln 10 / 1.96).
+// Flagged parameters are held at their estimate and the covariance of the rest is
+// recomputed (conditional on them), so one undetermined constant does not blur the others.
+#include <vector>
+
+#include "burrbench/calibration/objective.hpp"
+#include "burrbench/data_schema/fit_result.hpp"
+
+namespace burrbench::calibration {
+
+struct UncertaintyReport {
+  std::vector<data_schema::FitParameter> parameters;  // physics, layout order
+  std::vector<data_schema::FitNuisance> nuisance;
+  data_schema::NamedMatrix covariance, correlation;   // identifiable free entries, natural units
+  double residual_variance = 1;
+  std::vector<bool> held;                             // x entries held as not identifiable
+};
+
+UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
+                                     const SampleWeights& w, const Evaluation& at_x);
+
+}  // namespace burrbench::calibration

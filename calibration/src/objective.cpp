@@ -1,0 +1,330 @@
+#include "burrbench/calibration/objective.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+#include <Eigen/Dense>
+
+#include "burrbench/data_schema/error.hpp"
+
+namespace burrbench::calibration {
+namespace {
+
+using data_schema::LossKind;
+
+// ρ(s) and ρ'(s) of the robust loss, s = r², scale c (σ units); ρ(s) = s for small s.
+struct Robust {
+  LossKind kind;
+  double c2;
+  double rho(double s) const {
+    switch (kind) {
+      case LossKind::kNone: return s;
+      case LossKind::kHuber: return s <= c2 ? s : 2 * std::sqrt(c2 * s) - c2;
+      case LossKind::kCauchy: return c2 * std::log1p(s / c2);
+    }
+    return s;
+  }
+  double drho(double s) const {
+    switch (kind) {
+      case LossKind::kNone: return 1;
+      case LossKind::kHuber: return s <= c2 ? 1 : std::sqrt(c2 / s);
+      case LossKind::kCauchy: return 1 / (1 + s / c2);
+    }
+    return 1;
+  }
+};
+
+// Residual weight of one sample: its external weight, scaled down (or to 0) when buried.
+double sample_weight(const ObjectiveSettings& s, double w, bool buried) {
+  if (!buried || w == 0) return w;
+  return s.buried == data_schema::BuriedPolicy::kExclude ? 0.0 : w * s.buried_weight;
+}
+
+// One residual block per recording: 3 residuals per force sample, parameter blocks =
+// the free physics entries followed by this recording's free nuisances.
+class RecordingCost final : public ceres::CostFunction {
+ public:
+  RecordingCost(const Objective& obj, std::size_t rec, const std::vector<double>& weights,
+                std::atomic<std::uint64_t>& replays)
+      : obj_(obj), rec_(rec), w_(weights), replays_(replays) {
+    const auto& L = obj.layout();
+    for (const auto& p : L.physics())
+      if (p.index >= 0) {
+        blocks_.push_back({std::size_t(p.index), 1});
+        cols_.push_back({p.kind == PhysKind::kAlpha ? ColumnKind::kLogAlpha
+                         : p.kind == PhysKind::kC1  ? ColumnKind::kLogC1
+                                                    : ColumnKind::kLogMu,
+                         p.label});
+      }
+    const auto& n = L.recordings()[rec];
+    if (n.bias >= 0) { bias_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.bias), 3}); cols_.push_back({}); }
+    if (n.lag >= 0) { lag_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.lag), 1}); cols_.push_back({ColumnKind::kLagMs, 0}); }
+    if (n.depth >= 0) { depth_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.depth), 1}); cols_.push_back({ColumnKind::kDepthMm, 0}); }
+    for (const auto& b : blocks_) mutable_parameter_block_sizes()->push_back(int(b.size));
+    set_num_residuals(int(3 * obj.models()[rec]->size()));
+  }
+  const std::vector<Layout::Block>& blocks() const { return blocks_; }
+
+  bool Evaluate(double const* const* params, double* residuals, double** jac) const override {
+    // Rebuild a full x from the blocks (entries of other recordings are irrelevant here).
+    const auto& L = obj_.layout();
+    std::vector<double> x(L.size(), 0.0);
+    for (std::size_t b = 0; b < blocks_.size(); ++b)
+      for (std::size_t k = 0; k < blocks_[b].size; ++k) x[blocks_[b].offset + k] = params[b][k];
+    const auto& nz = L.recordings()[rec_];
+    EvalPoint at{L.physics_values(x.data()), nz.lag >= 0 ? x[std::size_t(nz.lag)] : nz.lag_fixed_ms,
+                 nz.depth >= 0 ? x[std::size_t(nz.depth)] : 0.0};
+    std::vector<Column> want;
+    std::vector<int> col_of_block(blocks_.size(), -1);
+    if (jac)
+      for (std::size_t b = 0; b < blocks_.size(); ++b)
+        if (jac[b] && int(b) != bias_block_) {
+          col_of_block[b] = int(want.size());
+          want.push_back(cols_[b]);
+        }
+    Prediction pred;
+    const auto* model = obj_.models()[rec_];
+    model->predict(at, want, pred);
+    replays_ += pred.replays;
+    const glm::dvec3 bias = nz.bias >= 0 ? glm::dvec3(x[std::size_t(nz.bias)], x[std::size_t(nz.bias) + 1],
+                                                      x[std::size_t(nz.bias) + 2])
+                                         : glm::dvec3(0);
+    const auto& s = obj_.settings();
+    const Robust robust{s.loss, s.loss_scale * s.loss_scale};
+    const auto& meas = model->measured_sensor_N();
+    const std::size_t n = model->size();
+    for (std::size_t j = 0; j < n; ++j) {
+      const double w = sample_weight(s, w_[j], pred.buried[j] != 0);
+      const double sw = std::sqrt(w);
+      for (int a = 0; a < 3; ++a) {
+        const std::size_t row = 3 * j + std::size_t(a);
+        const double r = (pred.force_sensor_N[j][a] + bias[a] - meas[j][a]) / s.sigma_N;
+        const double sq = r * r;
+        const double rt = std::copysign(std::sqrt(robust.rho(sq)), r);
+        residuals[row] = sw * rt;
+        if (!jac) continue;
+        // d r̃/d r = ρ'(r²)·r / r̃ (→ 1 as r → 0).
+        const double g = sw * (rt != 0 ? robust.drho(sq) * r / rt : 1.0) / s.sigma_N;
+        for (std::size_t b = 0; b < blocks_.size(); ++b) {
+          if (!jac[b]) continue;
+          const std::size_t bs = blocks_[b].size;
+          double* J = jac[b] + row * bs;
+          if (int(b) == bias_block_) {
+            for (std::size_t k = 0; k < 3; ++k) J[k] = (int(k) == a) ? g : 0.0;
+          } else {
+            J[0] = g * pred.columns[std::size_t(col_of_block[b])][j][a];
+          }
+        }
+      }
+    }
+    return true;
+  }
+
+ private:
+  const Objective& obj_;
+  std::size_t rec_;
+  const std::vector<double>& w_;
+  std::atomic<std::uint64_t>& replays_;
+  std::vector<Layout::Block> blocks_;
+  std::vector<Column> cols_;
+  int bias_block_ = -1, lag_block_ = -1, depth_block_ = -1;
+};
+
+struct BuiltProblem {
+  ceres::Problem problem;
+  std::vector<double*> block_ptrs;  // per layout block
+  BuiltProblem() : problem(ceres::Problem::Options{}) {}
+};
+
+void build(const Objective& obj, std::vector<double>& x, const SampleWeights& w,
+           const std::vector<bool>& hold, std::atomic<std::uint64_t>& replays, BuiltProblem& bp) {
+  const auto& L = obj.layout();
+  for (std::size_t r = 0; r < obj.models().size(); ++r) {
+    auto* cost = new RecordingCost(obj, r, w[r], replays);
+    std::vector<double*> ptrs;
+    for (const auto& b : cost->blocks()) ptrs.push_back(x.data() + b.offset);
+    bp.problem.AddResidualBlock(cost, nullptr, ptrs);
+  }
+  for (const auto& b : L.blocks()) {
+    double* p = x.data() + b.offset;
+    if (!bp.problem.HasParameterBlock(p)) continue;  // e.g. no recording
+    bp.block_ptrs.push_back(p);
+    bool held = !hold.empty() && hold[b.offset];
+    if (held) {
+      bp.problem.SetParameterBlockConstant(p);
+      continue;
+    }
+    for (std::size_t k = 0; k < b.size; ++k) {
+      const std::size_t i = b.offset + k;
+      if (std::isfinite(L.lower(i))) bp.problem.SetParameterLowerBound(p, int(k), L.lower(i));
+      if (std::isfinite(L.upper(i))) bp.problem.SetParameterUpperBound(p, int(k), L.upper(i));
+    }
+  }
+}
+
+class ProgressCallback final : public ceres::IterationCallback {
+ public:
+  ProgressCallback(Progress* p, int max_it) : p_(p), max_(max_it) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (p_)
+      p_->update(std::min(1.0, double(s.iteration) / max_),
+                 fmt::format("iter {:3d}  cost {:.6g}  step {:.3g}  elapsed {:.1f} s", s.iteration,
+                             s.cost, s.step_norm, s.cumulative_time_in_seconds));
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  Progress* p_;
+  int max_;
+};
+
+}  // namespace
+
+Objective::Objective(const Layout& layout, std::vector<const RecordingModel*> models,
+                     ObjectiveSettings settings)
+    : layout_(layout), models_(std::move(models)), settings_(settings) {
+  BURRBENCH_CHECK(models_.size() == layout_.recordings().size(), "one model per recording");
+  BURRBENCH_CHECK(settings_.sigma_N > 0 && std::isfinite(settings_.sigma_N), "sigma must be > 0");
+}
+
+std::uint64_t Objective::replays() const { return replays_.load(); }
+
+SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights& w,
+                              const SolveOptions& options) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  SolveOutcome out;
+  out.x = x0;
+  // Start strictly inside the bounds.
+  for (std::size_t i = 0; i < out.x.size(); ++i) {
+    const double lo = layout_.lower(i), hi = layout_.upper(i);
+    if (std::isfinite(lo) && std::isfinite(hi)) {
+      const double eps = 1e-6 * (hi - lo);
+      out.x[i] = std::clamp(out.x[i], lo + eps, hi - eps);
+    }
+  }
+  BuiltProblem bp;
+  build(*this, out.x, w, options.hold, replays_, bp);
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = options.max_iterations;
+  so.num_threads = std::max(1, options.threads);
+  so.function_tolerance = options.function_tolerance;
+  so.gradient_tolerance = 1e-10;
+  so.parameter_tolerance = 1e-8;
+  so.minimizer_progress_to_stdout = false;
+  ProgressCallback cb(options.progress, options.max_iterations);
+  so.callbacks.push_back(&cb);
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &bp.problem, &summary);
+  out.iterations = std::uint64_t(summary.iterations.size());
+  out.initial_cost = summary.initial_cost;
+  out.final_cost = summary.final_cost;
+  out.termination = ceres::TerminationTypeToString(summary.termination_type) +
+                    std::string(": ") + summary.message;
+  out.usable = summary.IsSolutionUsable();
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights& w) const {
+  Evaluation ev;
+  for (std::size_t r = 0; r < models_.size(); ++r) {
+    const auto& nz = layout_.recordings()[r];
+    EvalPoint at{layout_.physics_values(x.data()),
+                 nz.lag >= 0 ? x[std::size_t(nz.lag)] : nz.lag_fixed_ms,
+                 nz.depth >= 0 ? x[std::size_t(nz.depth)] : 0.0};
+    Prediction pred;
+    models_[r]->predict(at, {}, pred);
+    replays_ += pred.replays;
+    const glm::dvec3 bias = nz.bias >= 0 ? glm::dvec3(x[std::size_t(nz.bias)], x[std::size_t(nz.bias) + 1],
+                                                      x[std::size_t(nz.bias) + 2])
+                                         : glm::dvec3(0);
+    const Robust robust{settings_.loss, settings_.loss_scale * settings_.loss_scale};
+    const auto& meas = models_[r]->measured_sensor_N();
+    for (std::size_t j = 0; j < models_[r]->size(); ++j) {
+      if (w[r][j] == 0) {
+        ++ev.samples_excluded;
+        continue;
+      }
+      if (pred.buried[j]) ++ev.samples_buried;
+      const double sw = sample_weight(settings_, w[r][j], pred.buried[j] != 0);
+      if (sw == 0) continue;
+      ++ev.samples_used;
+      ev.residuals_used += 3;
+      for (int a = 0; a < 3; ++a) {
+        const double rr = (pred.force_sensor_N[j][a] + bias[a] - meas[j][a]) / settings_.sigma_N;
+        ev.cost += 0.5 * sw * robust.rho(rr * rr);
+      }
+    }
+    ev.predictions.push_back(std::move(pred));
+  }
+  return ev;
+}
+
+CovarianceOutcome Objective::covariance(const std::vector<double>& x_in, const SampleWeights& w,
+                                        const std::vector<bool>& hold) const {
+  CovarianceOutcome out;
+  std::vector<double> x = x_in;
+  BuiltProblem bp;
+  build(*this, x, w, hold, replays_, bp);
+  // Covered entries and their blocks.
+  std::vector<double*> blocks;
+  for (const auto& b : layout_.blocks()) {
+    double* p = x.data() + b.offset;
+    if (!bp.problem.HasParameterBlock(p) || bp.problem.IsParameterBlockConstant(p)) continue;
+    blocks.push_back(p);
+    for (std::size_t k = 0; k < b.size; ++k) out.indices.push_back(b.offset + k);
+  }
+  const std::size_t m = out.indices.size();
+  if (m == 0) return out;
+  // Jacobian at x (one evaluation) for the residual variance and the null-space analysis.
+  double cost = 0;
+  ceres::CRSMatrix J;
+  ceres::Problem::EvaluateOptions eo;
+  eo.parameter_blocks.assign(blocks.begin(), blocks.end());
+  eo.apply_loss_function = true;
+  eo.num_threads = 2;
+  std::vector<double> res;
+  bp.problem.Evaluate(eo, &cost, &res, nullptr, &J);
+  std::uint64_t used = 0;
+  for (double r : res) used += (r != 0);
+  const double dof = double(used) - double(m);
+  out.residual_variance = dof > 0 ? 2 * cost / dof : 1.0;
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(Eigen::Index(m), Eigen::Index(m));
+  for (int row = 0; row < J.num_rows; ++row)
+    for (int a = J.rows[std::size_t(row)]; a < J.rows[std::size_t(row) + 1]; ++a)
+      for (int b = J.rows[std::size_t(row)]; b < J.rows[std::size_t(row) + 1]; ++b)
+        H(J.cols[std::size_t(a)], J.cols[std::size_t(b)]) += J.values[std::size_t(a)] * J.values[std::size_t(b)];
+  Eigen::VectorXd d = H.diagonal();
+  out.info_diag.assign(d.data(), d.data() + m);
+  Eigen::VectorXd s = d.unaryExpr([](double v) { return v > 0 ? 1 / std::sqrt(v) : 0.0; });
+  Eigen::MatrixXd Hn = s.asDiagonal() * H * s.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Hn);
+  for (Eigen::Index j = 0; j < Eigen::Index(m); ++j) {
+    out.eig_values.push_back(es.eigenvalues()(j));
+    const Eigen::VectorXd v = es.eigenvectors().col(j);
+    out.eig_vectors.emplace_back(v.data(), v.data() + m);
+  }
+  // The covariance proper: Ceres, dense SVD, rank deficiency tolerated (pseudo-inverse).
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  co.null_space_rank = -1;
+  co.min_reciprocal_condition_number = 1e-14;
+  co.num_threads = 2;
+  co.apply_loss_function = true;
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (std::size_t a = 0; a < blocks.size(); ++a)
+    for (std::size_t b = a; b < blocks.size(); ++b) pairs.emplace_back(blocks[a], blocks[b]);
+  if (!cov.Compute(pairs, &bp.problem)) return out;
+  out.cov.assign(m * m, 0.0);
+  const std::vector<const double*> cblocks(blocks.begin(), blocks.end());
+  if (!cov.GetCovarianceMatrix(cblocks, out.cov.data())) return out;
+  for (double& v : out.cov) v *= out.residual_variance;
+  out.ok = true;
+  return out;
+}
+
+}  // namespace burrbench::calibration

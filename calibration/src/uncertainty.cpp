@@ -1,0 +1,166 @@
+#include "burrbench/calibration/uncertainty.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+namespace burrbench::calibration {
+namespace {
+
+constexpr double kZ95 = 1.959963984540054;
+constexpr double kMaxLogSE = 1.1748;  // ln(10)/1.96: interval wider than ×/÷ 10
+constexpr double kNullRatio = 1e-8;
+
+bool class_touched(const Evaluation& ev, const SampleWeights& w, std::uint8_t label) {
+  for (std::size_t r = 0; r < ev.predictions.size(); ++r) {
+    const auto& p = ev.predictions[r];
+    for (std::size_t j = 0; j < p.class_mask.size(); ++j)
+      if (w[r][j] > 0 && (p.class_mask[j] >> label & 1u)) return true;
+  }
+  return false;
+}
+
+double removed(const Evaluation& ev, std::uint8_t label) {
+  double s = 0;
+  for (const auto& p : ev.predictions) s += p.removed_mm3[label];
+  return s;
+}
+
+}  // namespace
+
+UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
+                                     const SampleWeights& w, const Evaluation& at_x) {
+  const Layout& L = obj.layout();
+  UncertaintyReport rep;
+  rep.held.assign(L.size(), false);
+  std::vector<std::string> reason(L.size());
+  auto flag = [&](int i, std::string why) {
+    if (i < 0 || rep.held[std::size_t(i)]) return false;
+    rep.held[std::size_t(i)] = true;
+    reason[std::size_t(i)] = std::move(why);
+    return true;
+  };
+  for (const auto& p : L.physics()) {
+    if (p.index < 0) continue;
+    const std::size_t i = std::size_t(p.index);
+    if (!class_touched(at_x, w, p.label))
+      flag(p.index, fmt::format("class '{}' is never in contact in the used samples", p.class_name));
+    else if (p.kind == PhysKind::kAlpha && !(removed(at_x, p.label) > 0))
+      flag(p.index, fmt::format("no '{}' bone is removed in the replay: alpha has no effect on "
+                                "the predicted force", p.class_name));
+    else if (x[i] - L.lower(i) < 0.01 || L.upper(i) - x[i] < 0.01)
+      flag(p.index, fmt::format("estimate at its {} bound ({:.4g} {})",
+                                x[i] - L.lower(i) < 0.01 ? "lower" : "upper", std::exp(x[i]),
+                                unit_of(p.kind)));
+  }
+  CovarianceOutcome cov;
+  for (int round = 0; round < 4; ++round) {
+    cov = obj.covariance(x, w, rep.held);
+    bool more = false;
+    const std::size_t m = cov.indices.size();
+    if (m == 0) break;
+    const double lmax = cov.eig_values.empty() ? 0 : cov.eig_values.back();
+    auto physics_at = [&](std::size_t i) -> const PhysicsParam* {
+      for (const auto& p : L.physics())
+        if (p.index == int(i)) return &p;
+      return nullptr;
+    };
+    for (std::size_t a = 0; a < m; ++a) {
+      const std::size_t i = cov.indices[a];
+      const PhysicsParam* p = physics_at(i);
+      if (!p) continue;
+      if (!(cov.info_diag[a] > 0)) {
+        more |= flag(int(i), "the predicted force does not depend on it (zero sensitivity)");
+        continue;
+      }
+      for (std::size_t e = 0; e < m; ++e)
+        if (cov.eig_values[e] < kNullRatio * lmax && std::abs(cov.eig_vectors[e][a]) > 0.5) {
+          std::string partners;
+          for (std::size_t b = 0; b < m; ++b)
+            if (b != a && std::abs(cov.eig_vectors[e][b]) > 0.2)
+              partners += (partners.empty() ? "" : ", ") + L.name(cov.indices[b]);
+          more |= flag(int(i), fmt::format("lies in a near-null direction of the information "
+                                           "matrix{}", partners.empty() ? "" : " (with " + partners + ")"));
+        }
+      const double se = cov.ok ? std::sqrt(std::max(0.0, cov.cov[a * m + a])) : NAN;
+      if (cov.ok && se > kMaxLogSE)
+        more |= flag(int(i), fmt::format("95 % interval wider than a factor 10 either way "
+                                         "(SE of ln = {:.3g})", se));
+    }
+    if (!more) break;
+  }
+  rep.residual_variance = cov.residual_variance;
+  // Position of x entry i in the covariance (or npos).
+  auto pos = [&](std::size_t i) -> std::ptrdiff_t {
+    for (std::size_t a = 0; a < cov.indices.size(); ++a)
+      if (cov.indices[a] == i) return std::ptrdiff_t(a);
+    return -1;
+  };
+  const std::size_t m = cov.indices.size();
+  auto var = [&](std::ptrdiff_t a) {
+    return cov.ok && a >= 0 ? cov.cov[std::size_t(a) * m + std::size_t(a)] : NAN;
+  };
+  for (const auto& p : L.physics()) {
+    data_schema::FitParameter f;
+    f.class_id = p.label;
+    f.class_name = p.class_name;
+    f.name = to_string(p.kind);
+    f.unit = unit_of(p.kind);
+    f.fixed = p.index < 0;
+    if (f.fixed) {
+      f.estimate = p.spec.initial;
+    } else if (rep.held[std::size_t(p.index)]) {
+      f.identifiable = false;
+      f.reason = reason[std::size_t(p.index)];
+    } else {
+      const double xi = x[std::size_t(p.index)];
+      const double se_log = std::sqrt(std::max(0.0, var(pos(std::size_t(p.index)))));
+      f.estimate = std::exp(xi);
+      f.std_error = f.estimate * se_log;  // delta method
+      f.ci95_low = std::exp(xi - kZ95 * se_log);  // interval on ln θ, mapped back
+      f.ci95_high = std::exp(xi + kZ95 * se_log);
+    }
+    rep.parameters.push_back(std::move(f));
+  }
+  for (const auto& r : L.recordings()) {
+    auto add = [&](const char* name, const char* unit, int i, double fixed_value) {
+      data_schema::FitNuisance n;
+      n.recording_id = r.recording_id;
+      n.name = name;
+      n.unit = unit;
+      n.fixed = i < 0;
+      n.estimate = i < 0 ? fixed_value : x[std::size_t(i)];
+      if (i >= 0) {
+        const double se = std::sqrt(std::max(0.0, var(pos(std::size_t(i)))));
+        n.std_error = se;
+        n.ci95_low = n.estimate - kZ95 * se;
+        n.ci95_high = n.estimate + kZ95 * se;
+      }
+      rep.nuisance.push_back(std::move(n));
+    };
+    add("bias_x", "N", r.bias, 0.0);
+    add("bias_y", "N", r.bias < 0 ? -1 : r.bias + 1, 0.0);
+    add("bias_z", "N", r.bias < 0 ? -1 : r.bias + 2, 0.0);
+    add("lag", "ms", r.lag, r.lag_fixed_ms);
+    add("depth_offset", "mm", r.depth, 0.0);
+  }
+  // Natural-unit covariance of the identifiable free entries (delta method) and correlation.
+  if (cov.ok) {
+    std::vector<double> g(m);
+    for (std::size_t a = 0; a < m; ++a) {
+      rep.covariance.names.push_back(L.name(cov.indices[a]));
+      g[a] = L.dnatural(cov.indices[a], x[cov.indices[a]]);
+    }
+    rep.correlation.names = rep.covariance.names;
+    for (std::size_t a = 0; a < m; ++a)
+      for (std::size_t b = 0; b < m; ++b) {
+        const double c = cov.cov[a * m + b];
+        rep.covariance.matrix.push_back(g[a] * g[b] * c);
+        const double den = std::sqrt(cov.cov[a * m + a] * cov.cov[b * m + b]);
+        rep.correlation.matrix.push_back(den > 0 ? c / den : (a == b ? 1.0 : 0.0));
+      }
+  }
+  return rep;
+}
+
+}  // namespace burrbench::calibration

@@ -1,0 +1,125 @@
+// Solver, covariance and identifiability machinery on a closed-form problem with known
+// truth (analytic_model.hpp), independent of the voxel replay.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "analytic_model.hpp"
+#include "burrbench/calibration/objective.hpp"
+#include "burrbench/calibration/uncertainty.hpp"
+
+namespace bc = burrbench::calibration;
+namespace ds = burrbench::data_schema;
+
+namespace {
+
+ds::ClassFitSpec spec(double a, double c, double m) {
+  ds::ClassFitSpec s;
+  s.alpha = {a, 1.0, 1000.0, false};
+  s.c1 = {c, 0.1, 1000.0, false};
+  s.mu = {m, 0.01, 2.0, false};
+  return s;
+}
+
+struct Setup {
+  std::vector<bc::testing::AnalyticModel> models;
+  std::unique_ptr<bc::Layout> layout;
+  bc::EvalPoint truth;
+  bc::SampleWeights w;
+};
+
+Setup make(bool touch2, bool erode, unsigned seed) {
+  Setup s;
+  s.truth.physics.alpha[1] = 20; s.truth.physics.c1[1] = 10; s.truth.physics.mu[1] = 0.4;
+  s.truth.physics.alpha[2] = 8;  s.truth.physics.c1[2] = 3;  s.truth.physics.mu[2] = 0.25;
+  s.truth.lag_ms = 4;
+  for (int r = 0; r < 2; ++r) s.models.emplace_back("rec" + std::to_string(r), 500, touch2, erode);
+  for (int r = 0; r < 2; ++r)
+    s.models[std::size_t(r)].synthesise(s.truth, glm::dvec3(0.1 * r, -0.05, 0.2), 0.02, seed + unsigned(r));
+  ds::NuisanceSpec nz;
+  nz.bias = true;
+  nz.lag = true;
+  s.layout = std::make_unique<bc::Layout>(
+      std::vector<std::pair<std::uint8_t, std::pair<std::string, ds::ClassFitSpec>>>{
+          {1, {"compact", spec(30, 5, 0.3)}}, {2, {"trabecular", spec(30, 5, 0.3)}}},
+      std::vector<std::pair<std::string, double>>{{"rec0", 0.0}, {"rec1", 0.0}}, nz, 0.5);
+  for (auto& m : s.models) s.w.emplace_back(m.size(), 1.0);
+  return s;
+}
+
+std::vector<const bc::RecordingModel*> ptrs(const Setup& s) {
+  std::vector<const bc::RecordingModel*> p;
+  for (const auto& m : s.models) p.push_back(&m);
+  return p;
+}
+
+const ds::FitParameter& param(const bc::UncertaintyReport& r, int label, const char* name) {
+  for (const auto& p : r.parameters)
+    if (p.class_id == label && p.name == name) return p;
+  throw std::runtime_error("no parameter");
+}
+
+}  // namespace
+
+TEST(CalibrationCore, RecoversAnalyticTruthWithIntervalsCoveringIt) {
+  auto s = make(true, true, 7);
+  bc::ObjectiveSettings set;
+  set.loss = ds::LossKind::kNone;
+  set.sigma_N = 0.02;
+  bc::Objective obj(*s.layout, ptrs(s), set);
+  auto fit = obj.solve(s.layout->initial(), s.w, {});
+  ASSERT_TRUE(fit.usable) << fit.termination;
+  auto ev = obj.evaluate(fit.x, s.w);
+  auto rep = bc::assess_uncertainty(obj, fit.x, s.w, ev);
+  EXPECT_NEAR(rep.residual_variance, 1.0, 0.15);
+  for (int k : {1, 2})
+    for (const char* n : {"alpha", "c1", "mu"}) {
+      const auto& p = param(rep, k, n);
+      ASSERT_TRUE(p.identifiable) << n << ": " << p.reason;
+      const double truth = s.truth.physics.at(n[0] == 'a' ? bc::PhysKind::kAlpha
+                                              : n[0] == 'c' ? bc::PhysKind::kC1
+                                                            : bc::PhysKind::kMu,
+                                              std::uint8_t(k));
+      EXPECT_NEAR(p.estimate / truth, 1.0, n[0] == 'a' ? 0.15 : 0.05) << k << " " << n;
+      // 95 % intervals: truth inside (loosely: 4 SE to keep the test deterministic-robust)
+      EXPECT_LT(std::abs(p.estimate - truth), 4 * p.std_error + 1e-12) << k << " " << n;
+      EXPECT_LT(p.ci95_low, p.estimate);
+      EXPECT_GT(p.ci95_high, p.estimate);
+    }
+  for (const auto& n : rep.nuisance)
+    if (n.name == "lag") {
+      EXPECT_NEAR(n.estimate, 4.0, 4 * n.std_error + 1e-9);
+    }
+  EXPECT_EQ(rep.correlation.names.size(), rep.covariance.names.size());
+}
+
+TEST(CalibrationCore, UntouchedClassIsNotIdentifiable) {
+  auto s = make(false, true, 11);
+  bc::ObjectiveSettings set;
+  set.sigma_N = 0.02;
+  bc::Objective obj(*s.layout, ptrs(s), set);
+  auto fit = obj.solve(s.layout->initial(), s.w, {});
+  auto rep = bc::assess_uncertainty(obj, fit.x, s.w, obj.evaluate(fit.x, s.w));
+  for (const char* n : {"alpha", "c1", "mu"}) {
+    EXPECT_FALSE(param(rep, 2, n).identifiable) << n;
+    EXPECT_NE(param(rep, 2, n).reason.find("never in contact"), std::string::npos);
+    EXPECT_TRUE(std::isnan(param(rep, 2, n).estimate));
+    EXPECT_TRUE(param(rep, 1, n).identifiable) << n << ": " << param(rep, 1, n).reason;
+  }
+  EXPECT_NEAR(param(rep, 1, "c1").estimate, 10.0, 0.5);
+}
+
+TEST(CalibrationCore, AlphaWithoutErosionIsNotIdentifiable) {
+  auto s = make(true, false, 13);
+  bc::ObjectiveSettings set;
+  set.sigma_N = 0.02;
+  bc::Objective obj(*s.layout, ptrs(s), set);
+  auto fit = obj.solve(s.layout->initial(), s.w, {});
+  auto rep = bc::assess_uncertainty(obj, fit.x, s.w, obj.evaluate(fit.x, s.w));
+  for (int k : {1, 2}) {
+    EXPECT_FALSE(param(rep, k, "alpha").identifiable);
+    EXPECT_FALSE(param(rep, k, "alpha").reason.empty());
+    EXPECT_TRUE(param(rep, k, "c1").identifiable) << param(rep, k, "c1").reason;
+    EXPECT_TRUE(param(rep, k, "mu").identifiable) << param(rep, k, "mu").reason;
+  }
+}
