@@ -1,0 +1,102 @@
+#include "burrbench/model/replay.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+
+namespace burrbench::model {
+
+namespace {
+
+void check_trajectory(const Trajectory& tr) {
+  const std::string file = "trajectory";
+  const std::size_t n = tr.t_s.size();
+  if (tr.centre_vol_mm.size() != n || tr.omega_vol_rad_s.size() != n)
+    throw InputError(file, "centre_vol_mm/omega_vol_rad_s",
+                     "as many entries as t_s (" + std::to_string(n) + ")");
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& c = tr.centre_vol_mm[i];
+    const auto& w = tr.omega_vol_rad_s[i];
+    if (!std::isfinite(tr.t_s[i]) || !std::isfinite(c.x + c.y + c.z) ||
+        !std::isfinite(w.x + w.y + w.z))
+      throw InputError(file, "sample " + std::to_string(i), "finite time, centre and omega");
+    if (i > 0 && !(tr.t_s[i] > tr.t_s[i - 1]))
+      throw InputError(file, "t_s[" + std::to_string(i) + "]", "strictly increasing times",
+                       fmt::format("{} after {}", tr.t_s[i], tr.t_s[i - 1]));
+  }
+}
+
+double median_period(const std::vector<double>& t) {
+  std::vector<double> dt(t.size() - 1);
+  for (std::size_t i = 1; i < t.size(); ++i) dt[i - 1] = t[i] - t[i - 1];
+  auto mid = dt.begin() + std::ptrdiff_t(dt.size() / 2);
+  std::nth_element(dt.begin(), mid, dt.end());
+  return *mid;
+}
+
+}  // namespace
+
+ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
+                    const Trajectory& tr, const ReplayOptions& opt, bool restore,
+                    Progress* progress) {
+  check_trajectory(tr);
+  if (!(radius_mm > 0) || !std::isfinite(radius_mm))
+    throw InputError("replay", "radius_mm", "finite burr radius > 0 mm",
+                     std::to_string(radius_mm));
+  if (!(opt.step_s >= 0) || !std::isfinite(opt.step_s))
+    throw InputError("replay", "step_s", "finite step >= 0 s (0 = half the sample period)",
+                     std::to_string(opt.step_s));
+  const auto t_start = std::chrono::steady_clock::now();
+  ReplayResult res;
+  const std::size_t n = tr.t_s.size();
+  res.samples.resize(n);
+  if (n == 0) return res;
+  const double h = opt.step_s > 0 ? opt.step_s : (n > 1 ? 0.5 * median_period(tr.t_s) : 0);
+  // Refuse step counts that could not finish (e.g. a 1 ns step over an hour).
+  if (n > 1 && (tr.t_s.back() - tr.t_s.front()) / h > 1e9)
+    throw InputError("replay", "step_s", "at most 1e9 internal steps",
+                     fmt::format("{} s over {} s", h, tr.t_s.back() - tr.t_s.front()));
+  if (restore) vol.begin_undo();
+  try {
+    for (std::size_t k = 0; k < n; ++k) {
+      if (k + 1 == n || !opt.erosion) {
+        res.samples[k].contact =
+            evaluate(vol, tr.centre_vol_mm[k], tr.omega_vol_rad_s[k], radius_mm, params);
+      }
+      if (k + 1 == n) break;
+      if (!opt.erosion) continue;
+      // Sub-steps of the interval: forward Euler, the force at the sub-step's start erodes
+      // over the sub-step; the first sub-step's contact is the one reported at t_k.
+      const double T = tr.t_s[k + 1] - tr.t_s[k];
+      const std::size_t m = std::max<std::size_t>(1, std::size_t(std::ceil(T / h - 1e-9)));
+      const double dt = T / double(m);
+      const glm::dvec3 p0 = tr.centre_vol_mm[k], dp = tr.centre_vol_mm[k + 1] - p0;
+      const glm::dvec3 w0 = tr.omega_vol_rad_s[k], dw = tr.omega_vol_rad_s[k + 1] - w0;
+      for (std::size_t j = 0; j < m; ++j) {
+        const double f = double(j) / double(m);
+        ContactResult c = step(vol, p0 + f * dp, w0 + f * dw, radius_mm, params, dt,
+                               res.removed_mm3, &res.friction_energy_mJ);
+        if (j == 0) res.samples[k].contact = c;
+        ++res.steps;
+      }
+      if (progress && (k % 1024 == 0))
+        progress->update(double(k) / double(n), fmt::format("sample {}/{}", k, n));
+    }
+  } catch (...) {
+    if (restore) vol.rollback();
+    throw;
+  }
+  if (restore) vol.rollback();
+  res.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  if (progress)
+    progress->finish(fmt::format("replayed {} samples, {} steps in {:.3f} s", n, res.steps,
+                                 res.wall_s));
+  return res;
+}
+
+}  // namespace burrbench::model
