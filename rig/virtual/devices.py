@@ -25,6 +25,9 @@ class Playback:
         self.start_ns = time.monotonic_ns()
         self.counter_base = {d: 0 for d in source.devices()}  # subtracted after a reset
         self._cache = {}
+        # (unit, address, count, counter) of the latest read; the server notes it
+        # with the reply for --served-log.
+        self.last_read = None
 
     def restart_clock(self):
         """Sample 0 is now (CLOCK_MONOTONIC, the same clock as the host's pollers)."""
@@ -42,13 +45,14 @@ class Playback:
         self._cache.clear()
 
     def image(self, device):
+        """(counter, registers) of the device's current sample."""
         k = self.source.index(device, self.t_s())
         hit = self._cache.get(device)
         if hit is not None and hit[0] == k:
-            return hit[1]
+            return k - self.counter_base[device], hit[1]
         regs = self._build(device, k)
         self._cache[device] = (k, regs)
-        return regs
+        return k - self.counter_base[device], regs
 
     def _build(self, device, k):
         src = self.source
@@ -85,7 +89,9 @@ class DeviceContext(IModbusSlaveContext):
         return fc_as_hex == READ_HOLDING and address >= 0 and address + count <= self.size
 
     def getValues(self, fc_as_hex, address, count=1):
-        return self.playback.image(self.device)[address:address + count]
+        counter, regs = self.playback.image(self.device)
+        self.playback.last_read = (self.unit, address, count, counter)
+        return regs[address:address + count]
 
     def setValues(self, fc_as_hex, address, values):
         raise PermissionError("the virtual rig is read-only")

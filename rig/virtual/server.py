@@ -34,6 +34,36 @@ class Faults:
         self.silent = False  # set while an RTU device is "restarting"
 
 
+class ServedLog:
+    """--served-log: one CSV line per read reply actually written to the client.
+
+    `t_mono_ns,unit,address,count,counter`: the CLOCK_MONOTONIC time of the write and
+    the device counter of the sample the reply carries. Replies that were never sent
+    (connection dropped before a late reply, a silent restart) are not listed, so a
+    test can check that every sample the rig delivered reached the recording.
+    """
+
+    def __init__(self, path, playback):
+        self.playback = playback
+        self.f = open(path, "w", buffering=1 << 16)
+        self.f.write("t_mono_ns,unit,address,count,counter\n")
+
+    def take(self):
+        """The read just executed (or None for an exception reply)."""
+        info, self.playback.last_read = self.playback.last_read, None
+        return info
+
+    def written(self, info):
+        if info is not None:
+            self.f.write(f"{time.monotonic_ns()},{info[0]},{info[1]},{info[2]},{info[3]}\n")
+
+    def flush(self):
+        self.f.flush()
+
+    def close(self):
+        self.f.close()
+
+
 def log_event(kind, **kw):
     """One line per injected fault on stderr, for people and tests."""
     detail = " ".join(f"{k}={v}" for k, v in kw.items())
@@ -41,10 +71,11 @@ def log_event(kind, **kw):
           flush=True)
 
 
-class _FaultMixin:
+class FaultMixin:
     """Refuses everything but reads, injects exceptions and delays, keeps replies in order."""
 
     faults = Faults()
+    served_log = None
 
     def _fault_init(self):
         if not hasattr(self, "_n_requests"):
@@ -63,6 +94,8 @@ class _FaultMixin:
         self._delay_s = delay
         if f.silent:
             return  # a rebooting device on the bus does not answer
+        if self.served_log is not None:
+            self.served_log.take()  # forget any read not answered
         if request.function_code != READ_HOLDING:
             # The rig is read-only: a write (or any other function) is refused.
             self._reply(request, request.doException(merror.IllegalFunction), addr)
@@ -78,20 +111,23 @@ class _FaultMixin:
 
     def send(self, message, *addr, **kwargs):
         self._fault_init()
+        info = self.served_log.take() if self.served_log is not None else None
         loop = asyncio.get_running_loop()
         now = loop.time()
         if self._delay_s <= 0 and self._send_after <= now:
-            super().send(message, *addr, **kwargs)
+            self._send_now(message, addr, kwargs, info)
             return
         at = max(now + self._delay_s, self._send_after)
         self._send_after = at
-        loop.call_at(at, self._send_later, message, addr, kwargs)
+        loop.call_at(at, self._send_now, message, addr, kwargs, info)
 
-    def _send_later(self, message, addr, kwargs):
+    def _send_now(self, message, addr, kwargs, info):
         transport = getattr(self, "transport", None)
         if transport is None or transport.is_closing():
             return
         super().send(message, *addr, **kwargs)
+        if self.served_log is not None:
+            self.served_log.written(info)
 
 
 class _DirectMixin:
@@ -116,11 +152,11 @@ class _DirectMixin:
         return list(self.server.context.slaves())
 
 
-class TcpHandler(_FaultMixin, _DirectMixin, ModbusConnectedRequestHandler):
+class TcpHandler(FaultMixin, _DirectMixin, ModbusConnectedRequestHandler):
     _closes_on_error = True
 
 
-class RtuHandler(_FaultMixin, _DirectMixin, ModbusSingleRequestHandler):
+class RtuHandler(FaultMixin, _DirectMixin, ModbusSingleRequestHandler):
     _closes_on_error = False
 
 

@@ -18,7 +18,8 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 from devices import Playback, make_contexts  # noqa: E402
-from server import Faults, RtuRig, TcpRig, log_event, run_fault_schedule  # noqa: E402
+from server import (Faults, FaultMixin, RtuRig, ServedLog, TcpRig, log_event,  # noqa: E402
+                    run_fault_schedule)
 from sources import PATTERNS, PatternSource, RecordingError, RecordingSource  # noqa: E402
 
 
@@ -57,6 +58,8 @@ def parse_args(argv):
                    help="then come back on the same port after Y s (default 1)")
     f.add_argument("--restart-resets-counter", action="store_true",
                    help="after the restart counters start again at 0 (default: they continue)")
+    p.add_argument("--served-log", metavar="FILE",
+                   help="write one CSV line per read reply sent: t_mono_ns,unit,address,count,counter")
     p.add_argument("-v", "--verbose", action="store_true", help="pymodbus debug logging")
     a = p.parse_args(argv)
     bad = []
@@ -94,6 +97,8 @@ async def serve(args, source):
                     args.restart_resets_counter)
     playback = Playback(source)
     contexts = make_contexts(playback)
+    served = ServedLog(args.served_log, playback) if args.served_log else None
+    FaultMixin.served_log = served
     link = None
     if args.rtu:
         from rtu_link import RtuLink
@@ -114,6 +119,8 @@ async def serve(args, source):
     playback.restart_clock()
     log_event("start", playback_start_ns=playback.start_ns)
     tasks = await run_fault_schedule(rig, playback, faults)
+    if served is not None:
+        tasks.append(asyncio.create_task(flush_every(served, 0.1)))
     print(ready, flush=True)
     try:
         await stop.wait()
@@ -123,6 +130,14 @@ async def serve(args, source):
         await rig.stop()
         if link is not None:
             link.stop()
+        if served is not None:
+            served.close()
+
+
+async def flush_every(log, period_s):
+    while True:
+        await asyncio.sleep(period_s)
+        log.flush()
 
 
 def main(argv=None):

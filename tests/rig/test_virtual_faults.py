@@ -155,3 +155,27 @@ def test_garbage_from_a_client_does_not_hurt_the_rig():
         assert isinstance(c.read(220, 2)[1], list)
         c.close()
         assert proc.poll() is None
+
+
+def test_served_log_lists_exactly_the_replies_sent(tmp_path):
+    log = tmp_path / "served.csv"
+    args = ["--pattern", "ramp", "--served-log", str(log), "--exception-every", "4",
+            "--late-reply-every", "3", "--late-ms", "300"]
+    with start_virtual_rig(args) as (proc, host, port):
+        c = RawClient(host, port)
+        got = [counter(c.read(220, 2)[1]), counter(c.read(6, 2, unit=1)[1])]  # requests 1, 2
+        c.send_read(220, 2)  # request 3: late; we hang up before it comes
+        c.close()
+        time.sleep(0.4)
+        c = RawClient(host, port)
+        got.append(counter(c.read(220, 2)[1]))       # new connection: request 1
+        c.read(0, 4, unit=2)                          # 2
+        c.read(0, 4, unit=2)                          # 3: late, delivered
+        assert c.read(220, 2)[1] == ("exception", 6)  # 4: exception, not a read reply
+        c.close()
+    lines = log.read_text().splitlines()
+    assert lines[0] == "t_mono_ns,unit,address,count,counter"
+    rows = [list(map(int, ln.split(","))) for ln in lines[1:]]
+    assert [(r[1], r[2], r[3]) for r in rows] == [(9, 220, 2), (1, 6, 2), (9, 220, 2), (2, 0, 4), (2, 0, 4)]
+    assert [rows[0][4], rows[1][4], rows[2][4]] == got
+    assert all(a[0] <= b[0] for a, b in zip(rows, rows[1:]))
