@@ -12,6 +12,8 @@ stderr (fault-injection lines `EVENT <kind> t_mono_ns=<ns> ...`, see events()).
 playback_start_ns(proc) is the CLOCK_MONOTONIC instant of device sample 0 (Python's
 time.monotonic_ns() and C++ CLOCK_MONOTONIC share it): with a pattern, sample k of a
 device was taken at playback_start_ns + k * 1e9 / rate.
+With `--served-log FILE` in args, read_served_log(FILE) lists every read reply the rig
+actually sent as (t_mono_ns, unit, address, count, counter) tuples.
 On leaving the block the rig gets SIGTERM (then SIGKILL after 5 s) and is reaped.
 The READY line must come within `timeout` seconds, else RuntimeError with stderr.
 """
@@ -125,3 +127,12 @@ def events(proc, kind=None):
 def playback_start_ns(proc):
     """CLOCK_MONOTONIC ns of sample 0 (from the rig's `EVENT start` line)."""
     return events(proc, "start")[0]["playback_start_ns"]
+
+
+def read_served_log(path):
+    """Rows of a --served-log file: (t_mono_ns, unit, address, count, counter)."""
+    with open(path) as f:
+        lines = f.read().splitlines()
+    if not lines or lines[0] != "t_mono_ns,unit,address,count,counter":
+        raise ValueError(f"{path}: not a virtual rig served log")
+    return [tuple(int(x) for x in ln.split(",")) for ln in lines[1:] if ln]
