@@ -207,3 +207,45 @@ def test_plays_a_recording_written_by_burrbench(tmp_path):
         sp = c.read_holding_registers(0, 4, slave=2).registers
         assert sp[:2] == [1000 + 10 * u32(sp[2:4]), 1]
         c.close()
+
+
+def test_plays_a_burrbench_synth_recording(tmp_path):
+    """What `make demo` does: the rig serves a session simulated by `burrbench synth`."""
+    import os
+    import subprocess
+    exe = os.environ.get("BURRBENCH")
+    if not exe:
+        pytest.skip("BURRBENCH (path to the CLI) is set by CTest")
+    ex = os.path.join(os.path.dirname(RIG_SCRIPT), "..", "..", "examples")
+    sample, rec = tmp_path / "sample.h5", tmp_path / "plunge.h5"
+    subprocess.run([exe, "sample", "synth", "--extent-mm", "8", "8", "3", "--voxel-mm", "0.1",
+                    "--compact-mm", "1.0", "--seed", "1", "--out", str(sample)],
+                   check=True, capture_output=True, timeout=120)
+    subprocess.run([exe, "synth", "--sample", str(sample), "--protocol",
+                    os.path.join(ex, "protocols", "plunge.toml"), "--params",
+                    os.path.join(ex, "experiments", "synthetic", "params_true.toml"),
+                    "--out", str(rec), "--truth", str(tmp_path / "truth.json"), "--noise-N", "0.02",
+                    "--seed", "11"], check=True, capture_output=True, timeout=120)
+    with h5py.File(rec, "r") as f:
+        fresh = f["streams/ft_sensor/stale"][...] == 0
+        wrench = np.hstack([f["streams/ft_sensor/channels/force_N"][...],
+                            f["streams/ft_sensor/channels/torque_Nmm"][...]])[fresh]
+        pos = f["streams/stage/channels/position_mm"][...][f["streams/stage/stale"][...] == 0]
+        rpm = f["streams/spindle/channels/spindle_rpm"][...][f["streams/spindle/stale"][...] == 0]
+    with start_virtual_rig(["--recording", str(rec)]) as (proc, host, port):
+        c = ModbusTcpClient(host, port=port, timeout=2)
+        assert c.connect()
+        seen = set()
+        for _ in range(15):
+            regs = c.read_holding_registers(200, 22, slave=9).registers
+            k = u32(regs[20:22])
+            assert floats(regs[:12]) == [float(np.float32(v)) for v in wrench[k]]
+            st = c.read_holding_registers(0, 8, slave=1).registers
+            assert i32s(st[:6]) == [int(round(v * 1000)) for v in pos[u32(st[6:8])]]
+            sp = c.read_holding_registers(0, 4, slave=2).registers
+            r = rpm[u32(sp[2:4])]
+            assert sp[:2] == [int(round(abs(r))), int(r < 0)]
+            seen.add(k)
+            time.sleep(0.05)
+        assert len(seen) > 10
+        c.close()
