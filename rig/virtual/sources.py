@@ -72,6 +72,10 @@ PATTERNS = {
 }
 
 
+# Refused before reading: 10 M samples is 2.8 h at 1 kHz (0.5 GB as n×6 doubles).
+MAX_SAMPLES = 10_000_000
+
+
 class RecordingError(Exception):
     """A recording that cannot be played (message names file and field)."""
 
@@ -90,6 +94,15 @@ class RecordingSource:
     """
 
     def __init__(self, path, loop=False):
+        try:
+            self._load(path, loop)
+        except RecordingError:
+            raise
+        except (KeyError, ValueError, TypeError, AttributeError, OSError) as exc:
+            # Layouts no check above foresaw (a dataset where a group belongs, ...).
+            raise RecordingError(f"{path}: /streams: expected the burrbench recording layout, got {exc}")
+
+    def _load(self, path, loop):
         import h5py
         import numpy as np
 
@@ -128,7 +141,13 @@ class RecordingSource:
                 where = f"{self.path}: /streams/{sname}"
                 if "t_ns" not in grp:
                     raise RecordingError(f"{where}/t_ns: expected int64 timestamps, got none")
-                t = np.asarray(grp["t_ns"][...], dtype=np.int64).reshape(-1)
+                if grp["t_ns"].ndim != 1 or grp["t_ns"].shape[0] > MAX_SAMPLES:
+                    raise RecordingError(f"{where}/t_ns: expected a 1-D dataset of at most "
+                                         f"{MAX_SAMPLES} samples, got shape {grp['t_ns'].shape}")
+                try:
+                    t = np.asarray(grp["t_ns"][...], dtype=np.int64).reshape(-1)
+                except (ValueError, TypeError):
+                    raise RecordingError(f"{where}/t_ns: expected int64 values, got {grp['t_ns'].dtype}")
                 n = t.size
                 if n == 0:
                     raise RecordingError(f"{where}/t_ns: expected at least one sample, got 0")
@@ -168,7 +187,14 @@ class RecordingSource:
 
     def _channel(self, chans, name, n, width, where):
         np = self._np
-        a = np.asarray(chans[name][...], dtype=np.float64)
+        ds = chans[name]
+        if ds.shape not in ((n, width), (n,) if width == 1 else None):
+            raise RecordingError(
+                f"{where}/channels/{name}: expected shape ({n}, {width}), got {ds.shape}")
+        try:
+            a = np.asarray(ds[...], dtype=np.float64)
+        except (ValueError, TypeError):
+            raise RecordingError(f"{where}/channels/{name}: expected float64 values, got {ds.dtype}")
         if a.ndim == 1 and width == 1:
             a = a.reshape(-1, 1)
         if a.ndim != 2 or a.shape != (n, width):

@@ -155,6 +155,8 @@ def test_stale_samples_are_not_played(tmp_path):
     ("decreasing_t", "t_ns"),
     ("bad_shape", "force_N"),
     ("nan", "force_N"),
+    ("text_force", "force_N"),
+    ("dataset_as_stream", "/streams"),
 ])
 def test_bad_recording_exit_2(tmp_path, breakage, field):
     import subprocess
@@ -162,13 +164,15 @@ def test_bad_recording_exit_2(tmp_path, breakage, field):
     with h5py.File(rec, "w") as f:
         if breakage == "wrong_format":
             f.attrs["format"] = "burrbench.sample"
-        if breakage != "no_streams":
+        if breakage == "dataset_as_stream":
+            f["streams/ft_sensor"] = np.zeros(3)
+        elif breakage != "no_streams":
             g = f.create_group("streams/ft_sensor")
             g["t_ns"] = np.array([3, 2, 1] if breakage == "decreasing_t" else [1, 2, 3], dtype=np.int64)
             force = np.zeros((3, 2) if breakage == "bad_shape" else (3, 3))
             if breakage == "nan":
                 force[1, 1] = np.nan
-            g["channels/force_N"] = force
+            g["channels/force_N"] = np.array([[b"x"] * 3] * 3) if breakage == "text_force" else force
     before = rec.read_bytes()
     r = subprocess.run([PYTHON, RIG_SCRIPT, "--recording", str(rec), "--port", "0"],
                        capture_output=True, timeout=10)
