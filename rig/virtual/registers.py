@@ -57,12 +57,6 @@ def words_from_bytes(b4, order):
     raise ValueError(f"unknown word order {order}")
 
 
-def f32_words(x):
-    """float32, ABCD."""
-    hi, lo = struct.unpack(">HH", struct.pack(">f", x))
-    return [hi, lo]
-
-
 def u32_words(x):
     """uint32 (wrapping like a device counter), ABCD."""
     x &= 0xFFFFFFFF
