@@ -1,0 +1,81 @@
+#pragma once
+// What the report reads from its directory (docs/report.md, "DIR layout"): the
+// "analysis input" that `calibrate` and `validate` fill — metadata in DIR/analysis.json
+// (format "burrbench.analysis") and the per-sample series in DIR/predictions.csv.
+// Forces are in the SENSOR frame, as the sensor reports them (N).
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+
+#include "burrbench/data_schema/provenance.hpp"
+
+namespace burrbench::analysis {
+
+inline constexpr const char* kAnalysisFormat = "burrbench.analysis";
+inline constexpr int kAnalysisVersionMajor = 1;
+inline constexpr int kAnalysisVersionMinor = 0;
+
+struct SegmentSpan {
+  std::string label;
+  double start_s = 0, end_s = 0;  // seconds from the recording's first sample
+};
+
+struct RecordingSeries {
+  std::string id, sample_id;
+  std::string role;               // "calibrate" | "validate"
+  std::string path, sha256, notes;
+  std::vector<SegmentSpan> segments;  // empty = whole recording
+  // Series (predictions.csv): time from the first sample, measured and predicted force
+  // (sensor frame), and whether the sample counted in the fit/metrics (0 = buried,
+  // excluded or outside a used segment).
+  std::vector<double> t_s;
+  std::vector<glm::dvec3> measured_N, predicted_N;
+  std::vector<std::uint8_t> used;
+};
+
+struct SampleInfo {
+  std::string id, path, sha256;
+  double voxel_mm = 0;
+  // Removed bone projected along the volume z axis: thickness of bone removed in each
+  // (x, y) column, mm (nx × ny, x fastest). Empty when not computed.
+  std::size_t nx = 0, ny = 0;
+  std::vector<float> removed_depth_mm;
+  double removed_volume_mm3 = 0;
+};
+
+struct ParameterRow {  // the constants a replay used (validate) — fit.json has intervals
+  int class_label = 0;
+  std::string class_name;
+  double alpha_N_per_mm2 = 0, c1_N_per_mm2 = 0, mu = 0;
+};
+
+struct AnalysisInput {
+  std::string mode;  // "calibrate" | "validate"
+  std::string experiment_name, experiment_description, experiment_path, experiment_sha256;
+  std::string context_of_use;
+  std::string params_path, params_sha256;  // validate: the fixed parameters
+  std::string criteria_path, criteria_sha256;
+  std::uint64_t seed = 0;
+  nlohmann::json model = nlohmann::json::object();        // name, version, replay settings
+  nlohmann::json calibration = nlohmann::json::object();  // method and settings
+  std::vector<std::string> limitations;
+  std::vector<ParameterRow> parameters;
+  std::vector<SampleInfo> samples;
+  std::vector<RecordingSeries> recordings;
+  Provenance provenance;
+};
+
+// Writes DIR/analysis.json and DIR/predictions.csv (creates DIR).
+void write_analysis_input(const std::filesystem::path& dir, const AnalysisInput& in);
+// Reads both; InputError naming the file and field on any defect (unknown keys,
+// missing fields, wrong version, unknown recording ids, NaN, lengths, huge sizes).
+AnalysisInput read_analysis_input(const std::filesystem::path& dir);
+
+// Residuals CSV beside the report: recording_id, t_s, used, e = measured − predicted.
+void write_residuals_csv(const std::filesystem::path& path, const AnalysisInput& in);
+
+}  // namespace burrbench::analysis

@@ -1,0 +1,40 @@
+#pragma once
+// The self-contained HTML validation report (docs/report.md) written from an analysis
+// directory: DIR/analysis.json + DIR/predictions.csv (+ DIR/fit.json, DIR/criteria.toml
+// when present). Beside the report it writes predictions.csv, residuals.csv,
+// metrics.json, removed-bone PNGs and a copy of fit.json.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "burrbench/analysis/criteria.hpp"
+
+namespace burrbench::analysis {
+
+struct ReportOptions {
+  // Folder with template.html, report.js, report.css and node_modules/uplot (npm ci).
+  // Empty → default_assets_dir().
+  std::filesystem::path assets_dir;
+};
+
+struct ReportSummary {
+  std::filesystem::path html;
+  bool has_criteria = false;
+  bool pass = true;  // all criteria pass (true when there are none)
+  std::vector<CriterionResult> results;
+  Criteria criteria;
+  std::size_t recordings = 0, samples = 0;
+};
+
+// $BURRBENCH_REPORT_ASSETS if set, else <exe dir>/../share/burrbench/report if it has
+// node_modules, else the source tree's analysis/report (path compiled in).
+std::filesystem::path default_assets_dir();
+
+ReportSummary write_report(const std::filesystem::path& dir, const std::filesystem::path& out_html,
+                           const ReportOptions& opt = {});
+
+// Escaping for text from files: HTML text/attributes, and JSON placed in <script>.
+std::string html_escape(std::string_view s);
+std::string json_for_script(const nlohmann::json& j);
+
+}  // namespace burrbench::analysis

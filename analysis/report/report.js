@@ -1,0 +1,92 @@
+// burrbench report: draws the interactive plots from the JSON embedded in the page.
+// All text from data files goes through textContent, never innerHTML.
+(function () {
+  "use strict";
+  var data = JSON.parse(document.getElementById("burrbench-data").textContent);
+  var AX = ["x", "y", "z"];
+  var MEAS = ["#1f77b4", "#2ca02c", "#9467bd"];
+  var PRED = ["#ff7f0e", "#d62728", "#8c564b"];
+
+  function width(el) { return Math.max(320, el.clientWidth || 600); }
+
+  function plot(el, title, xlabel, ylabel, series, cols, extra) {
+    var opts = {
+      title: title, width: width(el), height: 260,
+      cursor: { drag: { x: true, y: true, uni: 40 } },  // drag to zoom, double-click resets
+      scales: { x: { time: false } },
+      axes: [{ label: xlabel }, { label: ylabel }],
+      series: [{ label: xlabel }].concat(series)
+    };
+    if (extra) extra(opts);
+    var u = new uPlot(opts, cols, el);
+    el.setAttribute("data-rendered", "1");
+    return u;
+  }
+
+  function forcePlots(rec, i) {
+    var el = document.getElementById("plot-force-" + i);
+    if (!el) return;
+    var s = [], cols = [rec.t];
+    for (var a = 0; a < 3; a++) {
+      s.push({ label: "measured " + AX[a], stroke: MEAS[a], width: 1 });
+      cols.push(rec.m[a]);
+    }
+    for (a = 0; a < 3; a++) {
+      s.push({ label: "predicted " + AX[a], stroke: PRED[a], width: 1, dash: [6, 3] });
+      cols.push(rec.p[a]);
+    }
+    plot(el, "Force, sensor frame — " + rec.id, "t (s)", "F (N)", s, cols);
+  }
+
+  function residualPlots(rec, i) {
+    var el = document.getElementById("plot-resid-t-" + i);
+    if (el) {
+      var s = [], cols = [rec.t];
+      for (var a = 0; a < 3; a++) {
+        s.push({ label: "e " + AX[a], stroke: MEAS[a], width: 1 });
+        var e = new Array(rec.t.length);
+        for (var k = 0; k < rec.t.length; k++) e[k] = rec.m[a][k] - rec.p[a][k];
+        cols.push(e);
+      }
+      plot(el, "Residual vs time — " + rec.id, "t (s)", "measured − predicted (N)", s, cols);
+    }
+    el = document.getElementById("plot-resid-p-" + i);
+    if (el) {
+      // Scatter on one x scale: the three axes' (prediction, residual) pairs merged
+      // and sorted by prediction; a series is null where another axis owns the x.
+      var pts = [];
+      for (var a2 = 0; a2 < 3; a2++)
+        for (var k2 = 0; k2 < rec.t.length; k2++)
+          pts.push([rec.p[a2][k2], a2, rec.m[a2][k2] - rec.p[a2][k2]]);
+      pts.sort(function (u, v) { return u[0] - v[0]; });
+      var xs = [], ys = [[], [], []];
+      pts.forEach(function (q) {
+        xs.push(q[0]);
+        for (var b = 0; b < 3; b++) ys[b].push(b === q[1] ? q[2] : null);
+      });
+      var ss = [];
+      for (var b = 0; b < 3; b++)
+        ss.push({ label: "e " + AX[b], stroke: MEAS[b], paths: function () { return null; },
+                  points: { show: true, size: 3, space: 0, fill: MEAS[b] } });
+      plot(el, "Residual vs prediction — " + rec.id, "predicted F (N)", "residual (N)", ss,
+           [xs].concat(ys));
+    }
+  }
+
+  function histograms() {
+    (data.histograms || []).forEach(function (h, i) {
+      var el = document.getElementById("plot-hist-" + i);
+      if (!el) return;
+      var s = [];
+      for (var a = 0; a < 3; a++)
+        s.push({ label: "e " + AX[a], stroke: MEAS[a], fill: MEAS[a] + "55",
+                 paths: uPlot.paths.bars({ size: [0.9, 60], align: 0 }) });
+      plot(el, "Residual histogram — " + h.role + " data", "residual (N)", "count", s,
+           [h.centres].concat(h.counts));
+    });
+  }
+
+  data.recordings.forEach(function (rec, i) { forcePlots(rec, i); residualPlots(rec, i); });
+  histograms();
+  document.body.setAttribute("data-plots-done", "1");
+})();

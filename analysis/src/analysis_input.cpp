@@ -1,0 +1,329 @@
+#include "burrbench/analysis/analysis_input.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "csv.hpp"
+
+namespace burrbench::analysis {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr std::size_t kMaxRows = 50'000'000;         // refuse before allocating
+constexpr std::size_t kMaxMapCells = 16'000'000;
+constexpr const char* kCsvHeader =
+    "recording_id,t_s,measured_x_N,measured_y_N,measured_z_N,predicted_x_N,predicted_y_N,"
+    "predicted_z_N,used";
+
+json provenance_to_json(const Provenance& p) {
+  json inputs = json::array();
+  for (const auto& f : p.inputs) inputs.push_back({{"path", f.path}, {"sha256", f.sha256}});
+  return {{"software_version", p.software_version}, {"command_line", p.command_line},
+          {"created_utc", p.created_utc}, {"inputs", inputs}};
+}
+
+// Strict JSON object reader: every key must be known, required ones present, types right.
+class Obj {
+ public:
+  Obj(const json& j, std::string file, std::string where, std::set<std::string> known)
+      : j_(j), file_(std::move(file)), where_(std::move(where)) {
+    if (!j_.is_object()) throw InputError(file_, where_, "a JSON object");
+    for (const auto& [k, v] : j_.items())
+      if (!known.count(k)) throw InputError(file_, path(k), "a known key", "unknown key");
+  }
+  std::string path(const std::string& k) const { return where_.empty() ? k : where_ + "." + k; }
+  bool has(const std::string& k) const { return j_.contains(k); }
+  const json& at(const std::string& k) const {
+    if (!j_.contains(k)) throw InputError(file_, path(k), "a value", "missing");
+    return j_.at(k);
+  }
+  std::string str(const std::string& k, bool required = true) const {
+    if (!required && !has(k)) return {};
+    const auto& v = at(k);
+    if (!v.is_string()) throw InputError(file_, path(k), "a string");
+    return v.get<std::string>();
+  }
+  double num(const std::string& k, bool required = true) const {
+    if (!required && !has(k)) return 0;
+    const auto& v = at(k);
+    if (!v.is_number()) throw InputError(file_, path(k), "a number");
+    const double d = v.get<double>();
+    if (!std::isfinite(d)) throw InputError(file_, path(k), "a finite number");
+    return d;
+  }
+  const json& arr(const std::string& k, bool required = true) const {
+    static const json empty = json::array();
+    if (!required && !has(k)) return empty;
+    const auto& v = at(k);
+    if (!v.is_array()) throw InputError(file_, path(k), "an array");
+    return v;
+  }
+  const std::string& file() const { return file_; }
+
+ private:
+  const json& j_;
+  std::string file_, where_;
+};
+
+std::string role_checked(const std::string& role, const std::string& file, const std::string& f) {
+  if (role != "calibrate" && role != "validate")
+    throw InputError(file, f, "\"calibrate\" or \"validate\"", role);
+  return role;
+}
+
+Provenance provenance_from_json(const json& j, const std::string& file) {
+  Obj o(j, file, "provenance", {"software_version", "command_line", "created_utc", "inputs"});
+  Provenance p{o.str("software_version"), o.str("command_line"), o.str("created_utc"), {}};
+  std::size_t i = 0;
+  for (const auto& f : o.arr("inputs")) {
+    Obj fo(f, file, fmt::format("provenance.inputs[{}]", i++), {"path", "sha256"});
+    p.inputs.push_back({fo.str("path"), fo.str("sha256")});
+  }
+  return p;
+}
+
+}  // namespace
+
+void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
+  fs::create_directories(dir);
+  json j;
+  j["format"] = kAnalysisFormat;
+  j["format_version"] = fmt::format("{}.{}", kAnalysisVersionMajor, kAnalysisVersionMinor);
+  j["mode"] = in.mode;
+  j["experiment"] = {{"name", in.experiment_name}, {"description", in.experiment_description},
+                     {"path", in.experiment_path}, {"sha256", in.experiment_sha256}};
+  j["context_of_use"] = in.context_of_use;
+  j["params"] = {{"path", in.params_path}, {"sha256", in.params_sha256}};
+  j["criteria"] = {{"path", in.criteria_path}, {"sha256", in.criteria_sha256}};
+  j["seed"] = in.seed;
+  j["model"] = in.model;
+  j["calibration"] = in.calibration;
+  j["limitations"] = in.limitations;
+  j["parameters"] = json::array();
+  for (const auto& p : in.parameters)
+    j["parameters"].push_back({{"class_label", p.class_label}, {"class_name", p.class_name},
+                               {"alpha_N_per_mm2", p.alpha_N_per_mm2},
+                               {"c1_N_per_mm2", p.c1_N_per_mm2}, {"mu", p.mu}});
+  j["samples"] = json::array();
+  for (const auto& s : in.samples)
+    j["samples"].push_back({{"id", s.id}, {"path", s.path}, {"sha256", s.sha256},
+                            {"voxel_mm", s.voxel_mm}, {"nx", s.nx}, {"ny", s.ny},
+                            {"removed_depth_mm", s.removed_depth_mm},
+                            {"removed_volume_mm3", s.removed_volume_mm3}});
+  j["recordings"] = json::array();
+  for (const auto& r : in.recordings) {
+    BURRBENCH_CHECK(r.t_s.size() == r.measured_N.size() && r.t_s.size() == r.predicted_N.size() &&
+                        r.t_s.size() == r.used.size(),
+                    "series lengths differ for recording " + r.id);
+    json segs = json::array();
+    for (const auto& s : r.segments)
+      segs.push_back({{"label", s.label}, {"start_s", s.start_s}, {"end_s", s.end_s}});
+    j["recordings"].push_back({{"id", r.id}, {"sample", r.sample_id}, {"role", r.role},
+                               {"path", r.path}, {"sha256", r.sha256}, {"notes", r.notes},
+                               {"segments", segs}, {"samples", r.t_s.size()}});
+  }
+  j["provenance"] = provenance_to_json(in.provenance);
+  {
+    std::ofstream f(dir / "analysis.json");
+    f << j.dump(1) << "\n";
+    if (!f) throw InputError((dir / "analysis.json").string(), "file", "a writable path");
+  }
+  std::ofstream f(dir / "predictions.csv");
+  f << kCsvHeader << "\n";
+  for (const auto& r : in.recordings) {
+    const std::string id = csv_quote(r.id);
+    for (std::size_t i = 0; i < r.t_s.size(); ++i) {
+      const auto& m = r.measured_N[i];
+      const auto& p = r.predicted_N[i];
+      f << fmt::format("{},{},{},{},{},{},{},{},{}\n", id, r.t_s[i], m.x, m.y, m.z, p.x, p.y,
+                       p.z, int(r.used[i]));
+    }
+  }
+  if (!f) throw InputError((dir / "predictions.csv").string(), "file", "a writable path");
+}
+
+AnalysisInput read_analysis_input(const fs::path& dir) {
+  const fs::path meta_path = dir / "analysis.json";
+  const std::string file = meta_path.string();
+  std::ifstream mf(meta_path);
+  if (!mf) throw InputError(file, "file", "a readable burrbench.analysis JSON file", "cannot open");
+  json j;
+  try {
+    j = json::parse(mf);
+  } catch (const json::exception& e) {
+    throw InputError(file, "file", "valid JSON", e.what());
+  }
+  Obj o(j, file, "",
+        {"format", "format_version", "mode", "experiment", "context_of_use", "params",
+         "criteria", "seed", "model", "calibration", "limitations", "parameters", "samples",
+         "recordings", "provenance"});
+  if (o.str("format") != kAnalysisFormat)
+    throw InputError(file, "format", std::string("\"") + kAnalysisFormat + "\"", o.str("format"));
+  const std::string ver = o.str("format_version");
+  if (ver.rfind(std::to_string(kAnalysisVersionMajor) + ".", 0) != 0)
+    throw InputError(file, "format_version", fmt::format("{}.x", kAnalysisVersionMajor), ver);
+
+  AnalysisInput in;
+  in.mode = role_checked(o.str("mode"), file, "mode");
+  {
+    Obj e(o.at("experiment"), file, "experiment", {"name", "description", "path", "sha256"});
+    in.experiment_name = e.str("name");
+    in.experiment_description = e.str("description");
+    in.experiment_path = e.str("path");
+    in.experiment_sha256 = e.str("sha256");
+  }
+  in.context_of_use = o.str("context_of_use");
+  {
+    Obj p(o.at("params"), file, "params", {"path", "sha256"});
+    in.params_path = p.str("path");
+    in.params_sha256 = p.str("sha256");
+    Obj c(o.at("criteria"), file, "criteria", {"path", "sha256"});
+    in.criteria_path = c.str("path");
+    in.criteria_sha256 = c.str("sha256");
+  }
+  if (!o.at("seed").is_number_unsigned()) throw InputError(file, "seed", "an unsigned integer");
+  in.seed = o.at("seed").get<std::uint64_t>();
+  if (!o.at("model").is_object()) throw InputError(file, "model", "a JSON object");
+  if (!o.at("calibration").is_object()) throw InputError(file, "calibration", "a JSON object");
+  in.model = o.at("model");
+  in.calibration = o.at("calibration");
+  for (const auto& l : o.arr("limitations")) {
+    if (!l.is_string()) throw InputError(file, "limitations", "strings");
+    in.limitations.push_back(l.get<std::string>());
+  }
+  std::size_t i = 0;
+  for (const auto& pj : o.arr("parameters")) {
+    Obj p(pj, file, fmt::format("parameters[{}]", i++),
+          {"class_label", "class_name", "alpha_N_per_mm2", "c1_N_per_mm2", "mu"});
+    in.parameters.push_back({int(p.num("class_label")), p.str("class_name"),
+                             p.num("alpha_N_per_mm2"), p.num("c1_N_per_mm2"), p.num("mu")});
+  }
+  i = 0;
+  for (const auto& sj : o.arr("samples")) {
+    Obj s(sj, file, fmt::format("samples[{}]", i++),
+          {"id", "path", "sha256", "voxel_mm", "nx", "ny", "removed_depth_mm",
+           "removed_volume_mm3"});
+    SampleInfo si{s.str("id"), s.str("path"), s.str("sha256"), s.num("voxel_mm"), 0, 0, {}, 0};
+    const double nx = s.num("nx"), ny = s.num("ny");
+    if (nx < 0 || ny < 0 || nx * ny > double(kMaxMapCells) || nx != std::floor(nx) ||
+        ny != std::floor(ny))
+      throw InputError(file, s.path("nx"), fmt::format("integers with nx·ny ≤ {}", kMaxMapCells));
+    si.nx = std::size_t(nx);
+    si.ny = std::size_t(ny);
+    const auto& depth = s.arr("removed_depth_mm");
+    if (depth.size() != si.nx * si.ny)
+      throw InputError(file, s.path("removed_depth_mm"), fmt::format("nx·ny = {} values", si.nx * si.ny),
+                       std::to_string(depth.size()));
+    si.removed_depth_mm.reserve(depth.size());
+    for (const auto& v : depth) {
+      if (!v.is_number() || !std::isfinite(v.get<double>()))
+        throw InputError(file, s.path("removed_depth_mm"), "finite numbers");
+      si.removed_depth_mm.push_back(v.get<float>());
+    }
+    si.removed_volume_mm3 = s.num("removed_volume_mm3");
+    in.samples.push_back(std::move(si));
+  }
+  std::map<std::string, std::size_t> by_id;
+  std::vector<std::size_t> expected_rows;
+  i = 0;
+  for (const auto& rj : o.arr("recordings")) {
+    Obj r(rj, file, fmt::format("recordings[{}]", i++),
+          {"id", "sample", "role", "path", "sha256", "notes", "segments", "samples"});
+    RecordingSeries rs;
+    rs.id = r.str("id");
+    rs.sample_id = r.str("sample");
+    rs.role = role_checked(r.str("role"), file, r.path("role"));
+    rs.path = r.str("path");
+    rs.sha256 = r.str("sha256");
+    rs.notes = r.str("notes");
+    std::size_t k = 0;
+    for (const auto& sj : r.arr("segments")) {
+      Obj s(sj, file, r.path(fmt::format("segments[{}]", k++)), {"label", "start_s", "end_s"});
+      SegmentSpan span{s.str("label"), s.num("start_s"), s.num("end_s")};
+      if (!(span.start_s < span.end_s))
+        throw InputError(file, s.path("end_s"), "end_s > start_s");
+      rs.segments.push_back(span);
+    }
+    const double rows = r.num("samples");
+    if (rows < 0 || rows > double(kMaxRows) || rows != std::floor(rows))
+      throw InputError(file, r.path("samples"), fmt::format("an integer in [0, {}]", kMaxRows));
+    if (!by_id.emplace(rs.id, in.recordings.size()).second)
+      throw InputError(file, r.path("id"), "a unique recording id", rs.id);
+    expected_rows.push_back(std::size_t(rows));
+    rs.t_s.reserve(std::size_t(rows));
+    rs.measured_N.reserve(std::size_t(rows));
+    rs.predicted_N.reserve(std::size_t(rows));
+    rs.used.reserve(std::size_t(rows));
+    in.recordings.push_back(std::move(rs));
+  }
+  in.provenance = provenance_from_json(o.at("provenance"), file);
+
+  const fs::path csv_path = dir / "predictions.csv";
+  const std::string cfile = csv_path.string();
+  std::ifstream cf(csv_path);
+  if (!cf) throw InputError(cfile, "file", "a readable predictions CSV", "cannot open");
+  std::string line;
+  if (!std::getline(cf, line) || line != kCsvHeader)
+    throw InputError(cfile, "header", std::string("\"") + kCsvHeader + "\"");
+  std::size_t line_no = 1;
+  while (std::getline(cf, line)) {
+    ++line_no;
+    if (line.empty()) continue;
+    const auto fields = csv_split(line);
+    const std::string where = fmt::format("line {}", line_no);
+    if (fields.size() != 9) throw InputError(cfile, where, "9 fields", std::to_string(fields.size()));
+    const auto it = by_id.find(fields[0]);
+    if (it == by_id.end())
+      throw InputError(cfile, where + " recording_id", "an id listed in analysis.json", fields[0]);
+    auto& rs = in.recordings[it->second];
+    if (rs.t_s.size() >= expected_rows[it->second])
+      throw InputError(cfile, where, fmt::format("at most {} rows for recording", expected_rows[it->second]));
+    double v[8];
+    for (int c = 0; c < 8; ++c) {
+      try {
+        std::size_t used = 0;
+        v[c] = std::stod(fields[c + 1], &used);
+        if (used != fields[c + 1].size()) throw std::invalid_argument("trailing");
+      } catch (const std::exception&) {
+        throw InputError(cfile, where + " column " + std::to_string(c + 2), "a number", fields[c + 1]);
+      }
+      if (!std::isfinite(v[c])) throw InputError(cfile, where, "finite numbers");
+    }
+    if (fields[8] != "0" && fields[8] != "1") throw InputError(cfile, where + " used", "0 or 1", fields[8]);
+    if (!rs.t_s.empty() && !(v[0] > rs.t_s.back()))
+      throw InputError(cfile, where + " t_s", "strictly increasing times per recording");
+    rs.t_s.push_back(v[0]);
+    rs.measured_N.emplace_back(v[1], v[2], v[3]);
+    rs.predicted_N.emplace_back(v[4], v[5], v[6]);
+    rs.used.push_back(fields[8] == "1");
+  }
+  for (std::size_t r = 0; r < in.recordings.size(); ++r)
+    if (in.recordings[r].t_s.size() != expected_rows[r])
+      throw InputError(cfile, "recording " + in.recordings[r].id,
+                       fmt::format("{} rows", expected_rows[r]),
+                       std::to_string(in.recordings[r].t_s.size()));
+  return in;
+}
+
+void write_residuals_csv(const fs::path& path, const AnalysisInput& in) {
+  std::ofstream f(path);
+  f << "recording_id,role,t_s,used,residual_x_N,residual_y_N,residual_z_N\n";
+  for (const auto& r : in.recordings) {
+    const std::string id = csv_quote(r.id);
+    for (std::size_t i = 0; i < r.t_s.size(); ++i) {
+      const glm::dvec3 e = r.measured_N[i] - r.predicted_N[i];
+      f << fmt::format("{},{},{},{},{},{},{}\n", id, r.role, r.t_s[i], int(r.used[i]), e.x, e.y, e.z);
+    }
+  }
+  if (!f) throw InputError(path.string(), "file", "a writable path");
+}
+
+}  // namespace burrbench::analysis

@@ -1,0 +1,454 @@
+#include "burrbench/analysis/report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <ceres/version.h>
+#include <fmt/format.h>
+#include <modbus/modbus-version.h>
+#include <opencv2/core/utility.hpp>
+
+#include "bone_image.hpp"
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/version.hpp"
+
+extern "C" int H5get_libversion(unsigned* majnum, unsigned* minnum, unsigned* relnum);
+
+namespace burrbench::analysis {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr std::size_t kMaxPlotPoints = 6000;  // per recording; the CSVs keep every sample
+constexpr int kHistBins = 40;
+
+std::string read_text(const fs::path& p, const std::string& what) {
+  std::ifstream f(p, std::ios::binary);
+  if (!f)
+    throw InputError(p.string(), "file", what + " (report assets: see docs/report.md)", "cannot open");
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// The library's licence header names its home page; no http(s) reference may remain in
+// a report that must open offline, so the scheme is dropped (the text stays).
+std::string strip_url_schemes(std::string s) {
+  for (const std::string scheme : {"https://", "http://"})
+    for (auto pos = s.find(scheme); pos != std::string::npos; pos = s.find(scheme, pos))
+      s.erase(pos, scheme.size());
+  return s;
+}
+
+std::string num(double v, int prec = 4) {
+  if (!std::isfinite(v)) return "n/a";
+  return fmt::format("{:.{}g}", v, prec);
+}
+
+std::string esc(std::string_view s) { return html_escape(s); }
+
+std::string td(const std::string& text_already_escaped, bool numeric = false) {
+  return fmt::format("<td{}>{}</td>", numeric ? " class=\"num\"" : "", text_already_escaped);
+}
+
+std::string kv_table(const json& j) {
+  std::string h = "<table>";
+  for (const auto& [k, v] : j.items())
+    h += "<tr><th>" + esc(k) + "</th>" + td(esc(v.is_string() ? v.get<std::string>() : v.dump())) + "</tr>";
+  return h + "</table>";
+}
+
+std::string versions_table() {
+  unsigned a = 0, b = 0, c = 0;
+  H5get_libversion(&a, &b, &c);
+  json v = {{"burrbench", software_version()},
+            {"Ceres Solver", CERES_VERSION_STRING},
+            {"libmodbus", LIBMODBUS_VERSION_STRING},
+            {"OpenCV", cv::getVersionString()},
+            {"HDF5", fmt::format("{}.{}.{}", a, b, c)},
+            {"uPlot (inlined)", "see package-lock.json of analysis/report"}};
+  return kv_table(v);
+}
+
+// Every k-th sample so a plot stays light; k ≥ 1.
+json decimated(const RecordingSeries& r) {
+  const std::size_t n = r.t_s.size();
+  const std::size_t k = std::max<std::size_t>(1, (n + kMaxPlotPoints - 1) / kMaxPlotPoints);
+  json t = json::array(), m = json::array({json::array(), json::array(), json::array()}),
+       p = m;
+  for (std::size_t i = 0; i < n; i += k) {
+    t.push_back(r.t_s[i]);
+    for (int a = 0; a < 3; ++a) {
+      m[a].push_back(r.measured_N[i][a]);
+      p[a].push_back(r.predicted_N[i][a]);
+    }
+  }
+  return {{"id", r.id}, {"role", r.role}, {"t", t}, {"m", m}, {"p", p}, {"stride", k}};
+}
+
+json histogram(const AnalysisInput& in, const std::string& role) {
+  double lo = INFINITY, hi = -INFINITY;
+  for (const auto& r : in.recordings)
+    if (r.role == role)
+      for (std::size_t i = 0; i < r.t_s.size(); ++i)
+        if (r.used[i])
+          for (int a = 0; a < 3; ++a) {
+            const double e = r.measured_N[i][a] - r.predicted_N[i][a];
+            lo = std::min(lo, e);
+            hi = std::max(hi, e);
+          }
+  if (!(lo <= hi)) return nullptr;
+  if (hi - lo < 1e-12) { lo -= 0.5; hi += 0.5; }
+  const double w = (hi - lo) / kHistBins;
+  std::vector<std::vector<int>> counts(3, std::vector<int>(kHistBins, 0));
+  for (const auto& r : in.recordings)
+    if (r.role == role)
+      for (std::size_t i = 0; i < r.t_s.size(); ++i)
+        if (r.used[i])
+          for (int a = 0; a < 3; ++a) {
+            const double e = r.measured_N[i][a] - r.predicted_N[i][a];
+            counts[a][std::min(kHistBins - 1, int((e - lo) / w))]++;
+          }
+  json centres = json::array();
+  for (int b = 0; b < kHistBins; ++b) centres.push_back(lo + (b + 0.5) * w);
+  return {{"role", role}, {"centres", centres}, {"counts", counts}};
+}
+
+std::string metric_table_html(const std::vector<MetricRow>& rows, bool pooled) {
+  std::string h =
+      "<div class=\"scroll\"><table><tr><th>data</th><th>segment</th><th>axis</th><th>n</th>"
+      "<th>RMSE (N)</th><th>NRMSE</th><th>R²</th><th>Theil U2</th><th>SG M</th><th>SG P</th>"
+      "<th>SG C</th><th>peak meas. (N)</th><th>peak err. (N)</th><th>peak err. rel.</th>"
+      "<th>resid. lag-1 r</th><th>Durbin–Watson</th></tr>";
+  for (const auto& r : rows) {
+    if (r.recording_id.empty() != pooled) continue;
+    const auto& m = r.m;
+    h += "<tr>" + td(esc(pooled ? "all " + r.role : r.recording_id + " (" + r.role + ")")) +
+         td(esc(r.segment)) + td(esc(r.axis)) + td(std::to_string(m.n), true) +
+         td(num(m.rmse_N), true) + td(num(m.nrmse), true) + td(num(m.r2), true) +
+         td(num(m.theil_u2), true) + td(num(m.sg_magnitude), true) + td(num(m.sg_phase), true) +
+         td(num(m.sg_combined), true) + td(num(m.peak_measured_N), true) +
+         td(num(m.peak_error_N), true) + td(num(m.peak_error_rel), true) +
+         td(num(m.resid_lag1_autocorr), true) + td(num(m.durbin_watson), true) + "</tr>";
+  }
+  return h + "</table></div>";
+}
+
+// fit.json is rendered, not re-validated here: its reader (data_schema) validated it
+// when calibrate wrote it; a type mismatch still becomes an InputError, never a crash.
+std::string parameter_section(const AnalysisInput& in, const json* fit) {
+  std::string h;
+  if (fit && fit->contains("parameters")) {
+    h += "<table><tr><th>class</th><th>parameter</th><th>unit</th><th>estimate</th>"
+         "<th>std. error</th><th>95 % interval</th><th>bootstrap 95 %</th><th>fixed</th>"
+         "<th>identifiable</th></tr>";
+    for (const auto& p : fit->at("parameters")) {
+      const auto n = [&](const char* k) {
+        return p.contains(k) && p.at(k).is_number() ? num(p.at(k).get<double>()) : std::string("—");
+      };
+      const bool ident = p.value("identifiable", false);
+      h += "<tr>" + td(esc(p.value("class_name", std::string()))) + td(esc(p.value("name", std::string()))) +
+           td(esc(p.value("unit", std::string()))) + td(n("estimate"), true) + td(n("std_error"), true) +
+           td("[" + n("ci95_low") + ", " + n("ci95_high") + "]", true) +
+           td("[" + n("bootstrap_ci95_low") + ", " + n("bootstrap_ci95_high") + "]", true) +
+           td(p.value("fixed", false) ? "yes" : "no") +
+           td(ident ? "yes" : "<b>no</b>: " + esc(p.value("reason", std::string()))) + "</tr>";
+    }
+    h += "</table>";
+    if (fit->contains("correlation") && fit->at("correlation").contains("names")) {
+      const auto& c = fit->at("correlation");
+      const auto& names = c.at("names");
+      const auto& mat = c.at("matrix");
+      const std::size_t k = names.size();
+      h += "<h3>Parameter correlation matrix</h3><div class=\"scroll\"><table><tr><th></th>";
+      for (const auto& nm : names) h += "<th>" + esc(nm.get<std::string>()) + "</th>";
+      h += "</tr>";
+      for (std::size_t i = 0; i < k; ++i) {
+        h += "<tr><th>" + esc(names[i].get<std::string>()) + "</th>";
+        for (std::size_t j = 0; j < k; ++j) {
+          const auto& v = mat.is_array() && mat.size() == k * k ? mat[i * k + j]
+                                                                 : mat.at(i).at(j);
+          const double x = v.is_number() ? v.get<double>() : NAN;
+          const int shade = std::isfinite(x) ? int(255 - 120 * std::min(1.0, std::abs(x))) : 255;
+          h += fmt::format("<td class=\"num\" style=\"background:rgb(255,{},{})\">{}</td>", shade,
+                           shade, num(x, 3));
+        }
+        h += "</tr>";
+      }
+      h += "</table></div>";
+    }
+  } else {
+    h += "<p>Fixed parameters replayed (no fit in this run): <code>" + esc(in.params_path) +
+         "</code>. Intervals and identifiability come from the calibration that produced them.</p>";
+    h += "<table><tr><th>label</th><th>class</th><th>α (N/mm²)</th><th>C1 (N/mm²)</th><th>μ</th></tr>";
+    for (const auto& p : in.parameters)
+      h += "<tr>" + td(std::to_string(p.class_label), true) + td(esc(p.class_name)) +
+           td(num(p.alpha_N_per_mm2, 6), true) + td(num(p.c1_N_per_mm2, 6), true) +
+           td(num(p.mu, 6), true) + "</tr>";
+    h += "</table>";
+  }
+  return h;
+}
+
+std::string cross_validation_section(const std::vector<MetricRow>& rows, const json* fit) {
+  std::string h =
+      "<p>Pooled over all used samples of each role; calibration data and held-out "
+      "(validate) data are kept apart.</p><table><tr><th>data</th><th>axis</th><th>n</th>"
+      "<th>RMSE (N)</th><th>NRMSE</th><th>R²</th><th>SG C</th></tr>";
+  for (const auto& r : rows)
+    if (r.recording_id.empty() && r.segment == "all")
+      h += "<tr>" + td(esc(r.role)) + td(esc(r.axis)) + td(std::to_string(r.m.n), true) +
+           td(num(r.m.rmse_N), true) + td(num(r.m.nrmse), true) + td(num(r.m.r2), true) +
+           td(num(r.m.sg_combined), true) + "</tr>";
+  h += "</table>";
+  if (fit && fit->contains("cross_validation") && !fit->at("cross_validation").empty()) {
+    h += "<h3>Leave-one-out cross-validation (from the fit)</h3><table><tr><th>held out</th><th>metrics</th></tr>";
+    for (const auto& cv : fit->at("cross_validation"))
+      h += "<tr>" + td(esc(cv.value("held_out", std::string()))) +
+           td("<code>" + esc(cv.contains("metrics") ? cv.at("metrics").dump() : "{}") + "</code>") + "</tr>";
+    h += "</table>";
+  }
+  return h;
+}
+
+std::string criteria_section(const ReportSummary& s) {
+  if (!s.has_criteria) return "<p class=\"muted\">No acceptance criteria were given for this run.</p>";
+  std::string h =
+      "<table><tr><th>#</th><th>criterion</th><th>metric</th><th>data</th><th>segment</th>"
+      "<th>axis</th><th>threshold</th><th>value</th><th>result</th></tr>";
+  for (const auto& r : s.results) {
+    const auto& c = s.criteria.criteria[r.index];
+    std::string thr;
+    if (c.min) thr += "≥ " + num(*c.min, 6);
+    if (c.max) thr += std::string(thr.empty() ? "" : ", ") + "≤ " + num(*c.max, 6);
+    h += "<tr>" + td(std::to_string(r.index + 1), true) + td(esc(c.name)) + td(esc(c.metric)) +
+         td(esc(c.recording.empty() ? "all " + c.data : "recording " + c.recording)) +
+         td(esc(c.segment)) + td(esc(r.axis)) + td(thr) + td(num(r.value, 5), true) +
+         td(r.pass ? "<span class=\"verdict pass\">PASS</span>"
+                   : "<span class=\"verdict fail\">FAIL</span>") +
+         "</tr>";
+  }
+  return h + "</table>";
+}
+
+void replace_once(std::string& s, const std::string& key, const std::string& value) {
+  const auto pos = s.find(key);
+  if (pos == std::string::npos)
+    throw InputError("template.html", key, "the placeholder in the report template", "missing");
+  s.replace(pos, key.size(), value);
+}
+
+}  // namespace
+
+fs::path default_assets_dir() {
+  if (const char* env = std::getenv("BURRBENCH_REPORT_ASSETS"); env && *env) return env;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const fs::path installed = exe.parent_path().parent_path() / "share" / "burrbench" / "report";
+    if (fs::exists(installed / "node_modules", ec)) return installed;
+  }
+  // This file lives at <source>/analysis/src/report.cpp (CMake passes absolute paths).
+  return fs::path(__FILE__).parent_path().parent_path() / "report";
+}
+
+ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const ReportOptions& opt) {
+  const AnalysisInput in = read_analysis_input(dir);
+  const auto rows = compute_metric_rows(in);
+  const fs::path assets = opt.assets_dir.empty() ? default_assets_dir() : opt.assets_dir;
+
+  ReportSummary sum;
+  sum.html = out_html;
+  sum.recordings = in.recordings.size();
+  for (const auto& r : in.recordings) sum.samples += r.t_s.size();
+  if (fs::exists(dir / "criteria.toml")) {
+    sum.has_criteria = true;
+    sum.criteria = read_criteria(dir / "criteria.toml");
+    sum.results = evaluate_criteria(sum.criteria, rows, (dir / "criteria.toml").string());
+    sum.pass = all_pass(sum.results);
+  }
+  json fit;
+  const bool has_fit = fs::exists(dir / "fit.json");
+  if (has_fit) {
+    std::ifstream f(dir / "fit.json");
+    try {
+      fit = json::parse(f);
+    } catch (const json::exception& e) {
+      throw InputError((dir / "fit.json").string(), "file", "valid JSON", e.what());
+    }
+  }
+
+  const std::string tmpl = read_text(assets / "template.html", "template.html");
+  const std::string css = read_text(assets / "report.css", "report.css") + "\n" +
+                          read_text(assets / "node_modules/uplot/dist/uPlot.min.css", "uPlot CSS (npm ci)");
+  const std::string js =
+      strip_url_schemes(read_text(assets / "node_modules/uplot/dist/uPlot.iife.min.js", "uPlot (npm ci)")) +
+      "\n" + read_text(assets / "report.js", "report.js");
+
+  const fs::path out_dir = out_html.parent_path().empty() ? fs::path(".") : out_html.parent_path();
+  fs::create_directories(out_dir);
+
+  std::string b;
+  const std::string title = "burrbench validation report — " + in.experiment_name;
+  b += "<h1>" + esc(title) + "</h1>";
+  b += fmt::format("<p class=\"muted\">Mode: {} · generated {} by {}</p>", esc(in.mode),
+                   esc(make_provenance({}).created_utc), esc(software_version()));
+  b += sum.has_criteria ? (sum.pass ? "<p><span class=\"verdict pass\" id=\"verdict\">ACCEPTANCE CRITERIA: PASS</span></p>"
+                                    : "<p><span class=\"verdict fail\" id=\"verdict\">ACCEPTANCE CRITERIA: FAIL</span></p>")
+                        : "<p><span class=\"verdict none\" id=\"verdict\">No acceptance criteria</span></p>";
+  b += "<nav><a href=\"#cou\">Context</a><a href=\"#model\">Model</a><a href=\"#data\">Data</a>"
+       "<a href=\"#calib\">Calibration</a><a href=\"#params\">Parameters</a><a href=\"#force\">Force</a>"
+       "<a href=\"#resid\">Residuals</a><a href=\"#metrics\">Metrics</a><a href=\"#cv\">Cross-validation</a>"
+       "<a href=\"#bone\">Removed bone</a><a href=\"#accept\">Acceptance</a><a href=\"#limits\">Limitations</a>"
+       "<a href=\"#repro\">Reproducibility</a></nav>";
+
+  b += "<h2 id=\"cou\">1. Context of use</h2><p>" +
+       esc(in.context_of_use.empty() ? "(not stated)" : in.context_of_use) + "</p>";
+  if (!in.experiment_description.empty()) b += "<p>" + esc(in.experiment_description) + "</p>";
+
+  json model_info = {{"software", software_version()}};
+  model_info.update(in.model);
+  b += "<h2 id=\"model\">2. Model and version</h2>" + kv_table(model_info);
+
+  b += "<h2 id=\"data\">3. Data</h2><h3>Samples</h3><table><tr><th>id</th><th>file</th><th>SHA-256</th>"
+       "<th>removed volume (mm³)</th></tr>";
+  for (const auto& s : in.samples)
+    b += "<tr>" + td(esc(s.id)) + td("<code>" + esc(s.path) + "</code>") +
+         td("<span class=\"hash\">" + esc(s.sha256) + "</span>") + td(num(s.removed_volume_mm3), true) + "</tr>";
+  b += "</table><h3>Recordings</h3><table><tr><th>id</th><th>sample</th><th>role</th><th>samples</th>"
+       "<th>used</th><th>duration (s)</th><th>segments</th><th>file</th><th>SHA-256</th><th>notes</th></tr>";
+  for (const auto& r : in.recordings) {
+    std::size_t used = 0;
+    for (auto u : r.used) used += u;
+    std::string segs;
+    for (const auto& s : r.segments)
+      segs += esc(s.label) + fmt::format(" [{}, {}) s<br>", num(s.start_s), num(s.end_s));
+    b += "<tr>" + td(esc(r.id)) + td(esc(r.sample_id)) + td(esc(r.role)) +
+         td(std::to_string(r.t_s.size()), true) + td(std::to_string(used), true) +
+         td(r.t_s.empty() ? "—" : num(r.t_s.back() - r.t_s.front()), true) +
+         td(segs.empty() ? "whole recording" : segs) + td("<code>" + esc(r.path) + "</code>") +
+         td("<span class=\"hash\">" + esc(r.sha256) + "</span>") + td(esc(r.notes)) + "</tr>";
+  }
+  b += "</table>";
+
+  b += "<h2 id=\"calib\">4. Calibration method and settings</h2>";
+  b += in.calibration.empty() ? std::string("<p class=\"muted\">(none recorded)</p>") : kv_table(in.calibration);
+  if (has_fit) {
+    for (const char* k : {"settings", "solver", "residuals_summary"})
+      if (fit.contains(k) && fit.at(k).is_object()) b += std::string("<h3>") + k + "</h3>" + kv_table(fit.at(k));
+  }
+
+  b += "<h2 id=\"params\">5. Parameters</h2>" + parameter_section(in, has_fit ? &fit : nullptr);
+
+  b += "<h2 id=\"force\">6. Measured vs predicted force</h2><p class=\"muted\">Sensor frame. "
+       "Drag to zoom (x, or a box), double-click to reset; click a legend entry to hide a series. "
+       "Plots show every k-th sample when a recording is long; predictions.csv has all.</p>";
+  for (std::size_t i = 0; i < in.recordings.size(); ++i)
+    b += fmt::format("<h3>{}</h3><div class=\"plot\" id=\"plot-force-{}\"></div>", esc(in.recordings[i].id), i);
+
+  b += "<h2 id=\"resid\">7. Residuals</h2><p class=\"muted\">e = measured − predicted.</p>";
+  for (std::size_t i = 0; i < in.recordings.size(); ++i)
+    b += fmt::format("<h3>{}</h3><div class=\"plotrow\"><div class=\"plot\" id=\"plot-resid-t-{}\"></div>"
+                     "<div class=\"plot\" id=\"plot-resid-p-{}\"></div></div>",
+                     esc(in.recordings[i].id), i, i);
+  json hists = json::array();
+  for (const char* role : {"calibrate", "validate"}) {
+    json h = histogram(in, role);
+    if (!h.is_null()) {
+      b += fmt::format("<div class=\"plot\" id=\"plot-hist-{}\"></div>", hists.size());
+      hists.push_back(std::move(h));
+    }
+  }
+
+  b += "<h2 id=\"metrics\">8. Validation metrics</h2><p class=\"muted\">NRMSE is normalised by the "
+       "measured range (max − min) of the same series; R² = 1 − SSE/SST; Theil U2 = √(Σe²/Σm²); "
+       "SG = Sprague–Geers; definitions in docs/report.md. Only used samples count.</p>"
+       "<h3>Per recording</h3>" + metric_table_html(rows, false) + "<h3>Pooled by role</h3>" +
+       metric_table_html(rows, true);
+
+  b += "<h2 id=\"cv\">9. Cross-validation</h2>" + cross_validation_section(rows, has_fit ? &fit : nullptr);
+
+  b += "<h2 id=\"bone\">10. Removed bone</h2><p class=\"muted\">Depth map: thickness of bone "
+       "removed by the replay in each (x, y) column of the volume (plan view, y up).</p>";
+  for (const auto& s : in.samples) {
+    const auto png = render_removed_depth_png(s);
+    if (png.empty()) {
+      b += "<p>" + esc(s.id) + ": no depth map recorded.</p>";
+      continue;
+    }
+    std::ofstream(out_dir / fmt::format("removed_{}.png", &s - in.samples.data()), std::ios::binary)
+        .write(reinterpret_cast<const char*>(png.data()), std::streamsize(png.size()));
+    b += "<h3>" + esc(s.id) + "</h3><img class=\"bone\" alt=\"removed bone depth map\" src=\"data:image/png;base64," +
+         base64(png) + "\">";
+  }
+
+  b += "<h2 id=\"accept\">11. Acceptance criteria</h2>" + criteria_section(sum);
+
+  b += "<h2 id=\"limits\">12. Limitations</h2><ul>";
+  for (const auto& l : in.limitations) b += "<li>" + esc(l) + "</li>";
+  b += "<li>Metrics use only samples marked used (buried or excluded samples and spans outside used "
+       "segments are left out).</li></ul>";
+
+  b += "<h2 id=\"repro\">13. Reproducibility</h2><h3>Command lines</h3><pre>" +
+       esc(in.provenance.command_line.empty() ? "(library call)" : in.provenance.command_line) + "\n" +
+       esc(invocation().empty() ? "(report: library call)" : invocation()) + "</pre>";
+  b += "<h3>Versions</h3>" + versions_table();
+  b += "<h3>Inputs</h3><table><tr><th>file</th><th>SHA-256</th></tr>";
+  for (const auto& f : in.provenance.inputs)
+    b += "<tr>" + td("<code>" + esc(f.path) + "</code>") + td("<span class=\"hash\">" + esc(f.sha256) + "</span>") + "</tr>";
+  b += "</table>";
+  b += "<h3>Seeds and settings</h3>" + kv_table(json{{"seed", in.seed},
+                                                     {"experiment", in.experiment_path},
+                                                     {"experiment sha256", in.experiment_sha256},
+                                                     {"params", in.params_path},
+                                                     {"params sha256", in.params_sha256},
+                                                     {"criteria", in.criteria_path},
+                                                     {"criteria sha256", in.criteria_sha256},
+                                                     {"analysis input created", in.provenance.created_utc}});
+
+  json data = {{"recordings", json::array()}, {"histograms", hists}};
+  for (const auto& r : in.recordings) data["recordings"].push_back(decimated(r));
+
+  std::string html = tmpl;
+  replace_once(html, "<!--BURRBENCH:TITLE-->", esc(title));
+  replace_once(html, "<!--BURRBENCH:CSS-->", css);
+  replace_once(html, "<!--BURRBENCH:BODY-->", b);
+  replace_once(html, "<!--BURRBENCH:DATA-->", json_for_script(data));
+  replace_once(html, "<!--BURRBENCH:JS-->", js);
+  {
+    std::ofstream f(out_html, std::ios::binary);
+    f << html;
+    if (!f) throw InputError(out_html.string(), "--out", "a writable file");
+  }
+
+  // Beside the report: the series, residuals, metrics and the fit.
+  std::error_code ec;
+  if (!fs::equivalent(dir, out_dir, ec)) {
+    fs::copy_file(dir / "predictions.csv", out_dir / "predictions.csv", fs::copy_options::overwrite_existing);
+    if (has_fit) fs::copy_file(dir / "fit.json", out_dir / "fit.json", fs::copy_options::overwrite_existing);
+  }
+  write_residuals_csv(out_dir / "residuals.csv", in);
+  json mj = {{"format", "burrbench.metrics"}, {"format_version", "1.0"},
+             {"rows", metric_rows_to_json(rows)}};
+  if (sum.has_criteria) {
+    mj["pass"] = sum.pass;
+    mj["criteria"] = json::array();
+    for (const auto& r : sum.results)
+      mj["criteria"].push_back({{"index", r.index}, {"name", sum.criteria.criteria[r.index].name},
+                                {"axis", r.axis},
+                                {"value", std::isfinite(r.value) ? json(r.value) : json(nullptr)},
+                                {"pass", r.pass}});
+  }
+  const auto prov = make_provenance({dir / "analysis.json", dir / "predictions.csv"});
+  mj["provenance"] = {{"software_version", prov.software_version}, {"command_line", prov.command_line},
+                      {"created_utc", prov.created_utc}};
+  std::ofstream(out_dir / "metrics.json") << mj.dump(1) << "\n";
+  return sum;
+}
+
+}  // namespace burrbench::analysis

@@ -1,0 +1,36 @@
+// `burrbench report DIR --out report.html`: the self-contained validation report of an
+// analysis directory (written by calibrate or validate; layout in docs/report.md).
+#include <iostream>
+#include <memory>
+
+#include "burrbench/analysis/report.hpp"
+#include "verb_registry.hpp"
+
+namespace {
+
+struct Options {
+  std::string dir, out = "report.html", assets;
+};
+
+void setup(CLI::App& root) {
+  auto* cmd = root.add_subcommand("report", "Write the self-contained HTML validation report of an analysis directory");
+  auto o = std::make_shared<Options>();
+  cmd->add_option("DIR", o->dir, "analysis directory (analysis.json, predictions.csv, fit.json, criteria.toml)")
+      ->required();
+  cmd->add_option("--out", o->out, "report file; CSVs, metrics.json and fit.json go beside it")
+      ->capture_default_str();
+  cmd->add_option("--assets", o->assets,
+                  "report assets folder (template, JS, CSS, node_modules/uplot); default: "
+                  "$BURRBENCH_REPORT_ASSETS, <bin>/../share/burrbench/report, or the source tree's analysis/report");
+  cmd->callback([o] {
+    using namespace burrbench::analysis;
+    const auto s = write_report(o->dir, o->out, {o->assets});
+    std::cout << "report: " << s.html.string() << " (" << s.recordings << " recordings, " << s.samples
+              << " samples)\n";
+    if (s.has_criteria) std::cout << "acceptance criteria: " << (s.pass ? "PASS" : "FAIL") << "\n";
+  });
+}
+
+BURRBENCH_VERB("report", setup);
+
+}  // namespace

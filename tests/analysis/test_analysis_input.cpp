@@ -1,0 +1,104 @@
+// The analysis input (DIR/analysis.json + DIR/predictions.csv): round trip and rejection
+// of broken files; escaping of text from files.
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "analysis/analysis_fixture.hpp"
+#include "burrbench/analysis/report.hpp"
+#include "burrbench/data_schema/error.hpp"
+
+using namespace burrbench::analysis;
+namespace fs = std::filesystem;
+
+namespace {
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+void spit(const fs::path& p, const std::string& s) { std::ofstream(p) << s; }
+void replace(std::string& s, const std::string& a, const std::string& b) {
+  const auto pos = s.find(a);
+  ASSERT_NE(pos, std::string::npos) << a;
+  s.replace(pos, a.size(), b);
+}
+}  // namespace
+
+TEST(AnalysisInput, RoundTripIsExact) {
+  auto in = burrbench::testing::small_input();
+  in.recordings[1].id = "odd, \"id\"";  // CSV quoting
+  in.recordings[1].used[3] = 0;
+  const auto dir = burrbench::testing::temp_dir("roundtrip");
+  write_analysis_input(dir, in);
+  const auto back = read_analysis_input(dir);
+  ASSERT_EQ(back.recordings.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const auto& a = in.recordings[k];
+    const auto& b = back.recordings[k];
+    EXPECT_EQ(a.id, b.id);
+    EXPECT_EQ(a.role, b.role);
+    EXPECT_EQ(a.t_s, b.t_s);  // shortest round-trip formatting: bit-exact
+    EXPECT_EQ(a.measured_N, b.measured_N);
+    EXPECT_EQ(a.predicted_N, b.predicted_N);
+    EXPECT_EQ(a.used, b.used);
+    EXPECT_EQ(a.segments.size(), b.segments.size());
+  }
+  EXPECT_EQ(back.samples[0].removed_depth_mm, in.samples[0].removed_depth_mm);
+  EXPECT_EQ(back.parameters[0].c1_N_per_mm2, 10.0);
+  EXPECT_EQ(back.seed, 7u);
+}
+
+TEST(AnalysisInput, BrokenFilesAreInputErrors) {
+  const auto dir = burrbench::testing::temp_dir("broken");
+  write_analysis_input(dir, burrbench::testing::small_input());
+  const std::string json = slurp(dir / "analysis.json"), csv = slurp(dir / "predictions.csv");
+  const auto expect_error = [&](const std::string& j, const std::string& c, const std::string& what) {
+    spit(dir / "analysis.json", j);
+    spit(dir / "predictions.csv", c);
+    try {
+      read_analysis_input(dir);
+      ADD_FAILURE() << "accepted: " << what;
+    } catch (const burrbench::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(e.file()), std::string::npos) << what;
+    }
+  };
+  std::string j = json;
+  replace(j, "\"mode\"", "\"colour\": 1, \"mode\"");
+  expect_error(j, csv, "unknown key");
+  j = json;
+  replace(j, "\"burrbench.analysis\"", "\"burrbench.fit\"");
+  expect_error(j, csv, "wrong format");
+  j = json;
+  replace(j, "\"1.0\"", "\"2.0\"");
+  expect_error(j, csv, "major version");
+  expect_error("{ not json", csv, "not JSON");
+  std::string c = csv;
+  replace(c, "R2,", "R9,");
+  expect_error(json, c, "unknown recording id");
+  c = csv;
+  replace(c, "\nR1,0.01,", "\nR1,nan,");
+  expect_error(json, c, "NaN time");
+  expect_error(json, csv.substr(0, csv.size() / 2), "truncated CSV");
+  expect_error(json, "a,b\n", "wrong header");
+  j = json;
+  replace(j, "\"samples\": 200", "\"samples\": 1e12");
+  expect_error(j, csv, "huge row count refused before allocating");
+  // The inputs were not modified by reading (we only wrote them here).
+  spit(dir / "analysis.json", json);
+  spit(dir / "predictions.csv", csv);
+  EXPECT_NO_THROW(read_analysis_input(dir));
+}
+
+TEST(Escaping, TextAndScriptJson) {
+  EXPECT_EQ(html_escape("<script>alert(1)</script> & \"q\" 'a'"),
+            "&lt;script&gt;alert(1)&lt;/script&gt; &amp; &quot;q&quot; &#39;a&#39;");
+  const nlohmann::json j = {{"id", "</script><script>alert(1)</script>\u2028<!--"}};
+  const std::string s = json_for_script(j);
+  EXPECT_EQ(s.find('<'), std::string::npos);
+  EXPECT_EQ(s.find('>'), std::string::npos);
+  EXPECT_EQ(nlohmann::json::parse(s), j);  // still the same data for the page's JSON.parse
+}
