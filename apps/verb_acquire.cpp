@@ -1,0 +1,143 @@
+// burrbench acquire: poll the rig into a crash-safe journal, then finalise it into an
+// HDF5 recording on Ctrl-C, SIGTERM or --duration.
+#include <signal.h>
+#include <time.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <iostream>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/progress.hpp"
+#include "burrbench/data_schema/provenance.hpp"
+#include "burrbench/data_schema/version.hpp"
+#include "burrbench/rig/finalise.hpp"
+#include "burrbench/rig/modbus_link.hpp"
+#include "burrbench/rig/session.hpp"
+#include "burrbench/rig/tools.hpp"
+#include "verb_registry.hpp"
+
+namespace {
+
+std::atomic<int> g_signal{0};
+void on_signal(int sig) { g_signal = sig; }
+
+struct Options {
+  std::string rig, out, journal, sample_id, notes, tare;
+  double duration_s = 0;
+  bool keep_journal = false;
+};
+
+std::string live_line(const burrbench::rig::SessionStatus& s) {
+  std::uint64_t samples = 0, timeouts = 0, reconnects = 0, polls = 0, missed = 0;
+  double jitter = 0, rate = 0, req = 0;
+  std::string force;
+  for (const auto& d : s.devices) {
+    samples += d.samples;
+    timeouts += d.timeouts;
+    reconnects += d.reconnects;
+    polls += d.polls;
+    missed += d.missed_polls;
+    jitter = std::max(jitter, d.jitter_p99_us);
+    rate += d.achieved_hz;
+    req += d.rate_hz;
+    if (d.first_channel == burrbench::data_schema::kForce && d.last.size() == 3 && force.empty())
+      force = fmt::format(" F {:.2f} {:.2f} {:.2f} N", d.last[0], d.last[1], d.last[2]);
+  }
+  return fmt::format("{:.0f}/{:.0f} Hz  jitter p99 {:.0f} µs{}  samples {}  timeouts {}  reconnects {}  missed {}",
+                     rate, req, jitter, force, samples, timeouts, reconnects, missed);
+}
+
+void run(const Options& o) {
+  using namespace burrbench;
+  const auto map = rig::load_rig_map(o.rig);
+  const std::filesystem::path out(o.out);
+  const std::filesystem::path journal = o.journal.empty() ? std::filesystem::path(o.out + ".journal") : std::filesystem::path(o.journal);
+  if (std::filesystem::exists(journal))
+    throw InputError(journal.string(), "(journal)", "no journal left from an earlier session (run `burrbench recover` on it, or remove it)", "exists");
+  if (o.duration_s < 0) throw InputError("--duration", "value", "seconds ≥ 0");
+
+  rig::SessionHeader h;
+  h.rig_file = o.rig;
+  h.rig_sha256 = sha256_file(o.rig);
+  h.rig_toml = map.source_toml;
+  h.sample_id = o.sample_id;
+  h.notes = o.notes;
+  if (!o.tare.empty()) {
+    const auto t = rig::read_tare(o.tare);
+    h.tare_file = o.tare;
+    h.tare_sha256 = sha256_file(o.tare);
+    h.bias = t.bias;
+    h.bias_t_ns = t.t_ns;
+  }
+  timespec wall{}, mono{};
+  clock_gettime(CLOCK_REALTIME, &wall);
+  clock_gettime(CLOCK_MONOTONIC, &mono);
+  h.session_wall_ns = wall.tv_sec * 1'000'000'000LL + wall.tv_nsec;
+  h.session_monotonic_ns = mono.tv_sec * 1'000'000'000LL + mono.tv_nsec;
+  h.command_line = invocation();
+  h.software_version = software_version();
+  std::vector<std::filesystem::path> inputs{o.rig};
+  if (!o.tare.empty()) inputs.emplace_back(o.tare);
+  h.created_utc = make_provenance({}).created_utc;
+
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+
+  rig::Session session(map, journal, rig::to_json(h).dump());
+  std::cerr << fmt::format("acquiring {} device(s) into journal {} (Ctrl-C stops)\n", map.devices.size(), journal.string());
+  TerminalProgress progress("acquire");
+  const auto t0 = std::chrono::steady_clock::now();
+  while (g_signal == 0 && !session.fatal()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    progress.update(o.duration_s > 0 ? std::min(1.0, el / o.duration_s) : -1.0, live_line(session.status()));
+    if (o.duration_s > 0 && el >= o.duration_s) break;
+  }
+  const auto status = session.status();
+  session.stop();
+  progress.finish(live_line(status));
+  if (const auto f = session.fatal())
+    throw std::runtime_error(fmt::format("ACQUISITION STOPPED: {}. The journal {} holds what was synced; "
+                                         "run `burrbench recover` on it.", *f, journal.string()));
+
+  const auto contents = rig::read_journal(journal);
+  rig::FinaliseReport rep;
+  auto rec = rig::recording_from_journal(contents, journal.string(), &rep);
+  rec.provenance = make_provenance(inputs);
+  data_schema::write_recording(out, rec);
+  if (!o.keep_journal) std::filesystem::remove(journal);
+
+  std::cout << fmt::format("wrote {}: {:.1f} s, {} samples ({} stale, {} with invalid values), {} events\n",
+                           out.string(), status.elapsed_s, rep.samples, rep.stale, rep.invalid, rec.events.size());
+  std::cout << fmt::format("{:<14} {:>9} {:>9} {:>10} {:>12} {:>9} {:>8} {:>10} {:>7} {:>7}\n", "device", "req Hz",
+                           "got Hz", "samples", "jitter p99", "timeouts", "errors", "reconnects", "missed", "lost");
+  for (const auto& d : status.devices)
+    std::cout << fmt::format("{:<14} {:>9.1f} {:>9.1f} {:>10} {:>9.0f} µs {:>9} {:>8} {:>10} {:>7} {:>7}\n", d.name,
+                             d.rate_hz, d.achieved_hz, d.samples, d.jitter_p99_us, d.timeouts, d.errors, d.reconnects,
+                             d.missed_polls, d.lost);
+}
+
+void setup(CLI::App& root) {
+  auto* cmd = root.add_subcommand("acquire", "Record a drilling session from the rig (read-only Modbus polling)");
+  auto o = std::make_shared<Options>();
+  cmd->add_option("--rig", o->rig, "register map (TOML, see docs/rig.md)")->required();
+  cmd->add_option("--out", o->out, "recording to write (HDF5)")->required();
+  cmd->add_option("--duration", o->duration_s, "stop after this many seconds (default: until Ctrl-C/SIGTERM)");
+  cmd->add_option("--sample-id", o->sample_id, "id of the bone sample being drilled");
+  cmd->add_option("--notes", o->notes, "free text stored in the recording");
+  cmd->add_option("--tare", o->tare, "tare file from `burrbench rig tare` (stored as the sensor bias)");
+  cmd->add_option("--journal", o->journal, "journal path (default: OUT.journal)");
+  cmd->add_flag("--keep-journal", o->keep_journal, "keep the journal after the recording is written");
+  cmd->callback([o] { run(*o); });
+}
+BURRBENCH_VERB("acquire", setup);
+
+}  // namespace

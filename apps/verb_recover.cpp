@@ -1,0 +1,36 @@
+// burrbench recover: rebuild a recording from the journal a crashed acquisition left.
+// The journal is only read (never truncated in place): a torn tail is ignored and a
+// damaged block skipped, each noted as an event in the recording.
+#include <iostream>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/provenance.hpp"
+#include "burrbench/rig/finalise.hpp"
+#include "burrbench/rig/journal.hpp"
+#include "verb_registry.hpp"
+
+namespace {
+
+void setup(CLI::App& root) {
+  auto* cmd = root.add_subcommand("recover", "Rebuild a recording from an acquisition journal after a crash");
+  auto journal = std::make_shared<std::string>();
+  auto out = std::make_shared<std::string>();
+  cmd->add_option("JOURNAL", *journal, "journal left by `burrbench acquire`")->required();
+  cmd->add_option("--out", *out, "recording to write (HDF5)")->required();
+  cmd->callback([journal, out] {
+    using namespace burrbench;
+    const auto contents = rig::read_journal(*journal);
+    rig::FinaliseReport rep;
+    auto rec = rig::recording_from_journal(contents, *journal, &rep);
+    rec.provenance = make_provenance({*journal});
+    data_schema::write_recording(*out, rec);
+    for (const auto& p : rep.problems) std::cerr << "recover: " << p << "\n";
+    std::cout << fmt::format("wrote {}: {} samples from {} blocks ({} damaged block(s) skipped, {} torn tail bytes ignored, {})\n",
+                             *out, rep.samples, contents.blocks, contents.corrupt_blocks, contents.torn_tail_bytes,
+                             contents.clean_end ? "clean end" : "no end marker");
+  });
+}
+BURRBENCH_VERB("recover", setup);
+
+}  // namespace

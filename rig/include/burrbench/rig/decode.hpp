@@ -1,0 +1,26 @@
+#pragma once
+// Decoding register values in our own code: libmodbus 3.1.6's float helpers swap bytes
+// (fixed upstream in 3.1.11), so nothing here calls them.
+#include <cstdint>
+#include <span>
+
+#include "burrbench/rig/register_map.hpp"
+
+namespace burrbench::rig {
+
+// Raw 32 bits (A = most significant byte) from two registers in a word order.
+std::uint32_t assemble32(std::uint16_t r0, std::uint16_t r1, WordOrder order);
+// 16-bit value: BADC/DCBA swap the two bytes, ABCD/CDAB keep them.
+std::uint16_t assemble16(std::uint16_t r0, WordOrder order);
+
+// The raw numeric value at regs[0..register_count(type)); a float32 may be NaN/Inf.
+double decode_raw(const std::uint16_t* regs, ValueType type, WordOrder order);
+// Integer value (counters); float32 is not allowed here.
+std::int64_t decode_integer(const std::uint16_t* regs, ValueType type, WordOrder order);
+
+// Decode one channel from a sample's registers (base = address of regs[0]).
+// Returns false (value set to 0) when a value is NaN/Inf or outside [min, max].
+bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, int base,
+                    std::span<double> out);
+
+}  // namespace burrbench::rig

@@ -1,0 +1,51 @@
+#pragma once
+// One libmodbus connection (a TCP device or an RS-485 bus) with our own error recovery:
+// libmodbus runs with MODBUS_ERROR_RECOVERY_NONE and the poller decides what to do.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "burrbench/rig/register_map.hpp"
+
+typedef struct _modbus modbus_t;
+
+namespace burrbench::rig {
+
+std::int64_t monotonic_ns();  // CLOCK_MONOTONIC
+
+enum class ReadStatus { Ok, Timeout, Exception, BadData, Disconnected, EarlyReply };
+const char* to_string(ReadStatus s);
+
+struct ReadResult {
+  ReadStatus status = ReadStatus::Ok;
+  std::int64_t t_send_ns = 0, t_recv_ns = 0;
+  std::string detail;  // libmodbus error text when not Ok
+};
+
+class ModbusLink {
+ public:
+  explicit ModbusLink(const DeviceSpec& settings);  // for a bus: any device on it
+  ~ModbusLink();
+  ModbusLink(const ModbusLink&) = delete;
+  ModbusLink& operator=(const ModbusLink&) = delete;
+
+  // Always closes first (libmodbus 3.1.6 leaks the socket on a second connect).
+  bool connect(std::string* error);
+  void close();
+  bool connected() const { return connected_; }
+  // Reads d's block into regs (resized to d.count).
+  ReadResult read(const DeviceSpec& d, std::vector<std::uint16_t>& regs);
+  // RTU after a failed request: wait out the latest possible reply, then drop any bytes,
+  // so a late reply is never taken as the answer to the next request.
+  void drain_late_reply(const DeviceSpec& d);
+  // Shortest possible request+reply time on the wire (RTU), 0 for TCP.
+  double wire_time_s(const DeviceSpec& d) const;
+  std::string describe() const;
+
+ private:
+  DeviceSpec settings_;
+  modbus_t* ctx_ = nullptr;
+  bool connected_ = false;
+};
+
+}  // namespace burrbench::rig

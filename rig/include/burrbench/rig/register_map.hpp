@@ -1,0 +1,89 @@
+#pragma once
+// A rig's register map (TOML, docs/rig.md): which devices to poll, how, and how their
+// registers decode into named channels. Acquisition is read-only: a map that asks for
+// any write is refused.
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace burrbench::rig {
+
+enum class ValueType { Int16, UInt16, Int32, UInt32, Float32 };
+enum class WordOrder { ABCD, CDAB, BADC, DCBA };
+enum class Transport { Tcp, Rtu };
+enum class Mode { Latest, Fifo };
+
+int register_count(ValueType t);  // 1 or 2
+const char* to_string(ValueType t);
+const char* to_string(WordOrder o);
+
+// One value in registers: where (absolute address, or offset in a FIFO record) and how.
+struct Field {
+  int address = 0;
+  ValueType type = ValueType::UInt16;
+  WordOrder order = WordOrder::ABCD;
+};
+
+struct ChannelSpec {
+  std::string name;                // canonical (force_N, torque_Nmm, position_mm, spindle_rpm) or own
+  std::string unit;
+  ValueType type = ValueType::Int16;
+  WordOrder order = WordOrder::ABCD;
+  std::vector<int> registers;      // one start address per column
+  double scale = 1.0, offset = 0.0;  // value = raw * scale + offset
+  std::optional<double> min, max;    // decoded values outside → sample flagged invalid
+  std::optional<int> negate_if_register;  // register (≠ 0 → value negated), e.g. spindle direction
+};
+
+struct FifoSpec {
+  Field counter;               // counter of the newest record
+  int first_register = 0;      // oldest record's first register
+  int depth = 0;               // records exposed
+  int record_registers = 0;    // registers per record
+  double device_rate_hz = 0;   // the device's own sample rate
+};
+
+struct CalibrationSpec {
+  std::string input;               // a 6-column raw channel (e.g. strain gauges)
+  std::array<double, 36> matrix{};  // row-major; rows 0-2 → force_N, 3-5 → torque_Nmm
+};
+
+struct DeviceSpec {
+  std::string name;                // stream name in the recording
+  Transport transport = Transport::Tcp;
+  std::string host;                // TCP
+  int port = 502;
+  std::string serial;              // RTU: device path; devices on one path share a bus thread
+  int baud = 19200;
+  char parity = 'N';
+  int data_bits = 8, stop_bits = 1;
+  int slave = 1;
+  double rate_hz = 100;            // polls per second
+  double timeout_ms = 100;         // reply timeout
+  Mode mode = Mode::Latest;
+  int function = 3;                // 3 = holding, 4 = input registers
+  int start = 0, count = 0;        // the one block read per poll
+  std::vector<ChannelSpec> channels;
+  std::optional<Field> counter;    // latest mode: device sample counter
+  std::optional<FifoSpec> fifo;    // fifo mode
+  std::optional<CalibrationSpec> calibration;
+  // Registers stored per sample: the block (latest) or one FIFO record.
+  int sample_registers() const { return mode == Mode::Fifo ? fifo->record_registers : count; }
+};
+
+struct RigMap {
+  std::string file;                // for messages
+  std::string rig_id, sensor_model, sensor_serial, sensor_calibration_date;
+  std::vector<DeviceSpec> devices;
+  std::string source_toml;         // verbatim text
+};
+
+// Throws InputError (file, field, expected, got) on any defect, unknown key or write request.
+RigMap parse_rig_map(std::string_view toml_text, const std::string& file_for_messages);
+RigMap load_rig_map(const std::filesystem::path& path);
+
+}  // namespace burrbench::rig

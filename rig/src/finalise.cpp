@@ -1,0 +1,192 @@
+#include "burrbench/rig/finalise.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/rig/decode.hpp"
+#include "burrbench/rig/register_map.hpp"
+
+namespace burrbench::rig {
+
+nlohmann::json to_json(const SessionHeader& h) {
+  return {{"format", "burrbench.journal.header"}, {"rig_file", h.rig_file}, {"rig_sha256", h.rig_sha256},
+          {"rig_toml", h.rig_toml}, {"sample_id", h.sample_id}, {"notes", h.notes},
+          {"tare_file", h.tare_file}, {"tare_sha256", h.tare_sha256}, {"bias", h.bias},
+          {"bias_t_ns", h.bias_t_ns}, {"session_wall_ns", h.session_wall_ns},
+          {"session_monotonic_ns", h.session_monotonic_ns}, {"command_line", h.command_line},
+          {"software_version", h.software_version}, {"created_utc", h.created_utc}};
+}
+
+SessionHeader header_from_json(const std::string& text, const std::string& file) {
+  SessionHeader h;
+  try {
+    const auto j = nlohmann::json::parse(text);
+    if (j.at("format") != "burrbench.journal.header") throw InputError(file, "header.format", "burrbench.journal.header");
+    h.rig_file = j.at("rig_file");
+    h.rig_sha256 = j.at("rig_sha256");
+    h.rig_toml = j.at("rig_toml");
+    h.sample_id = j.at("sample_id");
+    h.notes = j.at("notes");
+    h.tare_file = j.at("tare_file");
+    h.tare_sha256 = j.at("tare_sha256");
+    h.bias = j.at("bias").get<std::vector<double>>();
+    h.bias_t_ns = j.at("bias_t_ns");
+    h.session_wall_ns = j.at("session_wall_ns");
+    h.session_monotonic_ns = j.at("session_monotonic_ns");
+    h.command_line = j.at("command_line");
+    h.software_version = j.at("software_version");
+    h.created_utc = j.at("created_utc");
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(file, "header", "the JSON session header of a burrbench journal", e.what());
+  }
+  return h;
+}
+
+namespace {
+
+// FIFO device time: t = a + b·counter, fitted to the poll midpoints of each poll's
+// newest record, then shifted to the lower envelope (a poll can only follow its
+// newest sample, never precede it). A counter reset starts a new segment.
+void fit_fifo_time(data_schema::Stream& s, double device_rate_hz) {
+  const std::size_t n = s.samples();
+  std::size_t seg_start = 0;
+  for (std::size_t i = 1; i <= n; ++i) {
+    if (i < n && s.device_counter[i] > s.device_counter[i - 1]) continue;
+    // segment [seg_start, i): newest record of each poll = last one with that t_send
+    std::vector<std::pair<double, double>> pts;  // counter, t_mid
+    for (std::size_t k = seg_start; k < i; ++k)
+      if (k + 1 == i || s.t_send_ns[k + 1] != s.t_send_ns[k])
+        pts.emplace_back(static_cast<double>(s.device_counter[k]), 0.5 * static_cast<double>(s.t_send_ns[k] + s.t_recv_ns[k]));
+    const double nominal = 1e9 / device_rate_hz;
+    double b = nominal, a = 0;
+    const double c0 = pts.front().first, t0 = pts.front().second;
+    if (pts.size() >= 10) {
+      double sx = 0, sy = 0, sxx = 0, sxy = 0;
+      for (auto [c, t] : pts) {
+        const double x = c - c0, y = t - t0;
+        sx += x; sy += y; sxx += x * x; sxy += x * y;
+      }
+      const double m = static_cast<double>(pts.size());
+      const double den = m * sxx - sx * sx;
+      if (den > 0) {
+        const double fit = (m * sxy - sx * sy) / den;
+        if (std::abs(fit / nominal - 1.0) < 0.01) b = fit;  // clock rate within 1 %: trust it
+      }
+    }
+    double lo = 1e300;
+    for (auto [c, t] : pts) lo = std::min(lo, (t - t0) - b * (c - c0));
+    a = t0 + lo;
+    for (std::size_t k = seg_start; k < i; ++k)
+      s.t_ns[k] = static_cast<std::int64_t>(std::llround(a + b * (static_cast<double>(s.device_counter[k]) - c0)));
+    seg_start = i;
+  }
+}
+
+}  // namespace
+
+data_schema::Recording recording_from_journal(const JournalContents& j, const std::string& file,
+                                              FinaliseReport* report) {
+  const auto h = header_from_json(j.header_json, file);
+  const auto map = parse_rig_map(h.rig_toml, h.rig_file.empty() ? file : h.rig_file);
+  data_schema::Recording rec;
+  auto& m = rec.meta;
+  m.sample_id = h.sample_id;
+  m.rig_id = map.rig_id;
+  m.sensor_model = map.sensor_model;
+  m.sensor_serial = map.sensor_serial;
+  m.sensor_calibration_date = map.sensor_calibration_date;
+  m.bias = h.bias;
+  m.bias_t_ns = h.bias_t_ns;
+  m.register_map_toml = h.rig_toml;
+  m.session_wall_ns = h.session_wall_ns;
+  m.session_monotonic_ns = h.session_monotonic_ns;
+  m.notes = h.notes;
+  FinaliseReport rep;
+  rep.problems = j.problems;
+
+  std::vector<std::vector<const JournalSample*>> per(map.devices.size());
+  for (const auto& s : j.samples) {
+    if (s.device >= map.devices.size() ||
+        s.regs.size() != static_cast<std::size_t>(map.devices[s.device].sample_registers())) {
+      rep.problems.push_back(fmt::format("sample record for device {} with {} registers does not match the map, skipped",
+                                         s.device, s.regs.size()));
+      continue;
+    }
+    per[s.device].push_back(&s);
+  }
+  for (std::size_t di = 0; di < map.devices.size(); ++di) {
+    const auto& d = map.devices[di];
+    auto& samples = per[di];
+    // Journal order is acquisition order; a skipped block cannot reorder the rest.
+    std::stable_sort(samples.begin(), samples.end(), [&](auto* a, auto* b) {
+      return d.mode == Mode::Fifo ? (a->t_send_ns < b->t_send_ns || (a->t_send_ns == b->t_send_ns && a->counter < b->counter))
+                                  : a->t_send_ns < b->t_send_ns;
+    });
+    data_schema::Stream st;
+    st.name = d.name;
+    st.registers_per_sample = static_cast<std::size_t>(d.sample_registers());
+    const bool has_counter = d.counter || d.fifo;
+    const int base = d.mode == Mode::Fifo ? 0 : d.start;
+    std::vector<data_schema::Channel> chans;
+    for (const auto& c : d.channels) chans.push_back({c.name, c.unit, c.registers.size(), {}});
+    data_schema::Channel flags{"sample_flags", "", 1, {}};  // bit 0: a value invalid (NaN/out of range)
+    std::vector<double> buf;
+    for (const auto* s : samples) {
+      st.t_send_ns.push_back(s->t_send_ns);
+      st.t_recv_ns.push_back(s->t_recv_ns);
+      st.t_ns.push_back(s->t_send_ns + (s->t_recv_ns - s->t_send_ns) / 2);
+      st.raw_registers.insert(st.raw_registers.end(), s->regs.begin(), s->regs.end());
+      if (has_counter) st.device_counter.push_back(s->counter);
+      const bool stale = d.mode == Mode::Latest && has_counter && st.device_counter.size() >= 2 &&
+                         s->counter == st.device_counter[st.device_counter.size() - 2];
+      st.stale.push_back(stale ? 1 : 0);
+      rep.stale += stale;
+      bool ok = true;
+      for (std::size_t c = 0; c < d.channels.size(); ++c) {
+        buf.assign(d.channels[c].registers.size(), 0.0);
+        ok = decode_channel(d.channels[c], s->regs, base, buf) && ok;
+        chans[c].values.insert(chans[c].values.end(), buf.begin(), buf.end());
+      }
+      flags.values.push_back(ok ? 0.0 : 1.0);
+      rep.invalid += !ok;
+    }
+    if (d.calibration) {
+      const auto& cal = *d.calibration;
+      const auto it = std::find_if(chans.begin(), chans.end(), [&](auto& c) { return c.name == cal.input; });
+      data_schema::Channel f{data_schema::kForce, "N", 3, {}}, t{data_schema::kTorque, "N*mm", 3, {}};
+      for (std::size_t k = 0; k < st.samples(); ++k) {
+        const double* raw = it->values.data() + 6 * k;
+        for (int r = 0; r < 6; ++r) {
+          double v = 0;
+          for (int c = 0; c < 6; ++c) v += cal.matrix[static_cast<std::size_t>(r * 6 + c)] * raw[c];
+          (r < 3 ? f : t).values.push_back(v);
+        }
+      }
+      chans.push_back(std::move(f));
+      chans.push_back(std::move(t));
+      m.sensor_calibration.assign(cal.matrix.begin(), cal.matrix.end());
+    }
+    chans.push_back(std::move(flags));
+    st.channels = std::move(chans);
+    if (d.mode == Mode::Fifo && st.samples() > 0) fit_fifo_time(st, d.fifo->device_rate_hz);
+    rep.samples += st.samples();
+    rec.streams.push_back(std::move(st));
+  }
+  for (const auto& e : j.events) {
+    const std::string stream = (e.device >= 0 && static_cast<std::size_t>(e.device) < map.devices.size())
+                                   ? map.devices[static_cast<std::size_t>(e.device)].name : "";
+    rec.events.push_back({e.t_ns, e.kind, stream, e.detail});
+  }
+  const std::int64_t t_end = j.events.empty() ? h.session_monotonic_ns : j.events.back().t_ns;
+  if (!j.clean_end) rec.events.push_back({t_end, "recovered", "", "journal had no end marker (crash or kill)"});
+  for (const auto& p : j.problems) rec.events.push_back({t_end, "journal_damage", "", p});
+  std::stable_sort(rec.events.begin(), rec.events.end(), [](auto& a, auto& b) { return a.t_ns < b.t_ns; });
+  if (report) *report = rep;
+  return rec;
+}
+
+}  // namespace burrbench::rig

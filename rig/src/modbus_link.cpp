@@ -1,0 +1,133 @@
+#include "burrbench/rig/modbus_link.hpp"
+
+#include <sys/select.h>
+#include <time.h>
+
+#include <cerrno>
+#include <cmath>
+#include <thread>
+
+#include <fmt/format.h>
+#include <modbus/modbus.h>
+
+#include "burrbench/data_schema/error.hpp"
+
+namespace burrbench::rig {
+
+std::int64_t monotonic_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+const char* to_string(ReadStatus s) {
+  switch (s) {
+    case ReadStatus::Ok: return "ok";
+    case ReadStatus::Timeout: return "timeout";
+    case ReadStatus::Exception: return "exception";
+    case ReadStatus::BadData: return "bad_data";
+    case ReadStatus::Disconnected: return "disconnected";
+    case ReadStatus::EarlyReply: return "early_reply";
+  }
+  return "?";
+}
+
+ModbusLink::ModbusLink(const DeviceSpec& s) : settings_(s) {
+  if (s.transport == Transport::Tcp) {
+    // _pi resolves host names; plain modbus_new_tcp takes dotted IPv4 only.
+    ctx_ = modbus_new_tcp_pi(s.host.c_str(), std::to_string(s.port).c_str());
+  } else {
+    ctx_ = modbus_new_rtu(s.serial.c_str(), s.baud, s.parity, s.data_bits, s.stop_bits);
+  }
+  if (!ctx_) throw InputError(describe(), "device", "settings libmodbus accepts", modbus_strerror(errno));
+  modbus_set_error_recovery(ctx_, MODBUS_ERROR_RECOVERY_NONE);
+  const auto us = static_cast<std::uint32_t>(s.timeout_ms * 1000.0);
+  modbus_set_response_timeout(ctx_, us / 1'000'000, us % 1'000'000);
+  modbus_set_byte_timeout(ctx_, us / 1'000'000, us % 1'000'000);
+}
+
+ModbusLink::~ModbusLink() {
+  close();
+  if (ctx_) modbus_free(ctx_);
+}
+
+std::string ModbusLink::describe() const {
+  return settings_.transport == Transport::Tcp
+             ? fmt::format("tcp {}:{}", settings_.host, settings_.port)
+             : fmt::format("rtu {} {} {}{}{}", settings_.serial, settings_.baud, settings_.data_bits,
+                           settings_.parity, settings_.stop_bits);
+}
+
+bool ModbusLink::connect(std::string* error) {
+  close();
+  if (modbus_connect(ctx_) != 0) {
+    if (error) *error = fmt::format("{}: connect: {}", describe(), modbus_strerror(errno));
+    modbus_close(ctx_);
+    return false;
+  }
+  // libmodbus waits with select(): a descriptor beyond FD_SETSIZE would corrupt memory.
+  if (modbus_get_socket(ctx_) >= FD_SETSIZE) {
+    if (error) *error = fmt::format("{}: descriptor {} ≥ FD_SETSIZE", describe(), modbus_get_socket(ctx_));
+    modbus_close(ctx_);
+    return false;
+  }
+  connected_ = true;
+  return true;
+}
+
+void ModbusLink::close() {
+  if (ctx_ && connected_) modbus_close(ctx_);
+  connected_ = false;
+}
+
+double ModbusLink::wire_time_s(const DeviceSpec& d) const {
+  if (settings_.transport != Transport::Rtu) return 0.0;
+  const int bits = 1 + settings_.data_bits + (settings_.parity == 'N' ? 0 : 1) + settings_.stop_bits;
+  const int bytes = 8 + 5 + 2 * d.count;  // request + reply frames
+  return bytes * bits / static_cast<double>(settings_.baud);
+}
+
+ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& regs) {
+  ReadResult r;
+  regs.resize(static_cast<std::size_t>(d.count));
+  if (!connected_) {
+    r.status = ReadStatus::Disconnected;
+    r.t_send_ns = r.t_recv_ns = monotonic_ns();
+    return r;
+  }
+  modbus_set_slave(ctx_, d.slave);
+  // RTU: drop anything already waiting (a reply that came after we gave up on it).
+  if (settings_.transport == Transport::Rtu) modbus_flush(ctx_);
+  r.t_send_ns = monotonic_ns();
+  const int rc = d.function == 3 ? modbus_read_registers(ctx_, d.start, d.count, regs.data())
+                                 : modbus_read_input_registers(ctx_, d.start, d.count, regs.data());
+  const int err = errno;
+  r.t_recv_ns = monotonic_ns();
+  if (rc == d.count) {
+    // A reply faster than the wire allows was already on its way: it answers an
+    // earlier request, so it is not this poll's data.
+    const double wire = wire_time_s(d);
+    if (wire > 0 && static_cast<double>(r.t_recv_ns - r.t_send_ns) * 1e-9 < 0.8 * wire) {
+      r.status = ReadStatus::EarlyReply;
+      r.detail = fmt::format("reply after {:.2f} ms, the wire needs {:.2f} ms", (r.t_recv_ns - r.t_send_ns) * 1e-6, wire * 1e3);
+    }
+    return r;
+  }
+  r.detail = rc < 0 ? modbus_strerror(err) : fmt::format("{} registers instead of {}", rc, d.count);
+  if (rc >= 0) r.status = ReadStatus::BadData;
+  else if (err == ETIMEDOUT) r.status = ReadStatus::Timeout;
+  else if (err > MODBUS_ENOBASE && err <= MODBUS_ENOBASE + MODBUS_EXCEPTION_GATEWAY_TARGET) r.status = ReadStatus::Exception;
+  else if (err == EMBBADDATA || err == EMBBADCRC || err == EMBBADSLAVE || err == EMBBADEXC || err == EMBUNKEXC || err == EMBMDATA)
+    r.status = ReadStatus::BadData;
+  else r.status = ReadStatus::Disconnected;
+  return r;
+}
+
+void ModbusLink::drain_late_reply(const DeviceSpec& d) {
+  if (settings_.transport != Transport::Rtu || !ctx_) return;
+  const auto wait = std::chrono::duration<double>(d.timeout_ms * 1e-3 + 2 * wire_time_s(d));
+  std::this_thread::sleep_for(wait);
+  modbus_flush(ctx_);
+}
+
+}  // namespace burrbench::rig

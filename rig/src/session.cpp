@@ -1,0 +1,328 @@
+#include "burrbench/rig/session.hpp"
+
+#include <time.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <condition_variable>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/rig/decode.hpp"
+#include "burrbench/rig/modbus_link.hpp"
+
+namespace burrbench::rig {
+namespace {
+
+void sleep_until_ns(std::int64_t t) {
+  timespec ts{static_cast<time_t>(t / 1'000'000'000), static_cast<long>(t % 1'000'000'000)};
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  }
+}
+
+// Interval jitter histogram, 1 µs bins up to 100 ms.
+struct JitterHist {
+  std::vector<std::uint64_t> bins = std::vector<std::uint64_t>(100001, 0);
+  std::uint64_t n = 0;
+  double max_us = 0;
+  void add(double us) {
+    us = std::abs(us);
+    max_us = std::max(max_us, us);
+    ++bins[std::min<std::size_t>(bins.size() - 1, static_cast<std::size_t>(us))];
+    ++n;
+  }
+  double quantile(double q) const {
+    if (!n) return 0;
+    const auto target = static_cast<std::uint64_t>(std::ceil(q * static_cast<double>(n)));
+    std::uint64_t acc = 0;
+    for (std::size_t i = 0; i < bins.size(); ++i)
+      if ((acc += bins[i]) >= target) return static_cast<double>(i + 1);
+    return max_us;
+  }
+};
+
+}  // namespace
+
+struct DeviceState {
+  const DeviceSpec* spec = nullptr;
+  std::uint16_t index = 0;
+  std::int64_t period_ns = 0, next_ns = 0;
+  std::int64_t last_counter = -1;
+  std::int64_t last_ok_send_ns = -1;
+  bool pending_gap = false;         // polls failed since the last good one
+  std::int64_t gap_since_ns = 0;
+  std::int64_t reconnect_at_ns = 0, backoff_ns = 20'000'000;
+  mutable std::mutex m;             // guards status + hist
+  DeviceStatus status;
+  JitterHist hist;
+};
+
+struct Session::Impl {
+  RigMap map;
+  std::unique_ptr<JournalWriter> journal;
+  std::vector<std::unique_ptr<DeviceState>> devices;
+  std::vector<std::thread> pollers;
+  std::thread writer;
+  std::atomic<bool> stopping{false};
+  std::atomic<bool> stopped_writer{false};
+  std::int64_t start_ns = 0;
+
+  std::mutex qm;
+  std::condition_variable qcv;
+  std::vector<JournalSample> qs;
+  std::vector<JournalEvent> qe;
+  mutable std::mutex fm;
+  std::optional<std::string> fatal;
+
+  void push(JournalSample&& s) {
+    std::lock_guard lk(qm);
+    qs.push_back(std::move(s));
+  }
+  void event(int device, std::string kind, std::string detail) {
+    std::lock_guard lk(qm);
+    qe.push_back({monotonic_ns(), device, std::move(kind), std::move(detail)});
+  }
+
+  void write_loop() {
+    std::vector<JournalSample> s;
+    std::vector<JournalEvent> e;
+    for (;;) {
+      const bool last = stopped_writer.load();
+      {
+        std::unique_lock lk(qm);
+        qcv.wait_for(lk, std::chrono::milliseconds(50), [&] { return stopped_writer.load(); });
+        s.swap(qs);
+        e.swap(qe);
+      }
+      try {
+        for (auto& x : e) journal->append(x);
+        for (auto& x : s) journal->append(x);
+        journal->sync();
+      } catch (const std::exception& ex) {
+        std::lock_guard lk(fm);
+        fatal = ex.what();
+        stopping = true;  // stop loudly: the caller sees fatal()
+        return;
+      }
+      s.clear();
+      e.clear();
+      if (last) return;
+    }
+  }
+
+  void on_good(DeviceState& st, const ReadResult& r, const std::vector<std::uint16_t>& regs) {
+    const auto& d = *st.spec;
+    std::lock_guard lk(st.m);
+    ++st.status.polls;
+    if (st.last_ok_send_ns >= 0) {
+      const auto dt = r.t_send_ns - st.last_ok_send_ns;
+      if (dt < 2 * st.period_ns) st.hist.add(static_cast<double>(dt - st.period_ns) * 1e-3);
+    }
+    st.last_ok_send_ns = r.t_send_ns;
+    if (d.mode == Mode::Latest) {
+      std::int64_t counter = -1;
+      if (d.counter) counter = decode_integer(regs.data() + (d.counter->address - d.start), d.counter->type, d.counter->order);
+      if (st.pending_gap) {
+        event(st.index, "gap", fmt::format("no data for {:.1f} ms; counter {} → {}",
+                                           (r.t_send_ns - st.gap_since_ns) * 1e-6, st.last_counter, counter));
+        st.pending_gap = false;
+      }
+      if (counter >= 0 && st.last_counter >= 0 && counter < st.last_counter)
+        event(st.index, "counter_reset", fmt::format("counter {} → {} (device restarted?)", st.last_counter, counter));
+      if (counter >= 0) st.last_counter = counter;
+      push({st.index, r.t_send_ns, r.t_recv_ns, counter, regs});
+      ++st.status.samples;
+      note_values(st, regs, d.start);
+      return;
+    }
+    // FIFO: take every record newer than the last one taken.
+    const auto& f = *d.fifo;
+    const std::int64_t newest = decode_integer(regs.data() + (f.counter.address - d.start), f.counter.type, f.counter.order);
+    std::int64_t from = newest;  // first poll or after a reset: the newest record only
+    if (st.last_counter >= 0 && newest >= st.last_counter) {
+      from = st.last_counter + 1;
+      const std::int64_t oldest = newest - f.depth + 1;
+      if (from < oldest) {
+        event(st.index, "gap", fmt::format("fifo overrun: records {}..{} lost", from, oldest - 1));
+        st.status.lost += static_cast<std::uint64_t>(oldest - from);
+        from = oldest;
+      }
+    } else if (st.last_counter >= 0) {
+      event(st.index, "counter_reset", fmt::format("fifo counter {} → {} (device restarted?)", st.last_counter, newest));
+    }
+    if (st.pending_gap) {
+      event(st.index, "reconnect_gap", fmt::format("no poll for {:.1f} ms, fifo resumed at record {}",
+                                                   (r.t_send_ns - st.gap_since_ns) * 1e-6, from));
+      st.pending_gap = false;
+    }
+    const int first_off = f.first_register - d.start;
+    for (std::int64_t c = from; c <= newest; ++c) {
+      const auto slot = static_cast<int>(f.depth - 1 - (newest - c));
+      const auto* rec = regs.data() + first_off + slot * f.record_registers;
+      std::vector<std::uint16_t> one(rec, rec + f.record_registers);
+      note_values(st, one, 0);
+      push({st.index, r.t_send_ns, r.t_recv_ns, c, std::move(one)});
+      ++st.status.samples;
+    }
+    st.last_counter = newest;
+  }
+
+  static void note_values(DeviceState& st, const std::vector<std::uint16_t>& regs, int base) {
+    const auto& ch = st.spec->channels.front();
+    st.status.last.resize(ch.registers.size());
+    if (!decode_channel(ch, regs, base, st.status.last)) ++st.status.invalid;
+  }
+
+  void on_bad(DeviceState& st, ModbusLink& link, const ReadResult& r) {
+    {
+      std::lock_guard lk(st.m);
+      if (r.status == ReadStatus::Timeout) ++st.status.timeouts;
+      else ++st.status.errors;
+      if (!st.pending_gap) {
+        st.pending_gap = true;
+        st.gap_since_ns = r.t_send_ns;
+      }
+    }
+    if (r.status != ReadStatus::Disconnected || link.connected())
+      event(st.index, std::string(to_string(r.status)), r.detail);
+    const auto& d = *st.spec;
+    if (d.transport == Transport::Rtu) {
+      link.drain_late_reply(d);
+    } else if (r.status != ReadStatus::Exception && link.connected()) {
+      link.close();  // timeout or bad data: the stream may be out of step — start afresh
+      st.reconnect_at_ns = monotonic_ns();
+      st.backoff_ns = 20'000'000;
+    }
+  }
+
+  void try_reconnect(DeviceState& st, ModbusLink& link) {
+    const auto now = monotonic_ns();
+    if (now < st.reconnect_at_ns) return;
+    std::string err;
+    if (link.connect(&err)) {
+      {
+        std::lock_guard lk(st.m);
+        ++st.status.reconnects;
+      }
+      event(st.index, "reconnect", link.describe());
+      st.backoff_ns = 20'000'000;
+    } else {
+      st.reconnect_at_ns = now + st.backoff_ns;
+      st.backoff_ns = std::min<std::int64_t>(st.backoff_ns * 2, 1'000'000'000);
+    }
+  }
+
+  // One thread: a TCP device, or every device on one RS-485 bus (one request at a time).
+  void poll_loop(std::vector<DeviceState*> group) {
+    ModbusLink link(*group.front()->spec);
+    std::string err;
+    if (!link.connect(&err)) event(group.front()->index, "fault", err);
+    std::vector<std::uint16_t> regs;
+    while (!stopping.load()) {
+      auto* st = *std::min_element(group.begin(), group.end(), [](auto* a, auto* b) { return a->next_ns < b->next_ns; });
+      sleep_until_ns(st->next_ns);
+      if (stopping.load()) break;
+      const auto deadline = st->next_ns;
+      st->next_ns += st->period_ns;
+      // Overrun: skip deadlines already past instead of bursting to catch up.
+      const auto now = monotonic_ns();
+      if (now > st->next_ns) {
+        const auto skip = (now - st->next_ns) / st->period_ns + 1;
+        st->next_ns += skip * st->period_ns;
+        std::lock_guard lk(st->m);
+        st->status.missed_polls += static_cast<std::uint64_t>(skip);
+      }
+      (void)deadline;
+      if (!link.connected()) {
+        try_reconnect(*st, link);
+        if (!link.connected()) {
+          std::lock_guard lk(st->m);
+          ++st->status.missed_polls;
+          if (!st->pending_gap) {
+            st->pending_gap = true;
+            st->gap_since_ns = now;
+          }
+          continue;
+        }
+      }
+      const auto r = link.read(*st->spec, regs);
+      if (r.status == ReadStatus::Ok) on_good(*st, r, regs);
+      else on_bad(*st, link, r);
+    }
+    link.close();
+  }
+};
+
+Session::Session(RigMap map, const std::filesystem::path& journal, const std::string& header_json)
+    : impl_(std::make_unique<Impl>()) {
+  auto& I = *impl_;
+  I.map = std::move(map);
+  I.journal = std::make_unique<JournalWriter>(journal, header_json);
+  I.start_ns = monotonic_ns();
+  for (std::size_t i = 0; i < I.map.devices.size(); ++i) {
+    auto st = std::make_unique<DeviceState>();
+    st->spec = &I.map.devices[i];
+    st->index = static_cast<std::uint16_t>(i);
+    st->period_ns = static_cast<std::int64_t>(std::llround(1e9 / st->spec->rate_hz));
+    st->next_ns = I.start_ns + 20'000'000;
+    st->status.name = st->spec->name;
+    st->status.rate_hz = st->spec->rate_hz;
+    st->status.first_channel = st->spec->channels.front().name;
+    I.devices.push_back(std::move(st));
+  }
+  I.event(-1, "start", fmt::format("{} device(s)", I.devices.size()));
+  I.writer = std::thread([&I] { I.write_loop(); });
+  std::map<std::string, std::vector<DeviceState*>> buses;
+  for (auto& st : I.devices) {
+    if (st->spec->transport == Transport::Rtu) buses[st->spec->serial].push_back(st.get());
+    else I.pollers.emplace_back([&I, p = st.get()] { I.poll_loop({p}); });
+  }
+  for (auto& [path, group] : buses) I.pollers.emplace_back([&I, g = group] { I.poll_loop(g); });
+}
+
+Session::~Session() { stop(); }
+
+SessionStatus Session::status() const {
+  SessionStatus s;
+  s.elapsed_s = static_cast<double>(monotonic_ns() - impl_->start_ns) * 1e-9;
+  for (const auto& st : impl_->devices) {
+    std::lock_guard lk(st->m);
+    auto d = st->status;
+    d.jitter_p99_us = st->hist.quantile(0.99);
+    d.jitter_max_us = st->hist.max_us;
+    d.achieved_hz = s.elapsed_s > 0 ? static_cast<double>(d.polls) / s.elapsed_s : 0;
+    s.devices.push_back(std::move(d));
+  }
+  s.journal_blocks = impl_->journal->blocks_written();
+  return s;
+}
+
+std::optional<std::string> Session::fatal() const {
+  std::lock_guard lk(impl_->fm);
+  return impl_->fatal;
+}
+
+void Session::stop() {
+  auto& I = *impl_;
+  if (I.stopped_writer.load()) return;
+  I.stopping = true;
+  for (auto& t : I.pollers) t.join();
+  I.pollers.clear();
+  I.event(-1, "stop", "");
+  I.stopped_writer = true;
+  I.qcv.notify_all();
+  I.writer.join();
+  if (!fatal()) {
+    try {
+      I.journal->finish();
+    } catch (const std::exception& e) {
+      std::lock_guard lk(I.fm);
+      I.fatal = e.what();
+    }
+  }
+}
+
+}  // namespace burrbench::rig

@@ -1,0 +1,151 @@
+// Register maps: the presets parse to what the hardware serves; defects and any write
+// request are refused with the file, the field and what was expected.
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/rig/register_map.hpp"
+
+using namespace burrbench;
+using namespace burrbench::rig;
+
+namespace {
+const std::string kDevice = R"(
+format = "burrbench.rig"
+format_version = "1.0"
+[[devices]]
+name = "ft"
+transport = "tcp"
+host = "127.0.0.1"
+port = 502
+slave = 9
+rate_hz = 100
+start = 180
+count = 6
+  [[devices.channels]]
+  name = "force_N"
+  unit = "N"
+  type = "int16"
+  registers = [180, 181, 182]
+  scale = 0.01
+)";
+
+std::string message_of(const std::string& text) {
+  try {
+    parse_rig_map(text, "m.toml");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+std::string with(const std::string& from, const std::string& to) {
+  std::string t = kDevice;
+  const auto at = t.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return t.replace(at, from.size(), to);
+}
+}  // namespace
+
+TEST(RegisterMap, VirtualPresetMatchesContractE) {
+  const auto m = load_rig_map(std::string(BURRBENCH_SOURCE_DIR) + "/examples/rigs/virtual.toml");
+  ASSERT_EQ(m.devices.size(), 3u);
+  const auto& ft = m.devices[0];
+  EXPECT_EQ(ft.slave, 9);
+  EXPECT_EQ(ft.start, 180);
+  EXPECT_EQ(ft.count, 42);
+  EXPECT_EQ(ft.counter->address, 220);
+  EXPECT_EQ(ft.channels[0].name, "force_N");
+  EXPECT_EQ(ft.channels[0].registers, (std::vector<int>{200, 202, 204}));
+  EXPECT_EQ(m.devices[1].slave, 1);
+  EXPECT_EQ(m.devices[1].channels[0].type, ValueType::Int32);
+  EXPECT_DOUBLE_EQ(m.devices[1].channels[0].scale, 0.001);
+  EXPECT_EQ(m.devices[2].channels[0].negate_if_register, 1);
+}
+
+TEST(RegisterMap, RobotiqPresetIsRtuSlave9At19200) {
+  const auto m = load_rig_map(std::string(BURRBENCH_SOURCE_DIR) + "/examples/rigs/robotiq-ft300-az-spindle.toml");
+  const auto& ft = m.devices[0];
+  EXPECT_EQ(ft.transport, Transport::Rtu);
+  EXPECT_EQ(ft.slave, 9);
+  EXPECT_EQ(ft.baud, 19200);
+  EXPECT_EQ(ft.parity, 'N');
+  EXPECT_EQ(ft.start, 180);
+  EXPECT_EQ(ft.count, 6);
+  EXPECT_EQ(m.devices[1].serial, m.devices[2].serial);  // one bus, one thread
+}
+
+TEST(RegisterMap, FifoPresetParses) {
+  const auto m = load_rig_map(std::string(BURRBENCH_SOURCE_DIR) + "/examples/rigs/virtual-fifo.toml");
+  ASSERT_TRUE(m.devices[0].fifo);
+  EXPECT_EQ(m.devices[0].fifo->depth, 8);
+  EXPECT_EQ(m.devices[0].sample_registers(), 12);
+}
+
+TEST(RegisterMap, MinimalMapParses) {
+  const auto m = parse_rig_map(kDevice, "m.toml");
+  EXPECT_EQ(m.devices[0].channels[0].registers.size(), 3u);
+}
+
+TEST(RegisterMap, WriteRequestsAreRefused) {
+  for (const auto& bad : {with("start = 180", "start = 180\nwrite_registers = [1]"),
+                          with("start = 180", "function = \"write_multiple\"\nstart = 180"),
+                          with("format_version = \"1.0\"", "format_version = \"1.0\"\n[write]\nx = 1")}) {
+    const auto msg = message_of(bad);
+    EXPECT_NE(msg.find("m.toml"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("read-only"), std::string::npos) << msg;
+  }
+}
+
+TEST(RegisterMap, DefectsNameFileFieldAndExpectation) {
+  struct Case { std::string text, field; };
+  const Case cases[] = {
+      {with("type = \"int16\"", "type = \"int24\""), "devices[0].channels[0].type"},
+      {with("registers = [180, 181, 182]", "registers = [180, 181, 190]"), "devices[0].channels[0].registers[2]"},
+      {with("count = 6", "count = 200"), "devices[0].count"},
+      {with("rate_hz = 100", "rate_hz = 0"), "devices[0].rate_hz"},
+      {with("rate_hz = 100", "rate_hz = 100\ncolour = 1"), "devices[0].colour"},
+      {with("transport = \"tcp\"", "transport = \"udp\""), "devices[0].transport"},
+      {with("slave = 9", "slave = 300"), "devices[0].slave"},
+      {with("scale = 0.01", "scale = 0"), "devices[0].channels[0].scale"},
+      {with("unit = \"N\"", "unit = \"N\"\nword_order = \"ACBD\""), "devices[0].channels[0].word_order"},
+      {with("format = \"burrbench.rig\"", "format = \"other\""), "format"},
+      {with("scale = 0.01", "scale = 0.01\nscale = 2"), "line"},
+  };
+  for (const auto& c : cases) {
+    const auto msg = message_of(c.text);
+    EXPECT_NE(msg.find("m.toml: " + c.field), std::string::npos) << "want " << c.field << ", got: " << msg;
+    EXPECT_NE(msg.find("expected"), std::string::npos) << msg;
+  }
+}
+
+TEST(RegisterMap, FifoMustOutpaceTheDevice) {
+  const std::string fifo = R"(
+format = "burrbench.rig"
+format_version = "1.0"
+[[devices]]
+name = "ft"
+transport = "tcp"
+host = "localhost"
+slave = 9
+rate_hz = 100
+mode = "fifo"
+start = 300
+count = 98
+fifo = { counter = { register = 300 }, first_register = 302, depth = 8, record_registers = 12, device_rate_hz = 1000 }
+  [[devices.channels]]
+  name = "force_N"
+  type = "float32"
+  registers = [0, 2, 4]
+)";
+  const auto msg = message_of(fifo);
+  EXPECT_NE(msg.find("devices[0].rate_hz"), std::string::npos) << msg;
+}
+
+TEST(RegisterMap, CalibrationNeedsSixColumnInput) {
+  std::string t = with("name = \"force_N\"", "name = \"strain\"");
+  t += "  [devices.calibration]\n  input = \"strain\"\n  matrix = [[1,0,0,0,0,0],[0,1,0,0,0,0],[0,0,1,0,0,0],[0,0,0,1,0,0],[0,0,0,0,1,0],[0,0,0,0,0,1]]\n";
+  const auto msg = message_of(t);  // "strain" has 3 columns
+  EXPECT_NE(msg.find("m.toml: devices[0].calibration.input: expected the name of a 6-column channel"), std::string::npos) << msg;
+}
