@@ -1,0 +1,20 @@
+#pragma once
+// Format detection and human summaries of every burrbench file (`burrbench inspect`).
+#include <filesystem>
+#include <string>
+
+namespace burrbench::data_schema {
+
+enum class FileFormat { kRecording, kSample, kParams, kManifest, kFit };
+const char* format_name(FileFormat f);  // "burrbench.recording", ...
+
+// From the HDF5 root attribute `format`, or the `format` key of a TOML or JSON file.
+// InputError when the file is none of ours.
+FileFormat detect_format(const std::filesystem::path& path);
+
+// Reads the file with its full validation and returns a multi-line summary (dims,
+// classes and voxel counts; streams, rates, durations, events; parameters ...).
+// InputError (naming file, field, expectation) when the file is invalid.
+std::string describe_file(const std::filesystem::path& path);
+
+}  // namespace burrbench::data_schema

@@ -1,0 +1,69 @@
+#pragma once
+// Shared bits of the test_formats_* tests: a temporary folder, file bytes, and an
+// assertion that a call throws InputError whose message contains given fragments.
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <initializer_list>
+#include <sstream>
+#include <string>
+
+#include "burrbench/data_schema/error.hpp"
+
+namespace burrbench::test {
+
+class TempDir {
+ public:
+  TempDir() {
+    std::string tmpl = (std::filesystem::temp_directory_path() / "bb-formats-XXXXXX").string();
+    path_ = mkdtemp(tmpl.data());
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+inline std::string file_bytes(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+inline void write_text(const std::filesystem::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary) << text;
+}
+
+// Runs f; expects an InputError whose message contains every fragment.
+inline void expect_input_error(const std::function<void()>& f, std::initializer_list<std::string> fragments) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    for (const auto& frag : fragments) EXPECT_NE(msg.find(frag), std::string::npos) << "message: " << msg << "\nmissing: " << frag;
+    return;
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected InputError, got another exception: " << e.what();
+    return;
+  }
+  ADD_FAILURE() << "expected InputError, nothing thrown";
+}
+
+// Expects a failed read that leaves the input's bytes unchanged.
+inline void expect_rejected_unchanged(const std::filesystem::path& p, const std::function<void()>& read,
+                                      std::initializer_list<std::string> fragments) {
+  const std::string before = file_bytes(p);
+  expect_input_error(read, fragments);
+  EXPECT_EQ(before, file_bytes(p)) << "input file modified: " << p;
+}
+
+}  // namespace burrbench::test
