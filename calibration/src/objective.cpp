@@ -2,6 +2,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <exception>
+#include <thread>
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
@@ -47,8 +49,8 @@ double sample_weight(const ObjectiveSettings& s, double w, bool buried) {
 class RecordingCost final : public ceres::CostFunction {
  public:
   RecordingCost(const Objective& obj, std::size_t rec, const std::vector<double>& weights,
-                std::atomic<std::uint64_t>& replays)
-      : obj_(obj), rec_(rec), w_(weights), replays_(replays) {
+                std::atomic<std::uint64_t>& replays, bool geometry_terms)
+      : obj_(obj), rec_(rec), w_(weights), replays_(replays), geometry_terms_(geometry_terms) {
     const auto& L = obj.layout();
     for (const auto& p : L.physics())
       if (p.index >= 0) {
@@ -60,8 +62,8 @@ class RecordingCost final : public ceres::CostFunction {
       }
     const auto& n = L.recordings()[rec];
     if (n.bias >= 0) { bias_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.bias), 3}); cols_.push_back({}); }
-    if (n.lag >= 0) { lag_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.lag), 1}); cols_.push_back({ColumnKind::kLagMs, 0}); }
-    if (n.depth >= 0) { depth_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.depth), 1}); cols_.push_back({ColumnKind::kDepthMm, 0}); }
+    if (n.lag >= 0) { blocks_.push_back({std::size_t(n.lag), 1}); cols_.push_back({ColumnKind::kLagMs, 0}); }
+    if (n.depth >= 0) { blocks_.push_back({std::size_t(n.depth), 1}); cols_.push_back({ColumnKind::kDepthMm, 0}); }
     for (const auto& b : blocks_) mutable_parameter_block_sizes()->push_back(int(b.size));
     set_num_residuals(int(3 * obj.models()[rec]->size()));
   }
@@ -75,7 +77,7 @@ class RecordingCost final : public ceres::CostFunction {
       for (std::size_t k = 0; k < blocks_[b].size; ++k) x[blocks_[b].offset + k] = params[b][k];
     const auto& nz = L.recordings()[rec_];
     EvalPoint at{L.physics_values(x.data()), nz.lag >= 0 ? x[std::size_t(nz.lag)] : nz.lag_fixed_ms,
-                 nz.depth >= 0 ? x[std::size_t(nz.depth)] : 0.0};
+                 nz.depth >= 0 ? x[std::size_t(nz.depth)] : 0.0, geometry_terms_};
     std::vector<Column> want;
     std::vector<int> col_of_block(blocks_.size(), -1);
     if (jac)
@@ -127,9 +129,10 @@ class RecordingCost final : public ceres::CostFunction {
   std::size_t rec_;
   const std::vector<double>& w_;
   std::atomic<std::uint64_t>& replays_;
+  bool geometry_terms_;
   std::vector<Layout::Block> blocks_;
   std::vector<Column> cols_;
-  int bias_block_ = -1, lag_block_ = -1, depth_block_ = -1;
+  int bias_block_ = -1;
 };
 
 struct BuiltProblem {
@@ -139,10 +142,11 @@ struct BuiltProblem {
 };
 
 void build(const Objective& obj, std::vector<double>& x, const SampleWeights& w,
-           const std::vector<bool>& hold, std::atomic<std::uint64_t>& replays, BuiltProblem& bp) {
+           const std::vector<bool>& hold, std::atomic<std::uint64_t>& replays, BuiltProblem& bp,
+           bool geometry_terms = true) {
   const auto& L = obj.layout();
   for (std::size_t r = 0; r < obj.models().size(); ++r) {
-    auto* cost = new RecordingCost(obj, r, w[r], replays);
+    auto* cost = new RecordingCost(obj, r, w[r], replays, geometry_terms);
     std::vector<double*> ptrs;
     for (const auto& b : cost->blocks()) ptrs.push_back(x.data() + b.offset);
     bp.problem.AddResidualBlock(cost, nullptr, ptrs);
@@ -205,7 +209,7 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
     }
   }
   BuiltProblem bp;
-  build(*this, out.x, w, options.hold, replays_, bp);
+  build(*this, out.x, w, options.hold, replays_, bp, options.geometry_terms);
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = options.max_iterations;
@@ -228,20 +232,39 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
   return out;
 }
 
-Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights& w) const {
+Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights& w,
+                               int only) const {
   Evaluation ev;
+  ev.predictions.resize(models_.size());
+  // Predict every recording concurrently: each call queues its replay on the shared pool.
+  std::vector<std::thread> threads;
+  std::vector<std::exception_ptr> errors(models_.size());
   for (std::size_t r = 0; r < models_.size(); ++r) {
-    const auto& nz = layout_.recordings()[r];
-    EvalPoint at{layout_.physics_values(x.data()),
-                 nz.lag >= 0 ? x[std::size_t(nz.lag)] : nz.lag_fixed_ms,
-                 nz.depth >= 0 ? x[std::size_t(nz.depth)] : 0.0};
-    Prediction pred;
-    models_[r]->predict(at, {}, pred);
+    if (only >= 0 && std::size_t(only) != r) continue;
+    threads.emplace_back([&, r] {
+      try {
+        const auto& nz = layout_.recordings()[r];
+        EvalPoint at{layout_.physics_values(x.data()),
+                     nz.lag >= 0 ? x[std::size_t(nz.lag)] : nz.lag_fixed_ms,
+                     nz.depth >= 0 ? x[std::size_t(nz.depth)] : 0.0};
+        models_[r]->predict(at, {}, ev.predictions[r]);
+      } catch (...) {
+        errors[r] = std::current_exception();
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  for (auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  const Robust robust{settings_.loss, settings_.loss_scale * settings_.loss_scale};
+  for (std::size_t r = 0; r < models_.size(); ++r) {
+    if (only >= 0 && std::size_t(only) != r) continue;
+    const auto& pred = ev.predictions[r];
     replays_ += pred.replays;
+    const auto& nz = layout_.recordings()[r];
     const glm::dvec3 bias = nz.bias >= 0 ? glm::dvec3(x[std::size_t(nz.bias)], x[std::size_t(nz.bias) + 1],
                                                       x[std::size_t(nz.bias) + 2])
                                          : glm::dvec3(0);
-    const Robust robust{settings_.loss, settings_.loss_scale * settings_.loss_scale};
     const auto& meas = models_[r]->measured_sensor_N();
     for (std::size_t j = 0; j < models_[r]->size(); ++j) {
       if (w[r][j] == 0) {
@@ -258,7 +281,6 @@ Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights
         ev.cost += 0.5 * sw * robust.rho(rr * rr);
       }
     }
-    ev.predictions.push_back(std::move(pred));
   }
   return ev;
 }

@@ -35,6 +35,7 @@ struct SolveOptions {
   double function_tolerance = 1e-7;
   Progress* progress = nullptr;
   std::vector<bool> hold;  // per x entry: true = held constant (empty: none)
+  bool geometry_terms = true;  // see EvalPoint::geometry_terms
 };
 
 struct SolveOutcome {
@@ -73,7 +74,8 @@ class Objective {
 
   SolveOutcome solve(const std::vector<double>& x0, const SampleWeights& w,
                      const SolveOptions& options) const;
-  Evaluation evaluate(const std::vector<double>& x, const SampleWeights& w) const;
+  // only >= 0: replay and score that recording alone (the others count as cost 0).
+  Evaluation evaluate(const std::vector<double>& x, const SampleWeights& w, int only = -1) const;
   CovarianceOutcome covariance(const std::vector<double>& x, const SampleWeights& w,
                                const std::vector<bool>& hold) const;
 

@@ -24,6 +24,9 @@ struct EvalPoint {
   PhysicsValues physics;
   double lag_ms = 0;
   double depth_mm = 0;
+  // false: C1/μ columns at fixed geometry only (no erosion-coupling term; cheaper, used
+  // by the starting-value scan).
+  bool geometry_terms = true;
 };
 
 struct Prediction {

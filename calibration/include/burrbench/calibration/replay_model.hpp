@@ -1,0 +1,91 @@
+#pragma once
+// RecordingModel backed by the voxel replay (model::replay) of one aligned recording.
+//
+// Derivatives (docs/calibration.md "Derivatives"):
+//  - C1, μ: the kernel's exact partials at fixed geometry (F_e linear in C1, F_μ linear in
+//    μ and in |F_e|), plus the erosion-coupling term: the eroded geometry depends on the
+//    class's μ·C1/α, so ∂F/∂ln C1_k and ∂F/∂ln μ_k gain −∂F/∂ln α_k (approximate when
+//    several classes are in contact at once);
+//  - ln α, lag, depth offset: central differences of whole replays with steps chosen from
+//    a measured cost sweep (steps.hpp), never Ceres's 1e-6 relative default, which is
+//    below the float resolution of χ and the voxel-scale texture of the force;
+//  - bias: linear, exact (in the objective).
+// The replays of one prediction (base + difference pairs) run on the shared ReplayPool.
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "burrbench/calibration/recording_model.hpp"
+#include "burrbench/model/experiment.hpp"
+#include "burrbench/model/replay.hpp"
+#include "burrbench/model/volume.hpp"
+
+namespace burrbench::calibration {
+
+// Worker threads, each with its own copy of every sample volume (Volume is not
+// thread-safe); replays restore their volume through the undo log.
+class ReplayPool {
+ public:
+  ReplayPool(const std::map<std::string, data_schema::SampleVolume>& samples, int threads);
+  ~ReplayPool();
+  ReplayPool(const ReplayPool&) = delete;
+  ReplayPool& operator=(const ReplayPool&) = delete;
+
+  struct Job {
+    const std::string* sample_id;
+    double radius_mm;
+    model::ModelParams params;
+    model::Trajectory trajectory;
+    model::ReplayOptions options;
+    model::ReplayResult result;  // out
+  };
+  // Runs every job (any thread may call; calls may overlap) and returns when all are done.
+  void run(std::vector<Job>& jobs);
+  int threads() const { return int(workers_.size()); }
+
+ private:
+  void work(std::size_t w);
+  std::vector<std::map<std::string, model::Volume>> volumes_;  // per worker
+  std::vector<std::thread> workers_;
+  std::mutex mu_;
+  std::condition_variable cv_, done_cv_;
+  std::deque<std::function<void(std::size_t)>> queue_;
+  bool stop_ = false;
+};
+
+struct DiffSteps {
+  double log_alpha = 0.1;  // ln α
+  double lag_ms = 1.0;
+  double depth_mm = 0.02;
+};
+
+class ReplayRecordingModel final : public RecordingModel {
+ public:
+  ReplayRecordingModel(const model::AlignedRecording& rec, ReplayPool& pool,
+                       model::ReplayOptions options = {});
+  const std::string& id() const override { return rec_.id; }
+  std::size_t size() const override { return rec_.t_s.size(); }
+  const std::vector<double>& t_s() const override { return rec_.t_s; }
+  const std::vector<glm::dvec3>& measured_sensor_N() const override { return rec_.force_sensor_N; }
+  void predict(const EvalPoint& at, const std::vector<Column>& columns,
+               Prediction& out) const override;
+
+  const model::AlignedRecording& recording() const { return rec_; }
+  void set_steps(const DiffSteps& s) { steps_ = s; }
+  const DiffSteps& steps() const { return steps_; }
+
+ private:
+  const model::AlignedRecording& rec_;
+  ReplayPool& pool_;
+  model::ReplayOptions options_;
+  DiffSteps steps_;
+};
+
+model::ModelParams to_model_params(const PhysicsValues& v);
+
+}  // namespace burrbench::calibration

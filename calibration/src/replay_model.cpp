@@ -1,0 +1,170 @@
+#include "burrbench/calibration/replay_model.hpp"
+
+#include <cmath>
+
+#include "burrbench/data_schema/error.hpp"
+
+namespace burrbench::calibration {
+
+static_assert(kLabels == model::kMaxClasses, "calibration and model disagree on class labels");
+
+model::ModelParams to_model_params(const PhysicsValues& v) {
+  model::ModelParams p;
+  for (int k = 1; k < kLabels; ++k)
+    p.by_label[std::size_t(k)] = {v.alpha[std::size_t(k)], v.c1[std::size_t(k)], v.mu[std::size_t(k)]};
+  return p;
+}
+
+ReplayPool::ReplayPool(const std::map<std::string, data_schema::SampleVolume>& samples,
+                       int threads) {
+  const std::size_t n = std::size_t(std::max(1, threads));
+  volumes_.resize(n);
+  for (const auto& [id, s] : samples) {
+    model::Volume v = model::Volume::from_sample(s);
+    for (std::size_t w = 0; w + 1 < n; ++w) volumes_[w].emplace(id, v);
+    volumes_[n - 1].emplace(id, std::move(v));
+  }
+  for (std::size_t w = 0; w < n; ++w) workers_.emplace_back([this, w] { work(w); });
+}
+
+ReplayPool::~ReplayPool() {
+  {
+    std::lock_guard lk(mu_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  for (auto& t : workers_) t.join();
+}
+
+void ReplayPool::work(std::size_t w) {
+  for (;;) {
+    std::function<void(std::size_t)> f;
+    {
+      std::unique_lock lk(mu_);
+      cv_.wait(lk, [&] { return stop_ || !queue_.empty(); });
+      if (queue_.empty()) return;
+      f = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    f(w);
+  }
+}
+
+void ReplayPool::run(std::vector<Job>& jobs) {
+  std::size_t remaining = jobs.size();
+  std::exception_ptr error;
+  {
+    std::lock_guard lk(mu_);
+    for (auto& job : jobs)
+      queue_.emplace_back([this, &job, &remaining, &error](std::size_t w) {
+        try {
+          auto& vol = volumes_[w].at(*job.sample_id);
+          job.result = model::replay(vol, job.radius_mm, job.params, job.trajectory, job.options, true);
+        } catch (...) {
+          std::lock_guard lk2(mu_);
+          if (!error) error = std::current_exception();
+        }
+        std::lock_guard lk2(mu_);
+        if (--remaining == 0) done_cv_.notify_all();
+      });
+  }
+  cv_.notify_all();
+  std::unique_lock lk(mu_);
+  done_cv_.wait(lk, [&] { return remaining == 0; });
+  if (error) std::rethrow_exception(error);
+}
+
+ReplayRecordingModel::ReplayRecordingModel(const model::AlignedRecording& rec, ReplayPool& pool,
+                                           model::ReplayOptions options)
+    : rec_(rec), pool_(pool), options_(options) {}
+
+void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column>& columns,
+                                   Prediction& out) const {
+  const double lag_s = at.lag_ms * 1e-3;
+  auto job = [&](const PhysicsValues& v, double lag, double depth) {
+    return ReplayPool::Job{&rec_.sample_id, rec_.radius_mm, to_model_params(v),
+                           rec_.trajectory(lag, depth), options_, {}};
+  };
+  std::vector<ReplayPool::Job> jobs;
+  jobs.push_back(job(at.physics, lag_s, at.depth_mm));
+  // Which difference pairs are needed: ln α of a class (own column or coupling term of
+  // its C1/μ), lag, depth.
+  std::array<int, kLabels> alpha_pair;
+  alpha_pair.fill(-1);
+  int lag_pair = -1, depth_pair = -1;
+  for (const auto& c : columns) {
+    const bool physics = c.kind == ColumnKind::kLogAlpha ||
+                         ((c.kind == ColumnKind::kLogC1 || c.kind == ColumnKind::kLogMu) &&
+                          at.geometry_terms);
+    if (physics && alpha_pair[c.label] < 0 && std::isfinite(at.physics.alpha[c.label]) &&
+        options_.erosion) {
+      alpha_pair[c.label] = int(jobs.size());
+      for (double s : {+1.0, -1.0}) {
+        PhysicsValues v = at.physics;
+        v.alpha[c.label] *= std::exp(s * steps_.log_alpha);
+        jobs.push_back(job(v, lag_s, at.depth_mm));
+      }
+    }
+    if (c.kind == ColumnKind::kLagMs && lag_pair < 0) {
+      lag_pair = int(jobs.size());
+      for (double s : {+1.0, -1.0})
+        jobs.push_back(job(at.physics, lag_s + s * steps_.lag_ms * 1e-3, at.depth_mm));
+    }
+    if (c.kind == ColumnKind::kDepthMm && depth_pair < 0) {
+      depth_pair = int(jobs.size());
+      for (double s : {+1.0, -1.0})
+        jobs.push_back(job(at.physics, lag_s, at.depth_mm + s * steps_.depth_mm));
+    }
+  }
+  pool_.run(jobs);
+  out.replays = jobs.size();
+  const std::size_t n = size();
+  const auto& base = jobs[0].result;
+  BURRBENCH_CHECK(base.samples.size() == n, "replay returned one contact per force sample");
+  out.force_sensor_N.resize(n);
+  out.buried.resize(n);
+  out.class_mask.resize(n);
+  for (std::size_t k = 0; k < std::size_t(kLabels); ++k) out.removed_mm3[k] = base.removed_mm3[k];
+  for (std::size_t j = 0; j < n; ++j) {
+    const auto& c = base.samples[j].contact;
+    out.force_sensor_N[j] = rec_.sensor_force_from_burr_force(c.force_N);
+    out.buried[j] = c.buried ? 1 : 0;
+    out.class_mask[j] = c.class_mask;
+  }
+  auto central = [&](int pair, double h, std::size_t j) {
+    const auto& p = jobs[std::size_t(pair)].result.samples[j].contact.force_N;
+    const auto& m = jobs[std::size_t(pair) + 1].result.samples[j].contact.force_N;
+    return rec_.sensor_force_from_burr_force((p - m) / (2 * h));
+  };
+  out.columns.clear();
+  for (const auto& c : columns) {
+    std::vector<glm::dvec3> col(n, glm::dvec3(0));
+    const std::size_t k = c.label;
+    for (std::size_t j = 0; j < n; ++j) {
+      const auto& ct = base.samples[j].contact;
+      const glm::dvec3 geo = alpha_pair[k] >= 0 ? central(alpha_pair[k], steps_.log_alpha, j)
+                                                : glm::dvec3(0);
+      switch (c.kind) {
+        case ColumnKind::kLogAlpha: col[j] = geo; break;
+        case ColumnKind::kLogC1: {
+          // ∂F/∂C1_k at fixed geometry: elastic partial plus friction's |F_e| scaling.
+          const double fe = glm::length(ct.elastic_N);
+          glm::dvec3 d = ct.dF_dC1[k];
+          if (fe > 0) d += ct.friction_N * (glm::dot(ct.dF_dC1[k], ct.elastic_N) / (fe * fe));
+          col[j] = rec_.sensor_force_from_burr_force(at.physics.c1[k] * d) -
+                   (at.geometry_terms ? geo : glm::dvec3(0));
+          break;
+        }
+        case ColumnKind::kLogMu:
+          col[j] = rec_.sensor_force_from_burr_force(at.physics.mu[k] * ct.dFmu_dmu[k]) -
+                   (at.geometry_terms ? geo : glm::dvec3(0));
+          break;
+        case ColumnKind::kLagMs: col[j] = central(lag_pair, steps_.lag_ms, j); break;
+        case ColumnKind::kDepthMm: col[j] = central(depth_pair, steps_.depth_mm, j); break;
+      }
+    }
+    out.columns.push_back(std::move(col));
+  }
+}
+
+}  // namespace burrbench::calibration
