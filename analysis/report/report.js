@@ -86,6 +86,23 @@
     });
   }
 
+  function overview() {
+    var el = document.getElementById("plot-overview");
+    var rec = data.recordings[data.overview];
+    if (!el || !rec) return;
+    var mag = function (v) {
+      var out = new Array(rec.t.length);
+      for (var k = 0; k < rec.t.length; k++)
+        out[k] = Math.sqrt(v[0][k] * v[0][k] + v[1][k] * v[1][k] + v[2][k] * v[2][k]);
+      return out;
+    };
+    plot(el, "|F| measured vs predicted — " + rec.id + " (" + rec.role + ")", "t (s)", "|F| (N)",
+         [{ label: "measured", stroke: MEAS[0], width: 1.5 },
+          { label: "predicted", stroke: PRED[0], width: 1.5, dash: [6, 3] }],
+         [rec.t, mag(rec.m), mag(rec.p)]);
+  }
+
+  overview();
   data.recordings.forEach(function (rec, i) { forcePlots(rec, i); residualPlots(rec, i); });
   histograms();
   document.body.setAttribute("data-plots-done", "1");

@@ -301,11 +301,28 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   b += sum.has_criteria ? (sum.pass ? "<p><span class=\"verdict pass\" id=\"verdict\">ACCEPTANCE CRITERIA: PASS</span></p>"
                                     : "<p><span class=\"verdict fail\" id=\"verdict\">ACCEPTANCE CRITERIA: FAIL</span></p>")
                         : "<p><span class=\"verdict none\" id=\"verdict\">No acceptance criteria</span></p>";
-  b += "<nav><a href=\"#cou\">Context</a><a href=\"#model\">Model</a><a href=\"#data\">Data</a>"
+  b += "<nav><a href=\"#glance\">At a glance</a><a href=\"#cou\">Context</a><a href=\"#model\">Model</a><a href=\"#data\">Data</a>"
        "<a href=\"#calib\">Calibration</a><a href=\"#params\">Parameters</a><a href=\"#force\">Force</a>"
        "<a href=\"#resid\">Residuals</a><a href=\"#metrics\">Metrics</a><a href=\"#cv\">Cross-validation</a>"
        "<a href=\"#bone\">Removed bone</a><a href=\"#accept\">Acceptance</a><a href=\"#limits\">Limitations</a>"
        "<a href=\"#repro\">Reproducibility</a></nav>";
+
+  // At a glance: the verdict, pooled |F| metrics per role and one held-out recording.
+  std::size_t overview = 0;
+  for (std::size_t i = 0; i < in.recordings.size(); ++i)
+    if (in.recordings[i].role == "validate") {
+      overview = i;
+      break;
+    }
+  b += "<h2 id=\"glance\">At a glance</h2><table><tr><th>data</th><th>n</th><th>RMSE |F| (N)</th>"
+       "<th>NRMSE |F|</th><th>R² |F|</th><th>Sprague–Geers C |F|</th></tr>";
+  for (const auto& r : rows)
+    if (r.recording_id.empty() && r.segment == "all" && r.axis == std::string("magnitude"))
+      b += "<tr>" + td(esc(r.role == "validate" ? "held-out (validate)" : "calibration")) +
+           td(std::to_string(r.m.n), true) + td(num(r.m.rmse_N), true) + td(num(r.m.nrmse), true) +
+           td(num(r.m.r2), true) + td(num(r.m.sg_combined), true) + "</tr>";
+  b += "</table>";
+  if (!in.recordings.empty()) b += "<div class=\"plot\" id=\"plot-overview\"></div>";
 
   b += "<h2 id=\"cou\">1. Context of use</h2><p>" +
        esc(in.context_of_use.empty() ? "(not stated)" : in.context_of_use) + "</p>";
@@ -411,7 +428,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
                                                      {"criteria sha256", in.criteria_sha256},
                                                      {"analysis input created", in.provenance.created_utc}});
 
-  json data = {{"recordings", json::array()}, {"histograms", hists}};
+  json data = {{"recordings", json::array()}, {"histograms", hists}, {"overview", overview}};
   for (const auto& r : in.recordings) data["recordings"].push_back(decimated(r));
 
   std::string html = tmpl;

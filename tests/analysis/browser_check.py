@@ -1,0 +1,100 @@
+"""Loads a report in headless Chromium and prints what a reader would see, as JSON.
+
+Usage: /usr/bin/python3 browser_check.py REPORT.html WORKDIR
+Prints {"console_errors": [...], "dom": "...", "plots_done": bool, "screenshot": path,
+"nonblank_plot_fraction": float, "alerts": [...]}; used by the analysis tests.
+"""
+import json
+import os
+import re
+import struct
+import subprocess
+import sys
+import zlib
+
+CHROMIUM = "/usr/bin/chromium"
+
+
+def chromium(args, workdir, timeout=90):
+    base = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync",
+            "--no-first-run", "--user-data-dir=" + os.path.join(workdir, "profile"),
+            "--enable-logging=stderr", "--v=0", "--virtual-time-budget=5000"]
+    return subprocess.run(base + args, capture_output=True, text=True, timeout=timeout)
+
+
+def decode_png(path):
+    """RGB rows of an 8-bit RGB/RGBA non-interlaced PNG (what Chromium writes)."""
+    data = open(path, "rb").read()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n", "not a PNG"
+    pos, idat, width = 8, b"", 0
+    while pos < len(data):
+        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + n]
+        if kind == b"IHDR":
+            width, height, depth, ctype, _, _, interlace = struct.unpack(">IIBBBBB", body)
+            assert depth == 8 and ctype in (2, 6) and interlace == 0, (depth, ctype, interlace)
+            bpp = 3 if ctype == 2 else 4
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + n
+    raw = zlib.decompress(idat)
+    stride = width * bpp
+    rows, prev = [], bytearray(stride)
+    for y in range(height):
+        f = raw[y * (stride + 1)]
+        line = bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for i in range(stride):
+            a = line[i - bpp] if i >= bpp else 0
+            b = prev[i]
+            c = prev[i - bpp] if i >= bpp else 0
+            if f == 1:
+                line[i] = (line[i] + a) & 255
+            elif f == 2:
+                line[i] = (line[i] + b) & 255
+            elif f == 3:
+                line[i] = (line[i] + (a + b) // 2) & 255
+            elif f == 4:
+                p = a + b - c
+                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+        rows.append(bytes(line))
+        prev = line
+    return width, height, bpp, rows
+
+
+def main():
+    report, workdir = os.path.abspath(sys.argv[1]), sys.argv[2]
+    os.makedirs(workdir, exist_ok=True)
+    url = "file://" + report
+    dom = chromium(["--dump-dom", url], workdir)
+    # Console messages: "[...:CONSOLE(line)] "text", source: ..." on stderr.
+    console = [l for l in dom.stderr.splitlines() if ":CONSOLE" in l or "Uncaught" in l]
+    errors = [l for l in console if re.search(r"error|uncaught|refused|violat", l, re.I)]
+    alerts = [l for l in dom.stderr.splitlines() if "alert" in l.lower() and "CONSOLE" in l]
+    shot = os.path.join(workdir, "screenshot.png")
+    sc = chromium(["--screenshot=" + shot, "--window-size=1280,1600", "--hide-scrollbars", url], workdir)
+    w, h, bpp, rows = decode_png(shot)
+    # Share of plot-canvas pixels that are neither white nor near-white: uPlot draws
+    # lines on a white canvas, so an empty plot area would give ~0.
+    coloured = 0
+    total = 0
+    for row in rows[::4]:
+        for x in range(0, w * bpp, bpp * 4):
+            r, g, b = row[x], row[x + 1], row[x + 2]
+            total += 1
+            if max(r, g, b) - min(r, g, b) > 40:  # saturated: plot lines, not text
+                coloured += 1
+    print(json.dumps({
+        "console": console,
+        "console_errors": errors + [l for l in sc.stderr.splitlines() if ":CONSOLE" in l and "rror" in l],
+        "alerts": alerts,
+        "dom": dom.stdout,
+        "screenshot": shot,
+        "width": w, "height": h,
+        "coloured_fraction": coloured / max(1, total),
+    }))
+
+
+if __name__ == "__main__":
+    main()
