@@ -2,6 +2,7 @@
 
 #include <bit>
 #include <cmath>
+#include <limits>
 #include <cmath>
 
 #include "burrbench/data_schema/error.hpp"
@@ -60,7 +61,7 @@ bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, 
     if (negate) v = -v;
     if (!std::isfinite(v) || (ch.min && v < *ch.min) || (ch.max && v > *ch.max)) {
       ok = false;
-      v = 0.0;
+      v = std::numeric_limits<double>::quiet_NaN();
     }
     out[i] = v;
   }

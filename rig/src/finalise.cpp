@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include <fmt/format.h>
@@ -133,7 +134,8 @@ data_schema::Recording recording_from_journal(const JournalContents& j, const st
     const int base = d.mode == Mode::Fifo ? 0 : d.start;
     std::vector<data_schema::Channel> chans;
     for (const auto& c : d.channels) chans.push_back({c.name, c.unit, c.registers.size(), {}});
-    data_schema::Channel flags{"sample_flags", "", 1, {}};  // bit 0: a value invalid (NaN/out of range)
+    // bit 0: a value was invalid (NaN/Inf/out of range); bit 1: counter unchanged (repeat)
+    data_schema::Channel flags{"sample_flags", "1", 1, {}};
     std::vector<double> buf;
     for (const auto* s : samples) {
       st.t_send_ns.push_back(s->t_send_ns);
@@ -143,15 +145,22 @@ data_schema::Recording recording_from_journal(const JournalContents& j, const st
       if (has_counter) st.device_counter.push_back(s->counter);
       const bool stale = d.mode == Mode::Latest && has_counter && st.device_counter.size() >= 2 &&
                          s->counter == st.device_counter[st.device_counter.size() - 2];
-      st.stale.push_back(stale ? 1 : 0);
-      rep.stale += stale;
       bool ok = true;
       for (std::size_t c = 0; c < d.channels.size(); ++c) {
         buf.assign(d.channels[c].registers.size(), 0.0);
-        ok = decode_channel(d.channels[c], s->regs, base, buf) && ok;
+        if (!decode_channel(d.channels[c], s->regs, base, buf)) {
+          ok = false;
+          // NaN on a stale row is the recording's "no fresh value" marker; positions
+          // must stay finite, so they hold 0 and rely on the stale flag alone.
+          if (d.channels[c].name == data_schema::kPosition)
+            for (auto& v : buf)
+              if (std::isnan(v)) v = 0.0;
+        }
         chans[c].values.insert(chans[c].values.end(), buf.begin(), buf.end());
       }
-      flags.values.push_back(ok ? 0.0 : 1.0);
+      st.stale.push_back((stale || !ok) ? 1 : 0);
+      flags.values.push_back((ok ? 0.0 : 1.0) + (stale ? 2.0 : 0.0));
+      rep.stale += stale;
       rep.invalid += !ok;
     }
     if (d.calibration) {

@@ -172,7 +172,8 @@ ChannelSpec parse_channel(const Reader& r) {
   ChannelSpec c;
   c.name = r.str("name");
   if (c.name.empty()) r.fail("name", "a non-empty name", "\"\"");
-  c.unit = r.str("unit", std::string());
+  c.unit = r.str("unit");
+  if (c.unit.empty()) r.fail("unit", "a unit (\"N\", \"N*mm\", \"mm\", \"rpm\", \"1\" for none, ...)", "\"\"");
   c.type = parse_type(r, "type");
   c.order = parse_order(r, "word_order");
   const auto& regs = r.array("registers");

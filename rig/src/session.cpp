@@ -1,11 +1,14 @@
 #include "burrbench/rig/session.hpp"
 
+#include <pthread.h>
+#include <sched.h>
 #include <time.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <condition_variable>
+#include <cstring>
 #include <map>
 
 #include <fmt/format.h>
@@ -87,6 +90,9 @@ struct Session::Impl {
   }
 
   void write_loop() {
+    sched_param sp{};
+    sp.sched_priority = 10;  // below the pollers, above the busy host (optional, as above)
+    pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
     std::vector<JournalSample> s;
     std::vector<JournalEvent> e;
     for (;;) {
@@ -217,6 +223,13 @@ struct Session::Impl {
 
   // One thread: a TCP device, or every device on one RS-485 bus (one request at a time).
   void poll_loop(std::vector<DeviceState*> group) {
+    // Real-time priority keeps the period tight on a busy host; the thread sleeps between
+    // deadlines and blocks on I/O, so it cannot starve the machine. Optional: without
+    // the privilege we poll at normal priority and say so.
+    sched_param sp{};
+    sp.sched_priority = 20;
+    if (const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp); rc != 0)
+      event(group.front()->index, "realtime", fmt::format("SCHED_FIFO not available ({}); normal priority", std::strerror(rc)));
     ModbusLink link(*group.front()->spec);
     std::string err;
     if (!link.connect(&err)) event(group.front()->index, "fault", err);

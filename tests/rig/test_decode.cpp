@@ -91,7 +91,8 @@ TEST(Decode, ChannelScaleOffsetNegateAndFlags) {
   EXPECT_DOUBLE_EQ(out[0], -2.0);
   c.max = 1.5;
   EXPECT_FALSE(decode_channel(c, regs, 10, out));  // 2.0 > max → flagged
-  EXPECT_EQ(out[0], 0.0);
+  EXPECT_TRUE(std::isnan(out[0]));
+  EXPECT_DOUBLE_EQ(out[2], 1.05);  // the valid columns keep their values
 }
 
 TEST(Decode, NanAndInfFloatsAreFlaggedNotPassedOn) {
@@ -102,6 +103,6 @@ TEST(Decode, NanAndInfFloatsAreFlaggedNotPassedOn) {
     const auto r = regs_of(bits(bad), WordOrder::ABCD);
     double out[1] = {42};
     EXPECT_FALSE(decode_channel(c, r, 0, out));
-    EXPECT_EQ(out[0], 0.0);
+    EXPECT_TRUE(std::isnan(out[0]));
   }
 }

@@ -19,7 +19,7 @@ double decode_raw(const std::uint16_t* regs, ValueType type, WordOrder order);
 std::int64_t decode_integer(const std::uint16_t* regs, ValueType type, WordOrder order);
 
 // Decode one channel from a sample's registers (base = address of regs[0]).
-// Returns false (value set to 0) when a value is NaN/Inf or outside [min, max].
+// Returns false when a value is NaN/Inf or outside [min, max]; such values are NaN.
 bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, int base,
                     std::span<double> out);
 
