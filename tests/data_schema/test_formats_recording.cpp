@@ -58,7 +58,7 @@ bb::Recording make_recording(const std::filesystem::path& input) {
   stage.channels = {p};
   r.streams = {ft, stage};
   r.events = {{10, "start", "", ""}, {30, "fault", "ft_sensor", "timeout après 3 essais"}, {20, "tare", "", "x"}};
-  r.provenance = burrbench::make_provenance({input});
+  r.provenance = input.empty() ? burrbench::make_provenance({}) : burrbench::make_provenance({input});
   return r;
 }
 
@@ -173,7 +173,8 @@ TEST(FormatsRecording, ValidatorNamesFieldAndExpectation) {
         {"/streams/ft_sensor/t_ns[4]", "non-decreasing"});
   check([](bb::Recording& r) { r.streams[0].t_recv_ns.pop_back(); },
         {"/streams/ft_sensor/t_recv_ns", "50 values"});
-  check([](bb::Recording& r) { r.streams[0].channels[0].width = 2; }, {"force_N", "width 3"});
+  check([](bb::Recording& r) { r.streams[0].channels[0].width = 1; r.streams[0].channels[0].values.resize(50); },
+        {"force_N", "width 3 and unit \"N\""});
   check([](bb::Recording& r) { r.streams[0].raw_registers.pop_back(); }, {"raw_registers", "50×2"});
   check([](bb::Recording& r) { r.meta.burr_axis_rig = {0, 0, 2}; }, {"/meta/@burr_axis_rig", "unit vector"});
   check([](bb::Recording& r) { r.meta.bias.resize(5); }, {"/meta/bias", "6 values"});
