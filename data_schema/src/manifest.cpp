@@ -78,8 +78,7 @@ void check_param(const std::string& file, const std::string& f, const ParamSpec&
 std::string display(const std::filesystem::path& p, const std::filesystem::path& base) {
   if (base.empty()) return p.string();
   const auto rel = p.lexically_relative(base);
-  if (!rel.empty() && *rel.begin() != "..") return rel.generic_string();
-  return p.string();
+  return rel.empty() ? p.string() : rel.generic_string();
 }
 
 }  // namespace
@@ -394,7 +393,12 @@ toml::array pts(const std::vector<glm::dvec3>& p) {
   return out;
 }
 toml::table param(const ParamSpec& p) {
-  return toml::table{{"initial", p.initial}, {"lower", p.lower}, {"upper", p.upper}, {"fixed", p.fixed}};
+  toml::table t{{"initial", p.initial}, {"fixed", p.fixed}};
+  if (!p.fixed || p.lower != p.initial || p.upper != p.initial) {
+    t.insert("lower", p.lower);
+    t.insert("upper", p.upper);
+  }
+  return t;
 }
 
 }  // namespace

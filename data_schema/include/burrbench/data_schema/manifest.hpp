@@ -127,7 +127,7 @@ const char* to_string(BuriedPolicy b);
 void validate(const ExperimentManifest& m, const std::string& file_for_messages);
 // Parses, resolves paths, validates, resolves class keys against the samples' class tables.
 ExperimentManifest read_manifest(const std::filesystem::path& path);
-// Writes paths relative to the manifest's folder when they lie below it.
+// Writes paths relative to the manifest's folder.
 void write_manifest(const std::filesystem::path& path, const ExperimentManifest& m);
 
 }  // namespace burrbench::data_schema

@@ -1,0 +1,115 @@
+// Fit result (JSON): round trip with NaN (null) and ∞, strict keys and versions.
+#include <cmath>
+#include <cstring>
+
+#include "burrbench/data_schema/fit_result.hpp"
+#include "test_formats_util.hpp"
+
+namespace bb = burrbench::data_schema;
+using burrbench::test::expect_input_error;
+using burrbench::test::TempDir;
+
+namespace {
+
+bb::FitResult make_fit() {
+  bb::FitResult f;
+  f.parameters = {{1, "compact", "c1", "N/mm^2", 12.000000000000002, 0.5, 11.0, 13.0, 10.9, 13.2, false, true, ""},
+                  {1, "compact", "alpha", "N/mm^2", INFINITY, bb::kNaN, bb::kNaN, bb::kNaN, bb::kNaN, bb::kNaN, true,
+                   true, ""},
+                  {2, "trabecular", "mu", "1", bb::kNaN, bb::kNaN, bb::kNaN, bb::kNaN, bb::kNaN, bb::kNaN, false,
+                   false, "no trabecular contact in any segment"}};
+  f.nuisance = {{"plunge", "bias_x", "N", -0.0123, 0.001, -0.014, -0.010, false},
+                {"plunge", "lag", "ms", 2.0, bb::kNaN, bb::kNaN, bb::kNaN, true}};
+  f.covariance = {{"c1", "mu"}, {0.25, -1e-310, -1e-310, 1e-4}};
+  f.correlation = {{"c1", "mu"}, {1.0, bb::kNaN, bb::kNaN, 1.0}};
+  f.residuals_summary = {1000, 20, 5, 0.02, 1.05};
+  f.solver = {12, 100.0, 1.0 / 3.0, 0.5, 40, "CONVERGENCE: relative decrease", 4};
+  f.cross_validation = {{"sweep", {{"rmse_N", 0.05}, {"bias_N", {0.1, 0.2, 0.3}}}}};
+  f.metrics = {{"r2", 0.98}, {"nested", {{"a", "b"}}}};
+  f.settings = {{"loss", "huber"}, {"buried", "exclude"}};
+  f.experiment_path = "/x/E.toml";
+  f.experiment_sha256 = std::string(64, 'f');
+  f.provenance = burrbench::make_provenance({});
+  return f;
+}
+
+bool same(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0 || (std::isnan(a) && std::isnan(b)); }
+
+}  // namespace
+
+TEST(FormatsFit, RoundTripKeepsEveryValue) {
+  TempDir dir;
+  const auto a = make_fit();
+  bb::write_fit(dir / "f.json", a);
+  const std::string text = burrbench::test::file_bytes(dir / "f.json");
+  EXPECT_NE(text.find("\"estimate\": null"), std::string::npos);  // NaN → null
+  EXPECT_NE(text.find("\"estimate\": \"inf\""), std::string::npos);
+  const auto b = bb::read_fit(dir / "f.json");
+  ASSERT_EQ(b.parameters.size(), a.parameters.size());
+  for (std::size_t i = 0; i < a.parameters.size(); ++i) {
+    const auto &p = a.parameters[i], &q = b.parameters[i];
+    EXPECT_EQ(q.class_id, p.class_id);
+    EXPECT_EQ(q.class_name, p.class_name);
+    EXPECT_EQ(q.name, p.name);
+    EXPECT_EQ(q.unit, p.unit);
+    for (auto [x, y] : {std::pair{p.estimate, q.estimate}, {p.std_error, q.std_error}, {p.ci95_low, q.ci95_low},
+                        {p.ci95_high, q.ci95_high}, {p.bootstrap_ci95_low, q.bootstrap_ci95_low},
+                        {p.bootstrap_ci95_high, q.bootstrap_ci95_high}})
+      EXPECT_TRUE(same(x, y)) << p.name << " " << x << " vs " << y;
+    EXPECT_EQ(q.fixed, p.fixed);
+    EXPECT_EQ(q.identifiable, p.identifiable);
+    EXPECT_EQ(q.reason, p.reason);
+  }
+  ASSERT_EQ(b.nuisance.size(), 2u);
+  EXPECT_EQ(b.nuisance[0].estimate, -0.0123);
+  EXPECT_TRUE(b.nuisance[1].fixed);
+  EXPECT_EQ(b.covariance.names, a.covariance.names);
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_TRUE(same(b.covariance.matrix[i], a.covariance.matrix[i]));
+    EXPECT_TRUE(same(b.correlation.matrix[i], a.correlation.matrix[i]));
+  }
+  EXPECT_EQ(b.residuals_summary.samples_buried, 20u);
+  EXPECT_EQ(b.residuals_summary.rms_normalised, 1.05);
+  EXPECT_EQ(b.solver.final_cost, 1.0 / 3.0);
+  EXPECT_EQ(b.solver.termination, a.solver.termination);
+  EXPECT_EQ(b.solver.multistart, 4u);
+  ASSERT_EQ(b.cross_validation.size(), 1u);
+  EXPECT_EQ(b.cross_validation[0].metrics, a.cross_validation[0].metrics);
+  EXPECT_EQ(b.metrics, a.metrics);
+  EXPECT_EQ(b.settings, a.settings);
+  EXPECT_EQ(b.experiment_sha256, a.experiment_sha256);
+  EXPECT_EQ(b.provenance.software_version, a.provenance.software_version);
+  // A parameter set from the estimates.
+  auto ok = a;
+  ok.parameters[2] = {2, "trabecular", "mu", "1", 0.2, 0.01, 0.18, 0.22, bb::kNaN, bb::kNaN, false, true, ""};
+  ok.parameters.push_back({2, "trabecular", "c1", "N/mm^2", 3.0, 0.1, 2.8, 3.2, bb::kNaN, bb::kNaN, false, true, ""});
+  ok.parameters.push_back({1, "compact", "mu", "1", 0.3, 0.01, 0.28, 0.32, bb::kNaN, bb::kNaN, false, true, ""});
+  const auto ps = bb::parameter_set_from(ok, "f.json");
+  EXPECT_EQ(ps.classes.at(1).c1_N_per_mm2, 12.000000000000002);
+  EXPECT_TRUE(std::isinf(ps.classes.at(1).alpha_N_per_mm2));
+  EXPECT_EQ(ps.classes.at(2).mu, 0.2);
+}
+
+TEST(FormatsFit, BadFilesAreRejected) {
+  TempDir dir;
+  bb::write_fit(dir / "f.json", make_fit());
+  const std::string good = burrbench::test::file_bytes(dir / "f.json");
+  auto bad = [&](const std::string& from, const std::string& to, std::initializer_list<std::string> frags) {
+    std::string text = good;
+    const auto pos = text.find(from);
+    ASSERT_NE(pos, std::string::npos) << from;
+    text.replace(pos, from.size(), to);
+    burrbench::test::write_text(dir / "F.json", text);
+    burrbench::test::expect_rejected_unchanged(dir / "F.json", [&] { bb::read_fit(dir / "F.json"); }, frags);
+  };
+  bad("\"format_version\": \"1.0\"", "\"format_version\": \"2.0\"", {"F.json: format_version", "unknown major version"});
+  bad("\"format_version\": \"1.0\"", "\"format_version\": \"1.0\", \"extra\": 1", {"F.json: extra: expected a known key"});
+  bad("\"samples_used\": 1000", "\"samples_used\": 1000, \"x\": 2", {"residuals_summary.x", "known key"});
+  bad("\"samples_used\": 1000", "\"samples_used\": -5", {"residuals_summary.samples_used", "non-negative integer"});
+  bad("\"name\": \"c1\"", "\"name\": \"c2\"", {"parameters[0].name: expected alpha | c1 | mu"});
+  bad("\"estimate\": 12.000000000000002", "\"estimate\": null", {"parameters[0].estimate", "identifiable"});
+  bad("\"estimate\": 12.000000000000002", "\"estimate\": \"twelve\"", {"parameters[0].estimate"});
+  bad("\"format\": \"burrbench.fit\"", "\"format\": \"burrbench.fitt\"", {"F.json: format: expected \"burrbench.fit\""});
+  bad("\"termination\"", "\"termination\" \"", {"F.json", "valid JSON"});
+  bad("\"matrix\": [", "\"matrix\": [1.0, ", {"correlation.matrix", "2×2 values"});
+}
