@@ -1,0 +1,96 @@
+// burrbench replay: the simulated burr follows every recording of an experiment;
+// predicted forces (on the burr and at the sensor) with diagnostics, beside the measured.
+#include <chrono>
+#include <map>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/data_schema/progress.hpp"
+#include "burrbench/data_schema/provenance.hpp"
+#include "burrbench/model/experiment.hpp"
+#include "verb_registry.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace burrbench;
+
+struct Args {
+  std::string experiment, params, out, csv;
+  double step_us = 0;
+  bool no_erosion = false;
+};
+
+void run(const Args& a) {
+  if (!(a.step_us >= 0)) throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
+  const auto t0 = std::chrono::steady_clock::now();
+  const model::Experiment e = model::load_experiment(a.experiment);
+  const auto params = data_schema::read_params(a.params);
+  const model::ModelParams mp = model::ModelParams::from(params);
+  std::vector<fs::path> inputs{a.experiment, a.params};
+  for (const auto& s : e.manifest.samples) inputs.push_back(s.path);
+  for (const auto& r : e.manifest.recordings) inputs.push_back(r.path);
+  for (const auto& in : inputs) {
+    std::error_code ec;
+    for (const std::string* out : {&a.out, &a.csv})
+      if (!out->empty() && fs::exists(*out) && fs::equivalent(*out, in, ec))
+        throw InputError(*out, "<file>", "an output path that is not one of the inputs");
+  }
+  const Provenance prov = make_provenance(inputs);
+  model::ReplayOptions opt;
+  opt.step_s = a.step_us * 1e-6;
+  opt.erosion = !a.no_erosion;
+
+  // Every recording is replayed from its sample as scanned (recordings of one sample are
+  // taken to drill separate spots); the undo log restores the volume in between.
+  std::map<std::string, model::Volume> volumes;
+  std::vector<model::RecordingPrediction> preds;
+  std::size_t samples = 0, buried = 0;
+  std::array<double, model::kMaxClasses> removed{};
+  for (const auto& r : e.recordings) {
+    auto it = volumes.find(r.sample_id);
+    if (it == volumes.end()) it = volumes.emplace(r.sample_id, model::Volume::from_sample(e.samples.at(r.sample_id))).first;
+    TerminalProgress progress("replay " + r.id);
+    preds.push_back(model::predict(r, it->second, mp, opt, &progress));
+    const auto& p = preds.back();
+    std::size_t b = 0;
+    for (auto x : p.buried) b += x;
+    samples += p.t_s.size();
+    buried += b;
+    for (int k = 0; k < model::kMaxClasses; ++k) removed[std::size_t(k)] += p.removed_mm3[std::size_t(k)];
+    progress.finish(fmt::format("{} samples, {} buried, {} steps, {:.2f} s replay", p.t_s.size(), b, p.steps, p.wall_s));
+  }
+  model::write_prediction(a.out, preds, prov);
+  if (!a.csv.empty()) model::write_prediction_csv(a.csv, preds);
+  std::string rem;
+  for (int k = 1; k < model::kMaxClasses; ++k) {
+    if (removed[std::size_t(k)] == 0) continue;
+    std::string name = std::to_string(k);
+    for (const auto& [id, s] : e.samples)
+      if (auto c = s.classes.find(std::uint8_t(k)); c != s.classes.end()) name = c->second;
+    rem += fmt::format(" {}={:.6g}", name, removed[std::size_t(k)]);
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  fmt::print("replay: {} recordings, {} samples, {} buried, removed mm³:{}, wall {:.2f} s\n", preds.size(),
+             samples, buried, rem.empty() ? " none" : rem, wall);
+  fmt::print("wrote {}{}\n", a.out, a.csv.empty() ? "" : " and " + a.csv);
+}
+
+void setup(CLI::App& root) {
+  auto* cmd = root.add_subcommand("replay", "Replay an experiment's recordings through the model: "
+                                            "predicted force at every sample");
+  auto a = std::make_shared<Args>();
+  cmd->add_option("--experiment", a->experiment, "experiment manifest (.toml)")->required();
+  cmd->add_option("--params", a->params, "parameter set (.toml)")->required();
+  cmd->add_option("--out", a->out, "prediction file to write (.h5, format burrbench.prediction)")->required();
+  cmd->add_option("--csv", a->csv, "also write the prediction as CSV");
+  cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")->capture_default_str();
+  cmd->add_flag("--no-erosion", a->no_erosion, "forces only, the volume is not eroded");
+  cmd->callback([a] { run(*a); });
+}
+BURRBENCH_VERB("replay", setup);
+
+}  // namespace

@@ -1,0 +1,93 @@
+// burrbench synth: a recording with known ground truth (model driven through a protocol).
+#include <chrono>
+#include <fstream>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/data_schema/progress.hpp"
+#include "burrbench/data_schema/provenance.hpp"
+#include "burrbench/data_schema/recording.hpp"
+#include "burrbench/data_schema/sample_volume.hpp"
+#include "burrbench/model/synth.hpp"
+#include "verb_registry.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace burrbench;
+
+struct Args {
+  std::string sample, protocol, params, out, truth;
+  double noise_N = 0, lag_ms = 0, step_us = 0;
+  std::vector<double> bias_N{0, 0, 0};
+  std::uint64_t seed = 1;
+};
+
+void refuse_overwriting_inputs(const Args& a) {
+  for (const std::string* out : {&a.out, &a.truth})
+    for (const std::string* in : {&a.sample, &a.protocol, &a.params}) {
+      std::error_code ec;
+      if (fs::exists(*out) && fs::equivalent(*out, *in, ec))
+        throw InputError(*out, "<file>", "an output path that is not one of the inputs");
+    }
+}
+
+void run(const Args& a) {
+  if (a.bias_N.size() != 3) throw InputError("command line", "--bias-N", "three numbers x,y,z (N)");
+  if (!(a.step_us >= 0)) throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
+  refuse_overwriting_inputs(a);
+  const auto sample = data_schema::read_sample(a.sample);
+  const auto protocol = model::read_protocol(a.protocol);
+  const auto params = data_schema::read_params(a.params);
+  model::SynthOptions o;
+  o.noise_N = a.noise_N;
+  o.bias_N = {a.bias_N[0], a.bias_N[1], a.bias_N[2]};
+  o.lag_ms = a.lag_ms;
+  o.seed = a.seed;
+  o.replay.step_s = a.step_us * 1e-6;
+  const Provenance prov = make_provenance({a.sample, a.protocol, a.params});
+  TerminalProgress progress("synth");
+  const auto t0 = std::chrono::steady_clock::now();
+  auto res = model::synthesize(sample, protocol, params, o, prov, &progress);
+  res.recording.meta.sample_id = fs::path(a.sample).stem().string();
+  data_schema::write_recording(a.out, res.recording);
+  const auto truth = model::truth_json(res, sample, protocol, params, o, prov);
+  {
+    const std::string tmp = a.truth + ".tmp";
+    std::ofstream f(tmp);
+    f << truth.dump(2) << "\n";
+    if (!f) throw InputError(a.truth, "<file>", "a writable output path");
+    f.close();
+    fs::rename(tmp, a.truth);
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::string removed;
+  for (const auto& [name, v] : truth["removed_mm3_by_class"].items())
+    removed += fmt::format(" {}={:.6g}", name, v.get<double>());
+  progress.finish(fmt::format("{} samples ({:.3f} s), {} buried, removed mm³:{}, wall {:.2f} s",
+                              res.path.t_s.size(), res.path.duration_s, res.buried_samples, removed, wall));
+  fmt::print("wrote {} and {}\n", a.out, a.truth);
+}
+
+void setup(CLI::App& root) {
+  auto* cmd = root.add_subcommand("synth", "Write a recording with known ground truth: the model "
+                                           "driven through a protocol on a sample");
+  auto a = std::make_shared<Args>();
+  cmd->add_option("--sample", a->sample, "sample volume (.h5)")->required();
+  cmd->add_option("--protocol", a->protocol, "protocol (.toml, format burrbench.protocol)")->required();
+  cmd->add_option("--params", a->params, "true parameter set (.toml)")->required();
+  cmd->add_option("--out", a->out, "recording to write (.h5)")->required();
+  cmd->add_option("--truth", a->truth, "ground truth to write (.json)")->required();
+  cmd->add_option("--noise-N", a->noise_N, "σ of Gaussian force noise per component (N)")->capture_default_str();
+  cmd->add_option("--bias-N", a->bias_N, "force bias x,y,z (N, sensor frame)")->delimiter(',')->expected(3);
+  cmd->add_option("--lag-ms", a->lag_ms, "recorded force at t = true force at t − lag (ms)")->capture_default_str();
+  cmd->add_option("--seed", a->seed, "noise seed")->capture_default_str();
+  cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")->capture_default_str();
+  cmd->callback([a] { run(*a); });
+}
+BURRBENCH_VERB("synth", setup);
+
+}  // namespace

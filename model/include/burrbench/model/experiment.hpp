@@ -1,0 +1,124 @@
+#pragma once
+// From an experiment (manifest + recordings + samples) to what the replay engine and the
+// calibration consume: per recording, the burr's trajectory in the VOLUME frame at the
+// force timestamps, the measured force in the SENSOR frame at the same instants, and the
+// map from a predicted force on the burr to what the sensor should read.
+//
+// Frames and signs (docs/replay.md):
+//   x_vol = R_reg·(x_stage_rig + tool_offset_rig) + t_reg        (registration rig → volume)
+//   ω_vol = 2π·rpm/60 · spin_sign · R_reg·shaft_axis_rig          (rpm may be signed)
+//   F_sensor_pred = s · R_sensor→rigᵀ · R_regᵀ · F_on_burr_vol,   s = −1 if the sensor
+//                   measures the force on the sample (= −F_on_burr), +1 if on the burr.
+// Lag: the force recorded at t is caused by the burr position at t − lag; positions and
+// rpm are interpolated linearly at t − lag (clamped to the first/last stage sample).
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "burrbench/data_schema/manifest.hpp"
+#include "burrbench/data_schema/recording.hpp"
+#include "burrbench/data_schema/sample_volume.hpp"
+#include "burrbench/model/registration.hpp"
+#include "burrbench/model/replay.hpp"
+
+namespace burrbench::model {
+
+// A time series sampled at strictly increasing instants (seconds on the recording's clock:
+// 0 = first force sample). Linear interpolation, clamped outside [t.front(), t.back()].
+template <class T>
+struct Series {
+  std::vector<double> t_s;
+  std::vector<T> value;
+  T at(double t) const;
+};
+extern template struct Series<double>;
+extern template struct Series<glm::dvec3>;
+
+// One recording, aligned and mapped to the volume frame; everything needed to rebuild
+// its trajectory for any lag / depth offset without file I/O.
+struct AlignedRecording {
+  std::string id;
+  std::string sample_id;
+  std::filesystem::path file;
+  std::int64_t t0_ns = 0;                 // host time of the first force sample
+
+  std::vector<double> t_s;                // force timestamps (s from t0), strictly increasing
+  std::vector<glm::dvec3> force_sensor_N; // measured, sensor frame, as recorded
+  std::vector<std::uint8_t> use;          // 1: inside a used segment (all 1 without segments)
+  std::size_t dropped_force_samples = 0;  // stale or non-increasing timestamps
+
+  Series<glm::dvec3> stage_rig_mm;        // stage-reported position (fresh samples only)
+  Series<double> spindle_rpm;             // signed: negative = reverse spin
+
+  RigidTransform rig_to_vol;              // from the manifest or fitted to fiducials
+  std::optional<RegistrationFit> fiducial_fit;  // set when fitted (RMS in fiducial_fit->rms_mm)
+  glm::dvec3 tool_offset_rig_mm{0};
+  glm::dvec3 shaft_axis_vol{0, 0, 1};     // unit
+  int spin_sign = 1;
+  double radius_mm = 0;
+  glm::dmat3 sensor_to_rig{1.0};
+  double sensor_sign = -1;                // −1: sensor measures force on the sample
+  double lag_s = 0;                       // the manifest's lag_ms / 1000
+
+  // Burr centre (volume frame) for a stage position. depth_offset_mm moves the burr
+  // along −shaft_axis_vol (towards the burr tip: deeper for a feed along the shaft).
+  glm::dvec3 centre_vol_mm(const glm::dvec3& stage_rig_mm, double depth_offset_mm = 0) const;
+  glm::dvec3 omega_vol_rad_s(double rpm) const;
+
+  // The trajectory at the force timestamps for a lag (s) and depth offset (mm): cheap
+  // re-interpolation, no file I/O. Use this in fits.
+  Trajectory trajectory(double lag_s, double depth_offset_mm = 0) const;
+  Trajectory trajectory() const { return trajectory(lag_s, 0); }
+
+  // What the sensor should read for a force on the burr in the volume frame.
+  glm::dvec3 sensor_force_from_burr_force(const glm::dvec3& force_on_burr_vol_N) const;
+};
+
+// Canonical channels, alignment, segments, registration. `file_for_messages` names the
+// recording file in errors (InputError: missing channels, empty streams, ...).
+AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
+                                 const data_schema::RecordingRef& ref,
+                                 const data_schema::Recording& rec,
+                                 const std::string& file_for_messages);
+
+// The whole experiment: manifest, every sample (by id) and every recording, aligned.
+struct Experiment {
+  data_schema::ExperimentManifest manifest;
+  std::map<std::string, data_schema::SampleVolume> samples;
+  std::vector<AlignedRecording> recordings;  // manifest order
+};
+Experiment load_experiment(const std::filesystem::path& manifest_path);
+
+// ---- replay of an experiment and its prediction file (format "burrbench.prediction") ----
+
+struct RecordingPrediction {
+  std::string recording_id;
+  std::vector<double> t_s;
+  std::vector<glm::dvec3> force_burr_vol_N;     // predicted force on the burr, volume frame
+  std::vector<glm::dvec3> force_sensor_pred_N;  // predicted sensor reading (no bias)
+  std::vector<glm::dvec3> force_sensor_meas_N;  // measured
+  std::vector<glm::dvec3> centre_vol_mm, normal_vol;
+  std::vector<double> depth_b_mm;
+  std::vector<std::uint8_t> class_mask, buried, use;
+  std::array<double, kMaxClasses> removed_mm3{};
+  std::size_t steps = 0;
+  double wall_s = 0;
+};
+
+// Replays one aligned recording from the given (start-state) volume, which is restored.
+RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const ModelParams& params,
+                            const ReplayOptions& options = {}, Progress* progress = nullptr);
+
+inline constexpr const char* kPredictionFormat = "burrbench.prediction";
+inline constexpr const char* kPredictionVersion = "1.0";
+void write_prediction(const std::filesystem::path& path, const std::vector<RecordingPrediction>& p,
+                      const Provenance& provenance);
+void write_prediction_csv(const std::filesystem::path& path, const std::vector<RecordingPrediction>& p);
+
+}  // namespace burrbench::model

@@ -1,0 +1,170 @@
+// Experiment layer: recordings → aligned, registered trajectories (docs/replay.md).
+#include "burrbench/model/experiment.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+
+namespace burrbench::model {
+
+template <class T>
+T Series<T>::at(double t) const {
+  BURRBENCH_CHECK(!t_s.empty() && t_s.size() == value.size(), "empty or ragged series");
+  if (!(t > t_s.front())) return value.front();
+  if (t >= t_s.back()) return value.back();
+  const auto it = std::upper_bound(t_s.begin(), t_s.end(), t);
+  const std::size_t j = std::size_t(it - t_s.begin()) - 1;
+  const double u = (t - t_s[j]) / (t_s[j + 1] - t_s[j]);
+  return value[j] + u * (value[j + 1] - value[j]);  // u = 0 returns value[j] exactly
+}
+template struct Series<double>;
+template struct Series<glm::dvec3>;
+
+glm::dvec3 AlignedRecording::centre_vol_mm(const glm::dvec3& stage, double depth_offset_mm) const {
+  return rig_to_vol.apply(stage + tool_offset_rig_mm) - depth_offset_mm * shaft_axis_vol;
+}
+
+glm::dvec3 AlignedRecording::omega_vol_rad_s(double rpm) const {
+  return (2 * M_PI * rpm / 60.0 * double(spin_sign)) * shaft_axis_vol;
+}
+
+Trajectory AlignedRecording::trajectory(double lag, double depth_offset_mm) const {
+  Trajectory tr;
+  tr.t_s = t_s;
+  tr.centre_vol_mm.resize(t_s.size());
+  tr.omega_vol_rad_s.resize(t_s.size());
+  for (std::size_t k = 0; k < t_s.size(); ++k) {
+    const double tau = t_s[k] - lag;  // the force at t_k answers the position at t_k − lag
+    tr.centre_vol_mm[k] = centre_vol_mm(stage_rig_mm.at(tau), depth_offset_mm);
+    tr.omega_vol_rad_s[k] = omega_vol_rad_s(spindle_rpm.at(tau));
+  }
+  return tr;
+}
+
+glm::dvec3 AlignedRecording::sensor_force_from_burr_force(const glm::dvec3& f_burr_vol) const {
+  const glm::dvec3 f_rig = glm::transpose(rig_to_vol.R) * f_burr_vol;
+  return sensor_sign * (glm::transpose(sensor_to_rig) * f_rig);
+}
+
+namespace {
+
+const data_schema::Channel& channel(const data_schema::Recording& rec, const char* name,
+                                    std::size_t width, const std::string& file) {
+  const data_schema::Stream* s = rec.stream_with(name);
+  if (!s) throw InputError(file, "streams", fmt::format("a stream with the channel {}", name));
+  const data_schema::Channel* c = s->channel(name);
+  if (c->width != width || c->samples() != s->samples())
+    throw InputError(file, fmt::format("streams/{}/{}", s->name, name),
+                     fmt::format("{} column(s) and one row per sample", width),
+                     fmt::format("{} column(s), {} rows for {} samples", c->width, c->samples(), s->samples()));
+  if (s->samples() == 0) throw InputError(file, "streams/" + s->name, "at least one sample");
+  return *c;
+}
+
+// Indices of fresh samples with strictly increasing timestamps (a stale sample repeats an
+// older value, so its timestamp is not when that value was measured).
+std::vector<std::size_t> fresh(const data_schema::Stream& s) {
+  std::vector<std::size_t> keep;
+  for (std::size_t i = 0; i < s.samples(); ++i) {
+    if (!s.stale.empty() && s.stale[i]) continue;
+    if (!keep.empty() && s.t_ns[i] <= s.t_ns[keep.back()]) continue;
+    keep.push_back(i);
+  }
+  return keep;
+}
+
+double seconds(std::int64_t t_ns, std::int64_t t0_ns) { return double(t_ns - t0_ns) * 1e-9; }
+
+}  // namespace
+
+AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
+                                 const data_schema::RecordingRef& ref,
+                                 const data_schema::Recording& rec, const std::string& file) {
+  AlignedRecording a;
+  a.id = ref.id;
+  a.sample_id = ref.sample;
+  a.file = ref.path;
+
+  const auto& force = channel(rec, data_schema::kForce, 3, file);
+  const data_schema::Stream& f_stream = *rec.stream_with(data_schema::kForce);
+  const auto f_keep = fresh(f_stream);
+  if (f_keep.empty()) throw InputError(file, "streams/" + f_stream.name, "at least one fresh sample");
+  a.dropped_force_samples = f_stream.samples() - f_keep.size();
+  a.t0_ns = f_stream.t_ns[f_keep.front()];
+  for (std::size_t i : f_keep) {
+    a.t_s.push_back(seconds(f_stream.t_ns[i], a.t0_ns));
+    a.force_sensor_N.emplace_back(force.values[3 * i], force.values[3 * i + 1], force.values[3 * i + 2]);
+  }
+
+  const auto& pos = channel(rec, data_schema::kPosition, 3, file);
+  const data_schema::Stream& p_stream = *rec.stream_with(data_schema::kPosition);
+  for (std::size_t i : fresh(p_stream)) {
+    a.stage_rig_mm.t_s.push_back(seconds(p_stream.t_ns[i], a.t0_ns));
+    a.stage_rig_mm.value.emplace_back(pos.values[3 * i], pos.values[3 * i + 1], pos.values[3 * i + 2]);
+  }
+  const auto& rpm = channel(rec, data_schema::kSpindle, 1, file);
+  const data_schema::Stream& s_stream = *rec.stream_with(data_schema::kSpindle);
+  for (std::size_t i : fresh(s_stream)) {
+    a.spindle_rpm.t_s.push_back(seconds(s_stream.t_ns[i], a.t0_ns));
+    a.spindle_rpm.value.push_back(rpm.values[i]);
+  }
+  if (a.stage_rig_mm.t_s.empty()) throw InputError(file, "streams/" + p_stream.name, "at least one fresh sample");
+  if (a.spindle_rpm.t_s.empty()) throw InputError(file, "streams/" + s_stream.name, "at least one fresh sample");
+
+  // Segments: a sample is used when some use=true segment holds it and no use=false one does.
+  // Bounds are inclusive and compared in integer ns (start_s rounded to the ns), so a
+  // sample exactly on a boundary is never lost to rounding.
+  a.use.assign(a.t_s.size(), ref.segments.empty() ? 1 : 0);
+  for (bool pass_use : {true, false})
+    for (const auto& seg : ref.segments) {
+      if (seg.use != pass_use) continue;
+      const double lo = std::round(seg.start_s * 1e9), hi = std::round(seg.end_s * 1e9);
+      for (std::size_t k = 0; k < a.t_s.size(); ++k) {
+        const double rel_ns = double(f_stream.t_ns[f_keep[k]] - a.t0_ns);
+        if (rel_ns >= lo && rel_ns <= hi) a.use[k] = seg.use ? 1 : 0;
+      }
+    }
+
+  const std::string mfile = m.file.string();
+  std::size_t index = 0;
+  while (index < m.recordings.size() && m.recordings[index].id != ref.id) ++index;
+  const std::string reg_field = fmt::format("recordings[{}].registration", index);
+  if (ref.registration.from_fiducials()) {
+    a.fiducial_fit = fit_rigid(ref.registration.fiducials_rig_mm, ref.registration.fiducials_vol_mm,
+                               mfile, reg_field);
+    a.rig_to_vol = a.fiducial_fit->transform;
+  } else {
+    check_rotation(ref.registration.rotation, mfile, reg_field + ".rotation");
+    a.rig_to_vol = {ref.registration.rotation, ref.registration.translation_mm};
+  }
+  check_rotation(m.sensor.rotation_sensor_to_rig, mfile, "sensor.rotation_sensor_to_rig");
+  const double axis_len = glm::length(m.burr.shaft_axis_rig);
+  if (!(axis_len > 0)) throw InputError(mfile, "burr.shaft_axis_rig", "a non-zero vector");
+  if (!(m.burr.radius_mm > 0)) throw InputError(mfile, "burr.radius_mm", "a radius > 0");
+  if (m.burr.spin_sign != 1 && m.burr.spin_sign != -1) throw InputError(mfile, "burr.spin_sign", "1 or -1");
+  a.shaft_axis_vol = glm::normalize(a.rig_to_vol.R * (m.burr.shaft_axis_rig / axis_len));
+  a.spin_sign = m.burr.spin_sign;
+  a.radius_mm = m.burr.radius_mm;
+  a.tool_offset_rig_mm = m.burr.tool_offset_mm;
+  a.sensor_to_rig = m.sensor.rotation_sensor_to_rig;
+  a.sensor_sign = m.sensor.measures == data_schema::SensorMeasures::kForceOnSample ? -1.0 : 1.0;
+  if (!std::isfinite(ref.lag_ms)) throw InputError(mfile, fmt::format("recordings[{}].lag_ms", index), "a finite number");
+  a.lag_s = ref.lag_ms * 1e-3;
+  return a;
+}
+
+Experiment load_experiment(const std::filesystem::path& manifest_path) {
+  Experiment e;
+  e.manifest = data_schema::read_manifest(manifest_path);
+  for (const auto& s : e.manifest.samples) e.samples.emplace(s.id, data_schema::read_sample(s.path));
+  for (const auto& r : e.manifest.recordings) {
+    const auto rec = data_schema::read_recording(r.path);
+    e.recordings.push_back(align_recording(e.manifest, r, rec, r.path.string()));
+  }
+  return e;
+}
+
+}  // namespace burrbench::model

@@ -1,0 +1,192 @@
+// Experiment layer: stream alignment at different instants, lag, tool offset,
+// registration, segments, ω and the sensor-force mapping — on in-memory recordings.
+#include <cmath>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <gtest/gtest.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/model/experiment.hpp"
+
+using burrbench::InputError;
+using namespace burrbench::model;
+namespace ds = burrbench::data_schema;
+
+namespace {
+
+glm::dmat3 rotation(double angle, glm::dvec3 axis) {
+  return glm::dmat3(glm::rotate(glm::dmat4(1.0), angle, glm::normalize(axis)));
+}
+
+// Stage moves linearly: x(t) = (1 + 2t, −3t, 0.5 + t) mm; spindle ramps rpm(t) = 1000 + 500 t.
+glm::dvec3 stage_at(double t) { return {1 + 2 * t, -3 * t, 0.5 + t}; }
+double rpm_at(double t) { return 1000 + 500 * t; }
+
+ds::Stream make_stream(const char* name, std::int64_t t0_ns, std::int64_t period_ns, std::size_t n) {
+  ds::Stream s;
+  s.name = name;
+  for (std::size_t k = 0; k < n; ++k) s.t_ns.push_back(t0_ns + std::int64_t(k) * period_ns);
+  s.t_send_ns = s.t_recv_ns = s.t_ns;
+  s.stale.assign(n, 0);
+  return s;
+}
+
+// Force at 1 kHz from t = 10 s; stage at 800 Hz starting 0.3 ms earlier; spindle at 250 Hz.
+ds::Recording recording() {
+  ds::Recording rec;
+  const std::int64_t t0 = 10'000'000'000;
+  auto ft = make_stream("ft_sensor", t0, 1'000'000, 200);
+  ds::Channel f{ds::kForce, "N", 3, {}};
+  for (std::size_t k = 0; k < 200; ++k) f.values.insert(f.values.end(), {double(k), 2.0 * k, -1.0});
+  ft.channels.push_back(f);
+  auto st = make_stream("stage", t0 - 300'000, 1'250'000, 170);
+  ds::Channel p{ds::kPosition, "mm", 3, {}};
+  for (auto t : st.t_ns) {
+    const glm::dvec3 x = stage_at(double(t - t0) * 1e-9);
+    p.values.insert(p.values.end(), {x.x, x.y, x.z});
+  }
+  st.channels.push_back(p);
+  auto sp = make_stream("spindle", t0 - 2'000'000, 4'000'000, 60);
+  ds::Channel r{ds::kSpindle, "rpm", 1, {}};
+  for (auto t : sp.t_ns) r.values.push_back(rpm_at(double(t - t0) * 1e-9));
+  sp.channels.push_back(r);
+  rec.streams = {ft, st, sp};
+  return rec;
+}
+
+ds::ExperimentManifest manifest() {
+  ds::ExperimentManifest m;
+  m.file = "exp.toml";
+  m.burr.radius_mm = 1.0;
+  m.burr.shaft_axis_rig = {0, 0, 1};
+  m.burr.spin_sign = -1;
+  m.burr.tool_offset_mm = {0.1, 0.2, 0.3};
+  m.sensor.rotation_sensor_to_rig = rotation(0.7, {1, 0, 0});
+  ds::RecordingRef r;
+  r.id = "rec";
+  r.sample = "S";
+  r.registration.rotation = rotation(0.5, {0, 0, 1});
+  r.registration.translation_mm = {10, 20, 30};
+  m.recordings.push_back(r);
+  return m;
+}
+
+}  // namespace
+
+TEST(Experiment, AlignsStreamsAtForceTimestampsWithRegistrationAndToolOffset) {
+  const auto m = manifest();
+  const auto a = align_recording(m, m.recordings[0], recording(), "rec.h5");
+  ASSERT_EQ(a.t_s.size(), 200u);
+  EXPECT_EQ(a.t_s[0], 0.0);
+  EXPECT_NEAR(a.t_s[199], 0.199, 1e-15);
+  EXPECT_EQ(a.force_sensor_N[7], glm::dvec3(7, 14, -1));
+  const Trajectory tr = a.trajectory(0.0);
+  const glm::dmat3 R = m.recordings[0].registration.rotation;
+  for (std::size_t k = 0; k < 200; k += 13) {
+    const double t = a.t_s[k];
+    // linear motion: interpolation between the 800 Hz samples is exact
+    const glm::dvec3 want = R * (stage_at(t) + m.burr.tool_offset_mm) + glm::dvec3(10, 20, 30);
+    EXPECT_NEAR(glm::length(tr.centre_vol_mm[k] - want), 0, 1e-12) << k;
+    const glm::dvec3 w = 2 * M_PI * rpm_at(t) / 60 * -1.0 * (R * glm::dvec3(0, 0, 1));
+    EXPECT_NEAR(glm::length(tr.omega_vol_rad_s[k] - w), 0, 1e-9) << k;
+  }
+}
+
+TEST(Experiment, LagShiftsPositionsAndClampsAtTheEnds) {
+  const auto m = manifest();
+  const auto a = align_recording(m, m.recordings[0], recording(), "rec.h5");
+  const glm::dmat3 R = m.recordings[0].registration.rotation;
+  const double lag = 0.0123;  // the force at t answers the position at t − 12.3 ms
+  const Trajectory tr = a.trajectory(lag);
+  for (std::size_t k = 20; k < 200; k += 17) {
+    const glm::dvec3 want = R * (stage_at(a.t_s[k] - lag) + m.burr.tool_offset_mm) + glm::dvec3(10, 20, 30);
+    EXPECT_NEAR(glm::length(tr.centre_vol_mm[k] - want), 0, 1e-12) << k;
+  }
+  // Before the first stage sample (t = −0.3 ms): clamped to it.
+  const glm::dvec3 first = R * (stage_at(-0.0003) + m.burr.tool_offset_mm) + glm::dvec3(10, 20, 30);
+  EXPECT_NEAR(glm::length(tr.centre_vol_mm[0] - first), 0, 1e-12);
+  // Negative lag: after the last stage sample, clamped to it.
+  const Trajectory late = a.trajectory(-0.5);
+  const double t_last = (169 * 1.25e6 - 0.3e6) * 1e-9;
+  EXPECT_NEAR(glm::length(late.centre_vol_mm[199] - (R * (stage_at(t_last) + m.burr.tool_offset_mm) +
+                                                     glm::dvec3(10, 20, 30))), 0, 1e-12);
+  // The manifest's lag is the default.
+  auto m2 = manifest();
+  m2.recordings[0].lag_ms = 12.3;
+  const auto a2 = align_recording(m2, m2.recordings[0], recording(), "rec.h5");
+  EXPECT_DOUBLE_EQ(a2.lag_s, 0.0123);
+  EXPECT_EQ(a2.trajectory().centre_vol_mm[100], a.trajectory(0.0123).centre_vol_mm[100]);
+}
+
+TEST(Experiment, DepthOffsetMovesAlongMinusShaftAxis) {
+  const auto m = manifest();
+  const auto a = align_recording(m, m.recordings[0], recording(), "rec.h5");
+  const auto t0 = a.trajectory(0, 0), t1 = a.trajectory(0, 0.05);
+  const glm::dvec3 axis = m.recordings[0].registration.rotation * glm::dvec3(0, 0, 1);
+  EXPECT_NEAR(glm::length(t1.centre_vol_mm[50] - (t0.centre_vol_mm[50] - 0.05 * axis)), 0, 1e-12);
+}
+
+TEST(Experiment, SensorForceMapping) {
+  auto m = manifest();
+  const auto a = align_recording(m, m.recordings[0], recording(), "rec.h5");
+  const glm::dvec3 f_burr{0.3, -1.2, 2.5};
+  const glm::dmat3 Rs = m.sensor.rotation_sensor_to_rig, Rr = m.recordings[0].registration.rotation;
+  // force on sample = −F_on_burr, seen in the sensor frame: v_rig = Rs·v_sensor.
+  const glm::dvec3 want = -(glm::transpose(Rs) * (glm::transpose(Rr) * f_burr));
+  EXPECT_NEAR(glm::length(a.sensor_force_from_burr_force(f_burr) - want), 0, 1e-12);
+  // rotating the mapped force back gives −F in the volume frame
+  EXPECT_NEAR(glm::length(Rr * (Rs * a.sensor_force_from_burr_force(f_burr)) + f_burr), 0, 1e-12);
+  m.sensor.measures = ds::SensorMeasures::kForceOnBurr;
+  const auto b = align_recording(m, m.recordings[0], recording(), "rec.h5");
+  EXPECT_NEAR(glm::length(b.sensor_force_from_burr_force(f_burr) + want), 0, 1e-12);
+}
+
+TEST(Experiment, SegmentsStaleSamplesAndFiducials) {
+  auto m = manifest();
+  m.recordings[0].segments = {{0.0, 0.1, true, "a"}, {0.05, 0.06, false, "skip"}};
+  auto m_fid = m;
+  const glm::dmat3 R = rotation(-0.4, {1, 1, 1});
+  const glm::dvec3 t{1, 2, 3};
+  m_fid.recordings[0].registration = {};
+  for (glm::dvec3 p : {glm::dvec3(0, 0, 0), glm::dvec3(10, 0, 0), glm::dvec3(0, 10, 0), glm::dvec3(0, 0, 10)}) {
+    m_fid.recordings[0].registration.fiducials_rig_mm.push_back(p);
+    m_fid.recordings[0].registration.fiducials_vol_mm.push_back(R * p + t);
+  }
+  auto rec = recording();
+  rec.streams[0].stale[3] = 1;  // a repeated value: dropped
+  const auto a = align_recording(m_fid, m_fid.recordings[0], rec, "rec.h5");
+  EXPECT_EQ(a.t_s.size(), 199u);
+  EXPECT_EQ(a.dropped_force_samples, 1u);
+  EXPECT_EQ(a.force_sensor_N[3], glm::dvec3(4, 8, -1));
+  std::size_t used = 0;
+  for (std::size_t k = 0; k < a.t_s.size(); ++k) {
+    const long ms = std::lround(a.t_s[k] * 1e3);  // samples every 1 ms; bounds inclusive
+    const bool want = ms <= 100 && !(ms >= 50 && ms <= 60);
+    EXPECT_EQ(bool(a.use[k]), want) << a.t_s[k];
+    used += a.use[k];
+  }
+  EXPECT_EQ(used, 101u - 1u - 11u);  // 0..100 ms minus the stale one minus 50..60 ms
+  ASSERT_TRUE(a.fiducial_fit.has_value());
+  EXPECT_LT(a.fiducial_fit->rms_mm, 1e-10);
+  EXPECT_NEAR(glm::length(a.rig_to_vol.t - t), 0, 1e-10);
+}
+
+TEST(Experiment, MissingChannelsAreInputErrors) {
+  const auto m = manifest();
+  auto rec = recording();
+  rec.streams.erase(rec.streams.begin() + 2);  // no spindle
+  try {
+    align_recording(m, m.recordings[0], rec, "rec.h5");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("rec.h5: streams: expected a stream with the channel spindle_rpm"),
+              std::string::npos) << e.what();
+  }
+  auto rec2 = recording();
+  rec2.streams[1].channels[0].width = 2;
+  EXPECT_THROW(align_recording(m, m.recordings[0], rec2, "rec.h5"), InputError);
+  auto m2 = manifest();
+  m2.recordings[0].registration.fiducials_rig_mm = {{0, 0, 0}, {1, 1, 1}, {2, 2, 2}};
+  m2.recordings[0].registration.fiducials_vol_mm = {{0, 0, 0}, {1, 1, 1}, {2, 2, 2}};
+  EXPECT_THROW(align_recording(m2, m2.recordings[0], recording(), "rec.h5"), InputError);
+}
