@@ -4,7 +4,10 @@
 //   calibration greys default to medians of the interior (eroded) empty and bone voxels;
 // 3 local BV/TV = box-sum(bone) / box-sum(envelope), where the envelope is the bone mask
 //   closed with a radius that fills pores, so the sample's outer surface does not look
-//   porous; BV/TV ≥ compact_bvtv → compact; the compact region is then closed and opened.
+//   porous. BV/TV ≥ compact_bvtv finds the compact region robustly but blurs its edge by
+//   up to the BV/TV radius; so that region, dilated by that radius, only gates a sharper
+//   test: compact bone is where a box of half side compact_open_mm fits in the (closed)
+//   bone mask (a morphological opening), which trabecular plates and struts do not hold.
 #include "burrbench/data_schema/import/segment.hpp"
 
 #include <algorithm>
@@ -65,12 +68,14 @@ Segmentation segment_ct(const ImageVolume& ct, const SegmentationSettings& s, co
   if (!(s.bvtv_radius_mm > 0)) throw InputError(file, "bvtv_radius_mm", "a positive radius");
   if (!(s.compact_bvtv > 0 && s.compact_bvtv <= 1)) throw InputError(file, "compact_bvtv", "a value in (0, 1]");
   if (!(s.envelope_radius_mm >= 0)) throw InputError(file, "envelope_radius_mm", "a radius ≥ 0");
-  for (int r : {s.bone_open_vox, s.bone_close_vox, s.compact_open_vox, s.compact_close_vox}) {
+  if (!(s.compact_open_mm >= 0)) throw InputError(file, "compact_open_mm", "a radius ≥ 0");
+  for (int r : {s.bone_open_vox, s.bone_close_vox, s.compact_close_vox}) {
     if (r < 0 || r > 50) throw InputError(file, "open/close radius", "0..50 voxels", std::to_string(r));
   }
   const int r_bvtv = std::max(1, vox(s.bvtv_radius_mm, l));
   const int r_env = vox(s.envelope_radius_mm, l);
-  if (r_bvtv > 100 || r_env > 100) throw InputError(file, "bvtv_radius_mm/envelope_radius_mm", "at most 100 voxels");
+  const int r_open = vox(s.compact_open_mm, l);
+  if (r_bvtv > 100 || r_env > 100 || r_open > 100) throw InputError(file, "bvtv_radius_mm/envelope_radius_mm", "at most 100 voxels");
 
   // 1. bone mask
   const double threshold = s.threshold ? *s.threshold : otsu(ct.values);
@@ -101,7 +106,9 @@ Segmentation segment_ct(const ImageVolume& ct, const SegmentationSettings& s, co
   const auto esum = detail::box_sum(ef, d, r_bvtv);
   std::vector<std::uint8_t> compact(n);
   for (std::size_t i = 0; i < n; ++i) compact[i] = (esum[i] > 0 && bsum[i] >= s.compact_bvtv * esum[i]) ? 1 : 0;
-  compact = detail::open(detail::close(compact, d, s.compact_close_vox), d, s.compact_open_vox);
+  const auto gate = detail::dilate(compact, d, r_bvtv);
+  const auto solid = detail::open(detail::close(bone, d, s.compact_close_vox), d, r_open);
+  for (std::size_t i = 0; i < n; ++i) compact[i] = gate[i] & solid[i];
 
   Segmentation out;
   SampleVolume& v = out.sample;
@@ -135,7 +142,8 @@ Segmentation segment_ct(const ImageVolume& ct, const SegmentationSettings& s, co
       {"bone_open_vox", s.bone_open_vox},
       {"bone_close_vox", s.bone_close_vox},
       {"compact_close_vox", s.compact_close_vox},
-      {"compact_open_vox", s.compact_open_vox},
+      {"compact_open_mm", s.compact_open_mm},
+      {"compact_open_vox", r_open},
       {"voxel_mm", l},
       {"voxels", {{"empty", counts[0]}, {"compact", counts[1]}, {"trabecular", counts[2]}}}};
   v.segmentation_json = out.settings_used.dump();

@@ -73,6 +73,7 @@ ImageVolume read_slice_stack(const std::filesystem::path& folder, glm::dvec3 spa
   for (std::size_t z = 0; z < names.size(); ++z) {
     const auto p = folder / names[z];
     cv::Mat m = read_slice(p);
+    v.files.push_back(p);
     if (m.empty()) throw InputError(p.string(), "image", "a readable 8/16-bit TIFF or PNG", "an unreadable or corrupt file");
     if (m.channels() != 1) throw InputError(p.string(), "channels", "1 (greyscale)", std::to_string(m.channels()));
     if (m.depth() != CV_8U && m.depth() != CV_16U) throw InputError(p.string(), "bit depth", "8 or 16 bit unsigned");

@@ -15,12 +15,12 @@ struct SegmentationSettings {
   std::optional<double> empty_grey;   // calibration: grey of empty space (χ = 0); absent →
   std::optional<double> bone_grey;    //   median below / 95th percentile above threshold
   double bvtv_radius_mm = 0.4;        // half side of the box over which BV/TV is taken
-  double compact_bvtv = 0.8;          // BV/TV ≥ this → compact, else trabecular
+  double compact_bvtv = 0.8;          // BV/TV ≥ this marks the compact region (coarse)
   double envelope_radius_mm = 0.5;    // closing radius that fills pores to make the envelope
+  double compact_open_mm = 0.4;       // compact bone holds a box of this half side (fine)
   int bone_open_vox = 0;              // open/close radii (voxels) on the bone mask
   int bone_close_vox = 0;
-  int compact_close_vox = 1;          // then on the compact region (fills / removes specks)
-  int compact_open_vox = 1;
+  int compact_close_vox = 0;          // closes small pores in compact before the opening
 };
 
 struct Segmentation {

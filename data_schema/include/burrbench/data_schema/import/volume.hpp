@@ -36,6 +36,7 @@ struct ImageVolume {
   glm::dvec3 origin_mm{0, 0, 0};             // centre of voxel (0,0,0)
   VoxelType source_type = VoxelType::kFloat32;
   std::vector<float> values;                 // every supported type is exact in float32
+  std::vector<std::filesystem::path> files;  // every file read (header, data file, slices)
   std::size_t voxel_count() const { return dims[0] * dims[1] * dims[2]; }
   std::size_t index(std::size_t x, std::size_t y, std::size_t z) const {
     return x + dims[0] * (y + dims[1] * z);

@@ -1,0 +1,179 @@
+// `burrbench sample import | synth | export-nrrd`: make sample volumes from what labs have.
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/import/sample_import.hpp"
+#include "burrbench/data_schema/import/segment.hpp"
+#include "burrbench/data_schema/import/synth.hpp"
+#include "burrbench/data_schema/import/volume.hpp"
+#include "burrbench/data_schema/provenance.hpp"
+#include "burrbench/data_schema/sample_volume.hpp"
+#include "verb_registry.hpp"
+
+namespace {
+namespace fs = std::filesystem;
+using namespace burrbench;
+using namespace burrbench::data_schema;
+using namespace burrbench::data_schema::import;
+
+struct ImportArgs {
+  std::string labels, fraction, ct, out, encoding = "float32";
+  std::vector<double> spacing;
+  bool resample = false;
+  double voxel_mm = 0;
+  double budget_mb = double(kDefaultBudgetBytes >> 20);
+  std::optional<double> threshold, empty_grey, bone_grey;
+  SegmentationSettings seg;
+};
+
+// Inputs are never written: refuse an --out that names one of them.
+void check_out_not_input(const std::string& out, const std::vector<std::string>& inputs) {
+  std::error_code ec;
+  const auto o = fs::weakly_canonical(out, ec);
+  for (const auto& in : inputs) {
+    if (in.empty()) continue;
+    if (fs::weakly_canonical(in, ec) == o) throw InputError(out, "--out", "a path different from the input files", in);
+  }
+}
+
+ImageVolume load(const std::string& path, const ImportArgs& a, Interpolation interp, const ImportLimits& lim,
+                 const char* what) {
+  std::optional<glm::dvec3> spacing;
+  if (!a.spacing.empty()) spacing = glm::dvec3(a.spacing[0], a.spacing[1], a.spacing[2]);
+  ImageVolume v = read_volume(path, spacing, lim);
+  if (a.resample || a.voxel_mm > 0) {
+    const double vox = a.voxel_mm > 0 ? a.voxel_mm : std::min({v.spacing_mm.x, v.spacing_mm.y, v.spacing_mm.z});
+    if (!is_cubic(v) || std::abs(vox - v.spacing_mm.x) > 1e-9 * vox) {
+      std::cerr << fmt::format("burrbench: resampling {} ({}) from {} x {} x {} mm to {} mm cubic voxels ({})\n", what, path,
+                               v.spacing_mm.x, v.spacing_mm.y, v.spacing_mm.z, vox,
+                               interp == Interpolation::kNearest ? "nearest" : "trilinear");
+      auto files = std::move(v.files);
+      v = resample_cubic(v, vox, interp, lim);
+      v.files = std::move(files);
+    }
+  }
+  return v;
+}
+
+void run_import(const ImportArgs& a) {
+  if (a.labels.empty() == a.ct.empty()) throw InputError("<command line>", "--labels / --ct", "exactly one of --labels or --ct");
+  if (!a.fraction.empty() && a.labels.empty()) throw InputError("<command line>", "--fraction", "--labels with it (a CT gives its own fraction)");
+  if (!(a.budget_mb > 0)) throw InputError("<command line>", "--budget-mb", "a positive budget");
+  check_out_not_input(a.out, {a.labels, a.fraction, a.ct});
+  const ImportLimits lim{static_cast<std::size_t>(a.budget_mb * double(1 << 20))};
+  std::vector<fs::path> inputs;
+  SampleVolume s;
+  nlohmann::json settings;
+  if (!a.labels.empty()) {
+    const ImageVolume labels = load(a.labels, a, Interpolation::kNearest, lim, "labels");
+    std::optional<ImageVolume> fraction;
+    if (!a.fraction.empty()) fraction = load(a.fraction, a, Interpolation::kTrilinear, lim, "fraction");
+    s = sample_from_labels(labels, fraction, a.labels, a.fraction);
+    inputs = labels.files;
+    if (fraction) inputs.insert(inputs.end(), fraction->files.begin(), fraction->files.end());
+    settings = nlohmann::json::parse(s.segmentation_json);
+  } else {
+    const ImageVolume ct = load(a.ct, a, Interpolation::kTrilinear, lim, "CT");
+    SegmentationSettings seg = a.seg;
+    seg.threshold = a.threshold;
+    seg.empty_grey = a.empty_grey;
+    seg.bone_grey = a.bone_grey;
+    Segmentation r = segment_ct(ct, seg, a.ct);
+    s = std::move(r.sample);
+    settings = r.settings_used;
+    inputs = ct.files;
+  }
+  settings["resampled"] = a.resample || a.voxel_mm > 0;
+  if (!a.spacing.empty()) settings["spacing_mm_given"] = a.spacing;
+  settings["memory_budget_bytes"] = lim.max_bytes;
+  s.segmentation_json = settings.dump();
+  s.provenance = make_provenance(inputs);
+  s.sources = s.provenance.inputs;
+  write_sample(a.out, s, a.encoding == "counter8" ? FractionEncoding::kCounter8 : FractionEncoding::kFloat32);
+  std::size_t counts[3] = {0, 0, 0};
+  for (auto l : s.labels) ++counts[std::min<std::size_t>(l, 2)];
+  std::cout << fmt::format("wrote {}: {}x{}x{} voxels of {} mm, origin ({}, {}, {}) mm; empty {}, compact {}, other bone {}\n",
+                           a.out, s.dims[0], s.dims[1], s.dims[2], s.voxel_mm, s.origin_mm.x, s.origin_mm.y, s.origin_mm.z,
+                           counts[0], counts[1], counts[2]);
+}
+
+void setup(CLI::App& root) {
+  auto* sample = root.add_subcommand("sample", "Make sample volumes: import labels or a CT, synthesise, export to NRRD");
+  sample->require_subcommand(1);
+
+  // --- import ---
+  auto a = std::make_shared<ImportArgs>();
+  auto* imp = sample->add_subcommand("import", "Import a label (+ bone fraction) volume, or segment a grey CT, into a sample file");
+  imp->add_option("--labels", a->labels, "label volume (.nrrd/.nhdr/.mha/.mhd or a folder of TIFF/PNG slices)");
+  imp->add_option("--fraction", a->fraction, "bone fraction volume (float in [0,1] or uint8 counter n/255)");
+  imp->add_option("--ct", a->ct, "grey CT volume to segment (HU or micro-CT grey values)");
+  imp->add_option("--out", a->out, "output sample file (.h5)")->required();
+  imp->add_option("--spacing-mm", a->spacing, "voxel spacing sx,sy,sz (required for slice stacks; overrides the file's)")
+      ->delimiter(',')->expected(3);
+  imp->add_flag("--resample", a->resample, "resample anisotropic voxels to cubic ones (side = smallest spacing unless --voxel-mm)");
+  imp->add_option("--voxel-mm", a->voxel_mm, "cubic voxel side for resampling (implies --resample)");
+  imp->add_option("--fraction-encoding", a->encoding, "float32 or counter8 (χ = n/255)")->check(CLI::IsMember({"float32", "counter8"}));
+  imp->add_option("--budget-mb", a->budget_mb, "memory budget for one decoded volume, MiB")->capture_default_str();
+  auto thr = std::make_shared<double>(), eg = std::make_shared<double>(), bg = std::make_shared<double>();
+  auto* o_thr = imp->add_option("--threshold", *thr, "CT: bone if grey ≥ this (default: Otsu)");
+  auto* o_eg = imp->add_option("--empty-grey", *eg, "CT: grey of empty space, χ = 0 (default: median of interior empty voxels)");
+  auto* o_bg = imp->add_option("--bone-grey", *bg, "CT: grey of full bone, χ = 1 (default: median of interior bone voxels)");
+  imp->add_option("--bvtv-radius-mm", a->seg.bvtv_radius_mm, "CT: half side of the BV/TV box")->capture_default_str();
+  imp->add_option("--compact-bvtv", a->seg.compact_bvtv, "CT: BV/TV at or above which bone is compact")->capture_default_str();
+  imp->add_option("--envelope-radius-mm", a->seg.envelope_radius_mm, "CT: closing radius that fills pores for the envelope")->capture_default_str();
+  imp->add_option("--bone-open", a->seg.bone_open_vox, "CT: opening radius (voxels) on the bone mask")->capture_default_str();
+  imp->add_option("--bone-close", a->seg.bone_close_vox, "CT: closing radius (voxels) on the bone mask")->capture_default_str();
+  imp->add_option("--compact-close", a->seg.compact_close_vox, "CT: closing radius (voxels) on the bone mask before the compact opening")->capture_default_str();
+  imp->add_option("--compact-open-mm", a->seg.compact_open_mm, "CT: compact bone holds a box of this half side (opening)")->capture_default_str();
+  imp->callback([a, thr, eg, bg, o_thr, o_eg, o_bg] {
+    if (o_thr->count()) a->threshold = *thr;
+    if (o_eg->count()) a->empty_grey = *eg;
+    if (o_bg->count()) a->bone_grey = *bg;
+    run_import(*a);
+  });
+
+  // --- synth ---
+  auto ss = std::make_shared<SynthSettings>();
+  auto extent = std::make_shared<std::vector<double>>(std::vector<double>{10, 10, 6});
+  auto out = std::make_shared<std::string>();
+  auto* syn = sample->add_subcommand("synth", "Write a seeded synthetic sample: a compact layer over a trabecular core");
+  syn->add_option("--voxel-mm", ss->voxel_mm, "cubic voxel side")->capture_default_str();
+  syn->add_option("--extent-mm", *extent, "extent x,y,z")->delimiter(',')->expected(3);
+  syn->add_option("--compact-mm", ss->compact_mm, "thickness of the compact layer on top (high z)")->capture_default_str();
+  syn->add_option("--porosity", ss->porosity, "pore volume fraction of the trabecular core")->capture_default_str();
+  syn->add_option("--strut-mm", ss->strut_mm, "length scale of the trabecular plates")->capture_default_str();
+  syn->add_option("--seed", ss->seed, "random seed")->capture_default_str();
+  syn->add_option("--out", *out, "output sample file (.h5)")->required();
+  syn->callback([ss, extent, out] {
+    ss->extent_mm = glm::dvec3((*extent)[0], (*extent)[1], (*extent)[2]);
+    SampleVolume s = synth_sample(*ss);
+    s.provenance = make_provenance({});
+    write_sample(*out, s);
+    std::cout << fmt::format("wrote {}: {}x{}x{} voxels of {} mm; {}\n", *out, s.dims[0], s.dims[1], s.dims[2], s.voxel_mm,
+                             s.segmentation_json);
+  });
+
+  // --- export-nrrd ---
+  auto in = std::make_shared<std::string>();
+  auto prefix = std::make_shared<std::string>();
+  auto* exp = sample->add_subcommand("export-nrrd", "Write PREFIX_labels.nrrd and PREFIX_fraction.nrrd for 3D Slicer");
+  exp->add_option("SAMPLE", *in, "sample file (.h5)")->required();
+  exp->add_option("--out-prefix", *prefix, "output prefix")->required();
+  exp->callback([in, prefix] {
+    const SampleVolume s = read_sample(*in);
+    const std::string lp = *prefix + "_labels.nrrd", fp = *prefix + "_fraction.nrrd";
+    check_out_not_input(lp, {*in});
+    check_out_not_input(fp, {*in});
+    write_nrrd(lp, labels_image(s), VoxelType::kUint8);
+    write_nrrd(fp, fraction_image(s), VoxelType::kFloat32);
+    std::cout << fmt::format("wrote {} and {}\n", lp, fp);
+  });
+}
+
+BURRBENCH_VERB("sample", setup);
+}  // namespace
