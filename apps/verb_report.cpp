@@ -4,12 +4,14 @@
 #include <memory>
 
 #include "burrbench/analysis/report.hpp"
+#include "burrbench/data_schema/progress.hpp"
 #include "verb_registry.hpp"
 
 namespace {
 
 struct Options {
   std::string dir, out = "report.html", assets;
+  std::string context;
 };
 
 void setup(CLI::App& root) {
@@ -22,9 +24,12 @@ void setup(CLI::App& root) {
   cmd->add_option("--assets", o->assets,
                   "report assets folder (template, JS, CSS, node_modules/uplot); default: "
                   "$BURRBENCH_REPORT_ASSETS, <bin>/../share/burrbench/report, or the source tree's analysis/report");
+  cmd->add_option("--context-of-use", o->context,
+                  "context-of-use statement (when DIR holds only fit.json; validate stores its own)");
   cmd->callback([o] {
     using namespace burrbench::analysis;
-    const auto s = write_report(o->dir, o->out, {o->assets});
+    burrbench::TerminalProgress progress("report");
+    const auto s = write_report(o->dir, o->out, {o->assets, o->context, &progress});
     std::cout << "report: " << s.html.string() << " (" << s.recordings << " recordings, " << s.samples
               << " samples)\n";
     if (s.has_criteria) std::cout << "acceptance criteria: " << (s.pass ? "PASS" : "FAIL") << "\n";

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include <ceres/version.h>
@@ -13,6 +14,8 @@
 #include <opencv2/core/utility.hpp>
 
 #include "bone_image.hpp"
+#include "burrbench/analysis/replay_input.hpp"
+#include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/version.hpp"
 
@@ -258,7 +261,33 @@ fs::path default_assets_dir() {
 }
 
 ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const ReportOptions& opt) {
-  const AnalysisInput in = read_analysis_input(dir);
+  const fs::path out_dir = out_html.parent_path().empty() ? fs::path(".") : out_html.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw InputError(dir.string(), "DIR", "an analysis directory", "not a directory");
+  const bool has_fit = fs::exists(dir / "fit.json");
+  std::optional<data_schema::FitResult> fit_result;
+  if (has_fit) fit_result = data_schema::read_fit(dir / "fit.json");  // validates
+  AnalysisInput in;
+  if (fs::exists(dir / "analysis.json")) {
+    in = read_analysis_input(dir);
+  } else if (fit_result) {
+    // A calibrate output directory: replay the experiment with the fitted constants and
+    // nuisances, and keep that analysis input beside the report.
+    const auto& f = *fit_result;
+    if (f.experiment_path.empty() || !fs::exists(f.experiment_path))
+      throw InputError((dir / "fit.json").string(), "experiment_path", "an existing experiment manifest",
+                       f.experiment_path);
+    if (sha256_file(f.experiment_path) != f.experiment_sha256)
+      throw InputError(f.experiment_path, "sha256", "the manifest the fit was made from (" +
+                                                        f.experiment_sha256 + ")", "changed since");
+    in = replay_experiment(f.experiment_path, data_schema::parameter_set_from(f, (dir / "fit.json").string()),
+                           &f, {true, opt.context_of_use, opt.progress});
+    fs::create_directories(out_dir);
+    write_analysis_input(out_dir, in);
+  } else {
+    throw InputError((dir / "analysis.json").string(), "DIR",
+                     "an analysis directory with analysis.json (validate) or fit.json (calibrate)", "neither found");
+  }
   const auto rows = compute_metric_rows(in);
   const fs::path assets = opt.assets_dir.empty() ? default_assets_dir() : opt.assets_dir;
 
@@ -273,7 +302,6 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     sum.pass = all_pass(sum.results);
   }
   json fit;
-  const bool has_fit = fs::exists(dir / "fit.json");
   if (has_fit) {
     std::ifstream f(dir / "fit.json");
     try {
@@ -290,7 +318,6 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
       strip_url_schemes(read_text(assets / "node_modules/uplot/dist/uPlot.iife.min.js", "uPlot (npm ci)")) +
       "\n" + read_text(assets / "report.js", "report.js");
 
-  const fs::path out_dir = out_html.parent_path().empty() ? fs::path(".") : out_html.parent_path();
   fs::create_directories(out_dir);
 
   std::string b;
@@ -444,9 +471,9 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   }
 
   // Beside the report: the series, residuals, metrics and the fit.
-  std::error_code ec;
   if (!fs::equivalent(dir, out_dir, ec)) {
-    fs::copy_file(dir / "predictions.csv", out_dir / "predictions.csv", fs::copy_options::overwrite_existing);
+    if (fs::exists(dir / "predictions.csv"))
+      fs::copy_file(dir / "predictions.csv", out_dir / "predictions.csv", fs::copy_options::overwrite_existing);
     if (has_fit) fs::copy_file(dir / "fit.json", out_dir / "fit.json", fs::copy_options::overwrite_existing);
   }
   write_residuals_csv(out_dir / "residuals.csv", in);
@@ -461,7 +488,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
                                 {"value", std::isfinite(r.value) ? json(r.value) : json(nullptr)},
                                 {"pass", r.pass}});
   }
-  const auto prov = make_provenance({dir / "analysis.json", dir / "predictions.csv"});
+  const auto prov = make_provenance({out_dir / "predictions.csv"});
   mj["provenance"] = {{"software_version", prov.software_version}, {"command_line", prov.command_line},
                       {"created_utc", prov.created_utc}};
   std::ofstream(out_dir / "metrics.json") << mj.dump(1) << "\n";

@@ -1,13 +1,16 @@
 #pragma once
 // The self-contained HTML validation report (docs/report.md) written from an analysis
 // directory: DIR/analysis.json + DIR/predictions.csv (+ DIR/fit.json, DIR/criteria.toml
-// when present). Beside the report it writes predictions.csv, residuals.csv,
-// metrics.json, removed-bone PNGs and a copy of fit.json.
+// when present) — or a calibrate output directory with only fit.json, which is then
+// replayed (analysis.json + predictions.csv are written beside the report). Beside the
+// report it also writes predictions.csv, residuals.csv, metrics.json, removed-bone PNGs
+// and a copy of fit.json.
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "burrbench/analysis/criteria.hpp"
+#include "burrbench/data_schema/progress.hpp"
 
 namespace burrbench::analysis {
 
@@ -15,6 +18,8 @@ struct ReportOptions {
   // Folder with template.html, report.js, report.css and node_modules/uplot (npm ci).
   // Empty → default_assets_dir().
   std::filesystem::path assets_dir;
+  std::string context_of_use;       // used when the report replays a calibrate directory
+  Progress* progress = nullptr;     // ditto
 };
 
 struct ReportSummary {

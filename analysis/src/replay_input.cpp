@@ -1,0 +1,157 @@
+#include "burrbench/analysis/replay_input.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/model/experiment.hpp"
+#include "burrbench/model/model_params.hpp"
+#include "burrbench/model/replay.hpp"
+#include "burrbench/model/volume.hpp"
+
+namespace burrbench::analysis {
+namespace fs = std::filesystem;
+namespace ds = data_schema;
+
+namespace {
+
+constexpr std::size_t kMinTareSamples = 10;
+
+// The fit's nuisance value for a recording, or `fallback` when absent/undefined.
+double nuisance(const ds::FitResult* fit, const std::string& rec, const std::string& name,
+                double fallback) {
+  if (!fit) return fallback;
+  for (const auto& n : fit->nuisance)
+    if (n.recording_id == rec && n.name == name && std::isfinite(n.estimate)) return n.estimate;
+  return fallback;
+}
+
+}  // namespace
+
+AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet& params,
+                                const ds::FitResult* fit, const ReplayInputOptions& opt) {
+  const model::Experiment ex = model::load_experiment(manifest);
+  const model::ModelParams mp = model::ModelParams::from(params);
+  const bool exclude_buried = ex.manifest.fit.buried == ds::BuriedPolicy::kExclude;
+
+  AnalysisInput in;
+  in.mode = fit ? "calibrate" : "validate";
+  in.experiment_name = ex.manifest.name;
+  in.experiment_description = ex.manifest.description;
+  in.experiment_path = fs::absolute(manifest).string();
+  in.experiment_sha256 = sha256_file(manifest);
+  in.context_of_use = opt.context_of_use;
+  in.seed = ex.manifest.fit.seed;
+  const model::ReplayOptions ropt{};
+  in.model = {{"model", "voxel burr–bone contact, friction and erosion (MODEL.md)"},
+              {"replay step", "half the median sample period"},
+              {"erosion", ropt.erosion},
+              {"burr radius (mm)", ex.manifest.burr.radius_mm},
+              {"sensor measures", ds::to_string(ex.manifest.sensor.measures)},
+              {"buried samples", ds::to_string(ex.manifest.fit.buried)}};
+  if (fit) {
+    in.calibration = {{"method", "Ceres least squares on the recorded sensor force (burrbench calibrate)"},
+                      {"nuisances applied", "per-recording bias, lag, depth offset from fit.json"}};
+  } else {
+    in.calibration = {{"method", "none: fixed parameters replayed (burrbench validate)"},
+                      {"tare", opt.tare ? "measured force minus its mean over samples with no predicted contact"
+                                        : "off"},
+                      {"lag", "the manifest's lag_ms per recording"}};
+  }
+  in.limitations = {
+      "Each recording is replayed from the sample's unmodified state (recordings are assumed "
+      "not to overlap in removed bone).",
+      "The removed-bone picture shows, per voxel, the largest bone fraction any recording "
+      "removed, summed along the volume z axis.",
+      "Forces are compared in the sensor frame; the sensor's own calibration is taken as exact."};
+  for (const auto& [label, c] : params.classes)
+    in.parameters.push_back({int(label), c.name, c.alpha_N_per_mm2, c.c1_N_per_mm2, c.mu});
+
+  // Removed χ per sample: per voxel the largest removal by any recording.
+  std::map<std::string, std::vector<float>> removed;
+  std::map<std::string, model::Volume> pristine;
+  for (const auto& [id, s] : ex.samples) {
+    pristine.emplace(id, model::Volume::from_sample(s));
+    removed[id].assign(s.voxel_count(), 0.0f);
+  }
+
+  for (const auto& r : ex.recordings) {
+    const auto* ref = ex.manifest.recording(r.id);
+    BURRBENCH_CHECK(ref, "aligned recording without manifest entry");
+    model::Volume vol = pristine.at(r.sample_id);
+    const double lag_s = nuisance(fit, r.id, "lag", r.lag_s * 1000.0) / 1000.0;
+    const double depth_mm = nuisance(fit, r.id, "depth_offset", 0.0);
+    const model::Trajectory tr = r.trajectory(lag_s, depth_mm);
+    // restore = false: the eroded state is what the removed-bone picture shows.
+    const model::ReplayResult res = model::replay(vol, r.radius_mm, mp, tr, ropt, false, opt.progress);
+    auto& rem = removed[r.sample_id];
+    const auto& p0 = pristine.at(r.sample_id);
+    for (std::size_t i = 0; i < rem.size(); ++i)
+      rem[i] = std::max(rem[i], float(p0.chi(i) - vol.chi(i)));
+
+    RecordingSeries rs;
+    rs.id = r.id;
+    rs.sample_id = r.sample_id;
+    rs.role = ds::to_string(ref->role);
+    rs.path = r.file.string();
+    rs.sha256 = sha256_file(r.file);
+    for (const auto& seg : ref->segments)
+      if (seg.use) rs.segments.push_back({seg.label.empty() ? "segment" : seg.label, seg.start_s, seg.end_s});
+    rs.t_s = r.t_s;
+    rs.measured_N = r.force_sensor_N;
+    const std::size_t n = res.samples.size();
+    BURRBENCH_CHECK(n == r.t_s.size(), "replay returned a different sample count");
+    rs.predicted_N.resize(n);
+    rs.used.resize(n);
+    glm::dvec3 bias(nuisance(fit, r.id, "bias_x", 0), nuisance(fit, r.id, "bias_y", 0),
+                    nuisance(fit, r.id, "bias_z", 0));
+    glm::dvec3 free_sum(0);
+    std::size_t free_n = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const auto& c = res.samples[k].contact;
+      rs.predicted_N[k] = r.sensor_force_from_burr_force(c.force_N);
+      rs.used[k] = r.use[k] && !(exclude_buried && c.buried);
+      if (c.class_mask == 0) {
+        free_sum += r.force_sensor_N[k];
+        ++free_n;
+      }
+    }
+    if (!fit && opt.tare && free_n >= kMinTareSamples) bias = free_sum / double(free_n);
+    for (auto& p : rs.predicted_N) p += bias;  // the bias is added to the prediction
+    in.recordings.push_back(std::move(rs));
+  }
+
+  for (const auto& sref : ex.manifest.samples) {
+    const auto& s = ex.samples.at(sref.id);
+    SampleInfo si;
+    si.id = sref.id;
+    si.path = sref.path.string();
+    si.sha256 = sha256_file(sref.path);
+    si.voxel_mm = s.voxel_mm;
+    si.nx = s.dims[0];
+    si.ny = s.dims[1];
+    si.removed_depth_mm.assign(si.nx * si.ny, 0.0f);
+    const auto& rem = removed.at(sref.id);
+    double total = 0;
+    for (std::size_t z = 0; z < s.dims[2]; ++z)
+      for (std::size_t y = 0; y < si.ny; ++y)
+        for (std::size_t x = 0; x < si.nx; ++x) {
+          const float v = rem[s.index(x, y, z)];
+          si.removed_depth_mm[x + si.nx * y] += float(v * s.voxel_mm);
+          total += v;
+        }
+    si.removed_volume_mm3 = total * std::pow(s.voxel_mm, 3);
+    in.samples.push_back(std::move(si));
+  }
+
+  std::vector<fs::path> inputs = {manifest};
+  for (const auto& s : ex.manifest.samples) inputs.push_back(s.path);
+  for (const auto& r : ex.manifest.recordings) inputs.push_back(r.path);
+  in.provenance = make_provenance(inputs);
+  return in;
+}
+
+}  // namespace burrbench::analysis

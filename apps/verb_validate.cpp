@@ -1,0 +1,90 @@
+// `burrbench validate`: the release gate. Replays an experiment with fixed parameters
+// (no fitting), computes the metrics, compares them with acceptance criteria, writes the
+// report, and exits 0 (pass), 1 (fail) or 2 (bad input). docs/report.md.
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "burrbench/analysis/criteria.hpp"
+#include "burrbench/analysis/replay_input.hpp"
+#include "burrbench/analysis/report.hpp"
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/data_schema/progress.hpp"
+#include "verb_registry.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace burrbench;
+
+struct Args {
+  std::string experiment, params, criteria, out, assets;
+  std::string context = "Release gate of the voxel burr–bone drilling model: does the model, with "
+                        "the given constants, reproduce the forces recorded on the rig well enough "
+                        "for the simulator's intended use?";
+  bool no_tare = false;
+};
+
+void run(const Args& a) {
+  std::error_code ec;
+  if (fs::exists(a.out) && !fs::is_directory(a.out))
+    throw InputError(a.out, "--out", "a directory (or a path to create one)", "an existing file");
+  // Everything that can be checked cheaply is checked before the replay.
+  const auto criteria = analysis::read_criteria(a.criteria);
+  (void)criteria;
+  const auto params = data_schema::read_params(a.params);
+  fs::create_directories(a.out, ec);
+  if (ec) throw InputError(a.out, "--out", "a directory that can be created", ec.message());
+
+  TerminalProgress progress("validate");
+  auto in = analysis::replay_experiment(a.experiment, params, nullptr,
+                                        {!a.no_tare, a.context, &progress});
+  in.params_path = fs::absolute(a.params).string();
+  in.params_sha256 = sha256_file(a.params);
+  in.criteria_path = fs::absolute(a.criteria).string();
+  in.criteria_sha256 = sha256_file(a.criteria);
+  in.provenance.inputs.push_back({in.params_path, in.params_sha256});
+  in.provenance.inputs.push_back({in.criteria_path, in.criteria_sha256});
+  const fs::path dir = a.out;
+  analysis::write_analysis_input(dir, in);
+  if (!fs::equivalent(a.criteria, dir / "criteria.toml", ec))
+    fs::copy_file(a.criteria, dir / "criteria.toml", fs::copy_options::overwrite_existing);
+  if (!fs::equivalent(a.params, dir / "params.toml", ec))
+    fs::copy_file(a.params, dir / "params.toml", fs::copy_options::overwrite_existing);
+  const auto s = analysis::write_report(dir, dir / "report.html", {a.assets, a.context, nullptr});
+  progress.finish(fmt::format("{} recordings, {} samples", s.recordings, s.samples));
+
+  std::size_t failed = 0;
+  for (const auto& r : s.results) failed += !r.pass;
+  std::cout << fmt::format("report: {}\n", s.html.string());
+  for (const auto& r : s.results) {
+    const auto& c = s.criteria.criteria[r.index];
+    std::cout << fmt::format("  {} {} [{}] {} = {:.4g}\n", r.pass ? "PASS" : "FAIL", c.name, r.axis,
+                             c.metric, r.value);
+  }
+  std::cout << fmt::format("gate: {} ({} of {} checks failed)\n", s.pass ? "PASS" : "FAIL", failed,
+                           s.results.size());
+  apps::set_exit_code(s.pass ? 0 : 1);
+}
+
+void setup(CLI::App& root) {
+  auto* cmd = root.add_subcommand(
+      "validate", "Release gate: replay with fixed parameters, check acceptance criteria, write the "
+                  "report; exit 0 pass, 1 fail, 2 bad input");
+  auto a = std::make_shared<Args>();
+  cmd->add_option("--experiment", a->experiment, "experiment manifest (.toml)")->required();
+  cmd->add_option("--params", a->params, "parameter set (.toml, burrbench.params)")->required();
+  cmd->add_option("--criteria", a->criteria, "acceptance criteria (.toml, burrbench.criteria)")->required();
+  cmd->add_option("--out", a->out, "output directory (report.html, analysis.json, CSVs, metrics.json)")
+      ->required();
+  cmd->add_option("--assets", a->assets, "report assets folder (see `burrbench report --help`)");
+  cmd->add_option("--context-of-use", a->context, "context-of-use statement for the report");
+  cmd->add_flag("--no-tare", a->no_tare, "do not subtract the no-contact mean force (sensor bias)");
+  cmd->callback([a] { run(*a); });
+}
+BURRBENCH_VERB("validate", setup);
+
+}  // namespace
