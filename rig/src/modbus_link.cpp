@@ -123,10 +123,12 @@ ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& reg
   return r;
 }
 
-void ModbusLink::drain_late_reply(const DeviceSpec& d) {
+void ModbusLink::drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns) {
   if (settings_.transport != Transport::Rtu || !ctx_) return;
-  const auto wait = std::chrono::duration<double>(d.timeout_ms * 1e-3 + 2 * wire_time_s(d));
-  std::this_thread::sleep_for(wait);
+  // The latest reply ends late_reply_ms after the request plus its own wire time.
+  const auto until = t_send_ns + static_cast<std::int64_t>((d.late_reply_ms * 1e-3 + wire_time_s(d)) * 1e9);
+  const auto now = monotonic_ns();
+  if (until > now) std::this_thread::sleep_for(std::chrono::nanoseconds(until - now));
   modbus_flush(ctx_);
 }
 

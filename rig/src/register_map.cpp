@@ -202,7 +202,7 @@ void check_inside(const Reader& r, const std::string& what, int addr, int n, int
 
 DeviceSpec parse_device(const Reader& r) {
   r.allow({"name", "transport", "host", "port", "serial", "baud", "parity", "data_bits", "stop_bits",
-           "slave", "rate_hz", "timeout_ms", "mode", "function", "start", "count", "counter", "fifo",
+           "slave", "rate_hz", "timeout_ms", "late_reply_ms", "mode", "function", "start", "count", "counter", "fifo",
            "calibration", "channels"});
   DeviceSpec d;
   d.name = r.str("name");
@@ -235,6 +235,12 @@ DeviceSpec parse_device(const Reader& r) {
   if (!(d.rate_hz > 0 && d.rate_hz <= 10000)) r.fail("rate_hz", "a rate in (0, 10000] Hz", fmt::format("{}", d.rate_hz));
   d.timeout_ms = r.num("timeout_ms", 100.0);
   if (!(d.timeout_ms >= 1 && d.timeout_ms <= 10000)) r.fail("timeout_ms", "a timeout in [1, 10000] ms", fmt::format("{}", d.timeout_ms));
+  // RTU has no transaction id: a reply that comes after we gave up would pass for the
+  // answer to the next request, so after a timeout the bus is left quiet until then.
+  d.late_reply_ms = r.num("late_reply_ms", 3 * d.timeout_ms);
+  if (d.transport != Transport::Rtu && r.has("late_reply_ms")) r.fail("late_reply_ms", "no late_reply_ms on a tcp device", "present");
+  if (!(d.late_reply_ms >= d.timeout_ms && d.late_reply_ms <= 60000))
+    r.fail("late_reply_ms", fmt::format("a time in [timeout_ms = {}, 60000] ms", d.timeout_ms), fmt::format("{}", d.late_reply_ms));
   const auto function = r.str("function", std::string("holding"));
   if (function == "holding") d.function = 3;
   else if (function == "input") d.function = 4;

@@ -127,6 +127,21 @@ def assert_contiguous(counter, label=""):
     assert missing.size == 0, f"{label}: {missing.size} device samples missing, first {missing[:10]}"
 
 
+def assert_losses_recorded(rec, stream_name):
+    """Device samples missing from a stream are allowed only inside a recorded gap event
+    ("... counter A → B"): a fault may cost the samples it spans, never silently."""
+    k = np.unique(rec[stream_name]["device_counter"])
+    missing = np.setdiff1d(np.arange(k[0], k[-1] + 1), k)
+    spans = []
+    for e in events(rec, "gap", stream_name):
+        m = re.search(r"counter (-?\d+) → (-?\d+)", e[3])
+        if m:
+            spans.append((int(m.group(1)), int(m.group(2))))
+    unexplained = [c for c in missing if not any(a < c < b for a, b in spans)]
+    assert not unexplained, f"{len(unexplained)} samples lost without a gap event: {unexplained[:10]}, gaps {spans}"
+    return missing.size
+
+
 def assert_ramp_exact(stream):
     """Every sample decodes to exactly what the rig served for its counter."""
     k = stream["device_counter"]

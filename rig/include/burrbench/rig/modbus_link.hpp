@@ -37,7 +37,7 @@ class ModbusLink {
   ReadResult read(const DeviceSpec& d, std::vector<std::uint16_t>& regs);
   // RTU after a failed request: wait out the latest possible reply, then drop any bytes,
   // so a late reply is never taken as the answer to the next request.
-  void drain_late_reply(const DeviceSpec& d);
+  void drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns);
   // Shortest possible request+reply time on the wire (RTU), 0 for TCP.
   double wire_time_s(const DeviceSpec& d) const;
   std::string describe() const;

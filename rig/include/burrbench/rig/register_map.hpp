@@ -64,6 +64,7 @@ struct DeviceSpec {
   int slave = 1;
   double rate_hz = 100;            // polls per second
   double timeout_ms = 100;         // reply timeout
+  double late_reply_ms = 300;      // RTU: latest a reply may still come (after the request)
   Mode mode = Mode::Latest;
   int function = 3;                // 3 = holding, 4 = input registers
   int start = 0, count = 0;        // the one block read per poll

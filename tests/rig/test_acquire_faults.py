@@ -1,0 +1,74 @@
+"""Device faults over TCP: delays, late replies, exceptions, dropped connections and a rig
+restart. Acquisition resumes by itself, every fault and gap is an event, and nothing
+acquired before or after a fault is lost."""
+import numpy as np
+
+import rig_helpers as rh
+from virtual_helpers import events as rig_events
+from virtual_helpers import playback_start_ns, start_virtual_rig
+
+RATE = 50  # device samples/s; polled at 250/s so a short outage loses no sample
+
+
+def run_faulty(tmp_path, rig_args, seconds, timeout_ms=50, rate=RATE):
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", str(rate), *rig_args]) as (proc, host, port):
+        body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 250, rh.FT_CHANNELS, counter=220, timeout_ms=timeout_ms)
+        out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), seconds)
+        start = playback_start_ns(proc)
+        rig_ev = rig_events(proc)
+    rec = rh.read_recording(out)
+    ft = rec["ft_sensor"]
+    rh.assert_ramp_exact(ft)
+    rh.assert_timestamps_honest(ft, start, rate)
+    return rec, ft, rig_ev
+
+
+def test_delayed_replies_are_timestamped_at_the_midpoint(tmp_path):
+    rec, ft, _ = run_faulty(tmp_path, ["--delay-ms", "3"], 1.5)
+    rtt = ft["t_recv_ns"] - ft["t_send_ns"]
+    assert np.all(rtt >= 3_000_000), rtt.min()
+    np.testing.assert_array_equal(ft["t_ns"], ft["t_send_ns"] + rtt // 2)
+    rh.assert_contiguous(ft["device_counter"])
+
+
+def test_late_replies_and_exceptions_cost_only_their_polls(tmp_path):
+    # A 50 ms timeout plus a reconnect outlasts a 20 ms device period, so this device
+    # samples at 10 Hz: one failed poll must then cost no device sample.
+    rec, ft, _ = run_faulty(tmp_path, ["--late-reply-every", "50", "--late-ms", "120",
+                                       "--exception-every", "37"], 2.5, rate=10)
+    assert len(rh.events(rec, "timeout", "ft_sensor")) >= 2, rec["_events"]
+    assert len(rh.events(rec, "exception", "ft_sensor")) >= 2, rec["_events"]
+    assert len(rh.events(rec, "reconnect", "ft_sensor")) >= 2  # a timed-out TCP stream is reopened
+    assert rh.events(rec, "gap", "ft_sensor")
+    rh.assert_contiguous(ft["device_counter"])
+
+
+def test_dropped_connections_reconnect_without_loss(tmp_path):
+    rec, ft, rig_ev = run_faulty(tmp_path, ["--drop-every-s", "0.7"], 2.5)
+    drops = [e for e in rig_ev if e["kind"] == "drop" and ft["t_ns"][0] < e["t_mono_ns"] < ft["t_ns"][-1]]
+    assert len(drops) >= 2
+    assert len(rh.events(rec, "reconnect", "ft_sensor")) >= len(drops)
+    # A drop may cost the samples of the reconnect (a loaded machine), each in a gap event.
+    lost = rh.assert_losses_recorded(rec, "ft_sensor")
+    assert lost <= 0.1 * np.ptp(ft["device_counter"])
+    # samples on both sides of the last drop
+    assert ft["t_ns"][0] < drops[-1]["t_mono_ns"] < ft["t_ns"][-1]
+
+
+def test_rig_restart_gap_is_recorded_and_both_sides_kept(tmp_path):
+    rec, ft, rig_ev = run_faulty(tmp_path, ["--restart-at-s", "1.0", "--restart-down-s", "0.6"], 3.0)
+    down = [e for e in rig_ev if e["kind"] == "restart-down"][0]["t_mono_ns"]
+    up = [e for e in rig_ev if e["kind"] == "restart-up"][0]["t_mono_ns"]
+    before = ft["device_counter"][ft["t_ns"] < down]
+    after = ft["device_counter"][ft["t_ns"] > up]
+    assert before.size > 100 and after.size > 100
+    rh.assert_contiguous(before, "before restart")
+    rh.assert_losses_recorded(rec, "ft_sensor")  # the outage, and any later hiccup, are events
+    # The outage is an event naming how long and which counters it spans.
+    gaps = rh.events(rec, "gap", "ft_sensor")
+    assert gaps, rec["_events"]
+    assert any(g[0] >= up for g in gaps)
+    assert rh.events(rec, "reconnect", "ft_sensor")
+    # the counter jumped by the samples the rig took while down: recorded, not invented
+    jump = np.diff(ft["device_counter"]).max()
+    assert jump >= 0.4 * RATE
