@@ -65,12 +65,14 @@ class Writer {
     throw InputError(file_, what, "a writable HDF5 output");
   }
   void attr(hid_t obj, const char* name, const std::string& value) const {
+    // variable-length UTF-8, as data_schema writes its string attributes
     H5 type{H5Tcopy(H5T_C_S1), H5Tclose};
-    H5Tset_size(type.id, std::max<std::size_t>(1, value.size()));
+    H5Tset_size(type.id, H5T_VARIABLE);
     H5Tset_cset(type.id, H5T_CSET_UTF8);
     H5 space{H5Screate(H5S_SCALAR), H5Sclose};
     H5 a{H5Acreate2(obj, name, type.id, space.id, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
-    if (a.id < 0 || H5Awrite(a.id, type.id, value.empty() ? "" : value.data()) < 0) fail(name);
+    const char* text = value.c_str();
+    if (a.id < 0 || H5Awrite(a.id, type.id, &text) < 0) fail(name);
   }
   void attr(hid_t obj, const char* name, const std::vector<double>& v) const {
     const hsize_t dims[1] = {v.size()};

@@ -1,0 +1,161 @@
+"""End to end through the CLI: `burrbench synth` and `burrbench replay` on the shipped
+synthetic reference experiment (examples/experiments/synthetic/make.sh)."""
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+BURRBENCH = os.environ["BURRBENCH"]
+SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
+EXAMPLE = SRC / "examples" / "experiments" / "synthetic"
+PROTOCOLS = SRC / "examples" / "protocols"
+
+
+def run(*args, check=True):
+    p = subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, timeout=300)
+    if check and p.returncode != 0:
+        raise AssertionError(f"{args}: rc={p.returncode}\n{p.stderr}")
+    return p
+
+
+@pytest.fixture(scope="module")
+def exp(tmp_path_factory):
+    out = tmp_path_factory.mktemp("synthetic")
+    subprocess.run(["sh", str(EXAMPLE / "make.sh"), BURRBENCH, str(out)], check=True,
+                   capture_output=True, timeout=300)
+    return out
+
+
+def forces(path):
+    with h5py.File(path, "r") as f:
+        return f["streams/ft_sensor/channels/force_N"][()]
+
+
+def synth(exp, out, *extra, protocol="plunge"):
+    return run("synth", "--sample", exp / "sample.h5", "--protocol", PROTOCOLS / f"{protocol}.toml",
+               "--params", exp / "params_true.toml", "--out", out, "--truth", str(out) + ".json", *extra)
+
+
+def test_replay_with_true_params_and_lag_leaves_bias_plus_noise(exp):
+    text = (exp / "experiment.toml").read_text()
+    # the sweeps were synthesised with a 2 ms lag: tell the replay
+    parts = text.split("[[recordings]]")
+    parts = [parts[0]] + [p.replace("lag_ms = 0.0", "lag_ms = 2.0") if 'id = "plunge"' not in p else p
+                          for p in parts[1:]]
+    (exp / "lagged.toml").write_text("[[recordings]]".join(parts))
+    p = run("replay", "--experiment", exp / "lagged.toml", "--params", exp / "params_true.toml",
+            "--out", exp / "pred.h5", "--csv", exp / "pred.csv")
+    assert "samples" in p.stdout and "buried" in p.stdout and "removed" in p.stdout and "wall" in p.stdout
+    with h5py.File(exp / "pred.h5", "r") as f:
+        assert f.attrs["format"] == "burrbench.prediction"
+        prov = json.loads(f.attrs["provenance"])
+        assert any(i["path"].endswith("sweep.h5") and len(i["sha256"]) == 64 for i in prov["inputs"])
+        total = 0
+        for rid in ("plunge", "sweep", "polish"):
+            g = f["recordings"][rid]
+            truth = json.loads((exp / f"{rid}.truth.json").read_text())
+            d = g["force_sensor_meas_N"][()] - g["force_sensor_pred_N"][()]
+            n = d.shape[0]
+            total += n
+            assert np.allclose(d.mean(axis=0), truth["bias_N"], atol=4 * 0.02 / np.sqrt(n))
+            assert np.allclose(d.std(axis=0), truth["noise_N"], rtol=0.08)
+            assert np.abs(g["force_sensor_pred_N"][()]).max() > 0.2  # real contact forces
+            removed = g.attrs["removed_mm3"]
+            assert removed[1] == pytest.approx(truth["removed_mm3_by_class"]["compact"], rel=1e-9)
+            # force on the sample = −force on the burr (identity frames)
+            assert np.array_equal(g["force_sensor_pred_N"][()], -g["force_burr_vol_N"][()])
+            for name in ("depth_b_mm", "normal_vol", "class_mask", "buried", "use", "centre_vol_mm", "t_s"):
+                assert g[name].shape[0] == n
+    lines = (exp / "pred.csv").read_text().splitlines()
+    assert lines[0].startswith("recording,t_s,Fburr_x_N")
+    assert len(lines) == 1 + total
+
+
+def test_noiseless_synth_is_reproduced_by_replay(exp, tmp_path):
+    rec = tmp_path / "clean.h5"
+    synth(exp, rec, "--lag-ms", "4.5", protocol="sweep")
+    man = (exp / "experiment.toml").read_text().split("[[recordings]]")[0]
+    man = man.replace('path = "sample.h5"', f'path = "{exp / "sample.h5"}"')
+    man += f'[[recordings]]\nid = "clean"\npath = "{rec}"\nsample = "S1"\nlag_ms = 4.5\n' \
+           '[recordings.registration]\nrotation = [[1,0,0],[0,1,0],[0,0,1]]\ntranslation_mm = [0,0,0]\n'
+    (tmp_path / "e.toml").write_text(man)
+    run("replay", "--experiment", tmp_path / "e.toml", "--params", exp / "params_true.toml",
+        "--out", tmp_path / "p.h5")
+    with h5py.File(tmp_path / "p.h5", "r") as f:
+        g = f["recordings/clean"]
+        meas, pred = g["force_sensor_meas_N"][()], g["force_sensor_pred_N"][()]
+    scale = np.abs(meas).max()
+    assert scale > 0.2
+    assert np.abs(meas - pred).max() <= 1e-9 * scale
+
+
+def test_same_seed_same_data_other_seed_other_noise(exp, tmp_path):
+    a, b, c = tmp_path / "a.h5", tmp_path / "b.h5", tmp_path / "c.h5"
+    synth(exp, a, "--noise-N", "0.1", "--seed", "3")
+    synth(exp, b, "--noise-N", "0.1", "--seed", "3")
+    synth(exp, c, "--noise-N", "0.1", "--seed", "4")
+    fa, fb, fc = forces(a), forces(b), forces(c)
+    assert fa.tobytes() == fb.tobytes()
+    assert not np.any(fa == fc)
+    with h5py.File(a, "r") as f, h5py.File(b, "r") as g:
+        for s in ("stage", "spindle", "ft_sensor"):
+            assert f[f"streams/{s}/t_ns"][()].tobytes() == g[f"streams/{s}/t_ns"][()].tobytes()
+    truth = json.loads(Path(str(a) + ".json").read_text())
+    assert truth["format"] == "burrbench.synth_truth" and truth["seed"] == 3 and truth["noise_N"] == 0.1
+    assert {c["name"] for c in truth["params"]["classes"]} == {"compact", "trabecular"}
+    assert len(truth["provenance"]["inputs"]) == 3
+
+
+def test_bias_and_lag_in_the_output(exp, tmp_path):
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    synth(exp, a)
+    synth(exp, b, "--bias-N", "0.5,-0.25,1", "--lag-ms", "10")
+    fa, fb = forces(a), forces(b)
+    # b(t) = a(t − 10 ms) + bias at 1 kHz
+    assert np.allclose(fb[10:] - [0.5, -0.25, 1.0], fa[:-10], rtol=0, atol=1e-9 * np.abs(fa).max())
+    assert np.allclose(fb[:10], [0.5, -0.25, 1.0], atol=1e-12)  # burr still clear of bone
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("depth_mm = 0.25", "depth_m = 0.25"), "moves[0].depth_m"),
+    (('type = "plunge"', 'type = "drill"'), "moves[0].type"),
+    (("spin_sign = 1", "spin_sign = 0"), "burr.spin_sign"),
+    (("point_mm = [4.0, 4.0, 4.5]", "point_mm = [4.0, 4.0, 2.5]"), "start.point_mm"),
+])
+def test_bad_protocol_exits_2_with_the_key(exp, tmp_path, edit, message):
+    text = (PROTOCOLS / "plunge.toml").read_text()
+    assert edit[0] in text
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace(edit[0], edit[1]))
+    p = run("synth", "--sample", exp / "sample.h5", "--protocol", bad, "--params", exp / "params_true.toml",
+            "--out", tmp_path / "r.h5", "--truth", tmp_path / "t.json", check=False)
+    assert p.returncode == 2, p.stderr
+    assert message in p.stderr and str(bad) in p.stderr
+    assert not (tmp_path / "r.h5").exists()
+
+
+def test_bad_manifest_and_arguments_exit_2(exp, tmp_path):
+    text = (exp / "experiment.toml").read_text()
+    bad = exp / "bad_manifest.toml"
+    bad.write_text(text.replace('measures = "force_on_sample"', 'measures = "force_on_sensor"'))
+    p = run("replay", "--experiment", bad, "--params", exp / "params_true.toml", "--out", tmp_path / "p.h5",
+            check=False)
+    assert p.returncode == 2 and "sensor.measures" in p.stderr, p.stderr
+    bad.write_text(text.replace('path = "sweep.h5"', 'path = "missing.h5"'))
+    p = run("replay", "--experiment", bad, "--params", exp / "params_true.toml", "--out", tmp_path / "p.h5",
+            check=False)
+    assert p.returncode == 2 and "missing.h5" in p.stderr, p.stderr
+    assert not (tmp_path / "p.h5").exists()
+    p = run("synth", "--sample", exp / "sample.h5", "--protocol", PROTOCOLS / "plunge.toml", "--params",
+            exp / "params_true.toml", "--out", tmp_path / "r.h5", "--truth", tmp_path / "t.json",
+            "--bias-N", "0.1,0.2", check=False)
+    assert p.returncode == 2  # CLI parse error: three values expected
+    # an output that is one of the inputs is refused, the input left untouched
+    before = (exp / "params_true.toml").read_bytes()
+    p = run("synth", "--sample", exp / "sample.h5", "--protocol", PROTOCOLS / "plunge.toml", "--params",
+            exp / "params_true.toml", "--out", tmp_path / "r.h5", "--truth", exp / "params_true.toml", check=False)
+    assert p.returncode == 2 and (exp / "params_true.toml").read_bytes() == before
