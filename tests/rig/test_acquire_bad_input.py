@@ -1,0 +1,82 @@
+"""Bad register maps, journals and register values: exit code 2 with a message naming
+file, field and expectation, or flagged samples — never a crash, hang or silent number."""
+import os
+
+import numpy as np
+import pytest
+
+import rig_helpers as rh
+from virtual_helpers import start_virtual_rig
+
+GOOD = rh.tcp_device("ft_sensor", 5020, 9, 180, 42, 100, rh.FT_CHANNELS, counter=220)
+
+
+@pytest.mark.parametrize("change,field", [
+    (("rate_hz = 100", "rate_hz = 100\nwrite_coil = 3"), "devices[0].write_coil"),
+    (("slave = 9", 'slave = 9\nfunction = "write_holding"'), "devices[0].function"),
+    (('type = "int16"', 'type = "int12"'), "devices[0].channels[2].type"),
+    (("count = 42", "count = 300"), "devices[0].count"),
+    (("registers = [200, 202, 204]", "registers = [200, 202, 250]"), "devices[0].channels[0].registers[2]"),
+    (("rate_hz = 100", "rate_hz = 100\nspeed = 1"), "devices[0].speed"),
+    (('transport = "tcp"', 'transport = "can"'), "devices[0].transport"),
+])
+def test_bad_maps_exit_2_naming_the_field(tmp_path, change, field):
+    rig_map = rh.write_map(tmp_path, GOOD.replace(*change, 1))
+    p = rh.run(["acquire", "--rig", rig_map, "--out", os.path.join(str(tmp_path), "r.h5"), "--duration", "1"])
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert f"{rig_map}: {field}: expected" in p.stderr, p.stderr
+    assert not os.path.exists(os.path.join(str(tmp_path), "r.h5.journal"))
+
+
+def test_write_requests_are_refused_as_read_only(tmp_path):
+    rig_map = rh.write_map(tmp_path, GOOD + "write_registers = [[180, 0]]\n")
+    p = rh.run(["rig", "check", "--rig", rig_map])
+    assert p.returncode == 2 and "read-only" in p.stderr, p.stderr
+
+
+def test_missing_map_and_bad_journal(tmp_path):
+    p = rh.run(["acquire", "--rig", os.path.join(str(tmp_path), "none.toml"), "--out", "x.h5"])
+    assert p.returncode == 2 and "none.toml" in p.stderr
+    junk = os.path.join(str(tmp_path), "junk.journal")
+    with open(junk, "wb") as f:
+        f.write(os.urandom(3 * 4096))
+    p = rh.run(["recover", junk, "--out", os.path.join(str(tmp_path), "r.h5")])
+    assert p.returncode == 2 and "junk.journal" in p.stderr, p.stderr
+
+
+def test_existing_journal_is_not_overwritten(tmp_path):
+    rig_map = rh.write_map(tmp_path, GOOD)
+    out = os.path.join(str(tmp_path), "r.h5")
+    with open(out + ".journal", "wb") as f:
+        f.write(b"left by a crash")
+    p = rh.run(["acquire", "--rig", rig_map, "--out", out, "--duration", "1"])
+    assert p.returncode == 2 and "recover" in p.stderr, p.stderr
+    with open(out + ".journal", "rb") as f:
+        assert f.read() == b"left by a crash"
+
+
+def test_nan_and_out_of_range_values_are_flagged(tmp_path):
+    with start_virtual_rig(["--pattern", "nonfinite", "--rate-hz", "50"]) as (proc, host, port):
+        chans = rh.FT_CHANNELS + [{"name": "fz_checked_N", "unit": "N", "type": "int16", "registers": [182],
+                                   "scale": 0.01, "min": -10.0, "max": 10.0}]
+        body = (rh.tcp_device("ft_sensor", port, 9, 180, 42, 100, chans, counter=220)
+                + rh.tcp_device("stage", port, 1, 0, 8, 100, rh.STAGE_CHANNELS, counter=6))
+        out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), 1.0)
+    rec = rh.read_recording(out)
+    ft = rec["ft_sensor"]
+    n = ft["t_ns"].size
+    assert n > 20
+    # float32 NaN/Inf: the row is flagged (stale + sample_flags bit 0), the value is NaN,
+    # never a number that could pass for a measurement.
+    assert np.all(ft["stale"] == 1)
+    assert np.all(ft["channels"]["sample_flags"].reshape(-1).astype(int) & 1)
+    assert np.all(np.isnan(ft["channels"]["force_N"]))
+    # The int16 registers of the same sample hold the rig's substitutes (NaN → 0, ±Inf →
+    # limit), decoded as served; a configured range catches the one beyond it.
+    np.testing.assert_array_equal(ft["channels"]["force_int16_N"][0], [0.0, 327.67, -327.67])
+    assert np.all(np.isnan(ft["channels"]["fz_checked_N"]))
+    # Raw registers are kept, so the flagged values can be inspected.
+    assert ft["raw_registers"].size == n * 42
+    # Positions stay finite (the stage's int32 saturates): stage samples are valid.
+    stage = rec["stage"]
+    assert np.all(np.isfinite(stage["channels"]["position_mm"]))
