@@ -43,12 +43,57 @@ inline void sum_row(const float* chi, int xa, int xb, double& s0, double& s1) {
 struct Moments {
   std::array<double, kMaxClasses> mass{};  // Σ ΔV χ per class
   glm::dvec3 m1{0};                         // Σ ΔV χ (r/d) v
+  std::size_t lens_count = 0;
 };
+
+// Running sums kept in locals by the hot loops (written back once per segment), so the
+// compiler need not assume the lens-buffer stores alias them.
+struct Sums {
+  double lens_mass[kMaxClasses] = {};
+  double in_mass[kMaxClasses] = {};
+  double mx = 0, my = 0, mz = 0;  // lens Σ ΔVχ(r/d)v
+  double ix = 0, iy = 0, iz = 0;  // inside Σ χ v (× inside volume at the end)
+};
+
+struct Row {
+  const float* chi;        // χ of the row
+  const std::uint8_t* lab; // labels of the row
+  std::size_t base;        // linear index of x = 0
+  double gx, l, dy, dz, s2;  // dx = gx + l·x
+  std::uint8_t uniform;    // the row's single label, 0 if mixed
+};
+
+// Lens voxels of [x0, x1] of a row: accumulate moments, append to the lens buffer.
+inline detail::LensVoxel* lens_segment(const Row& r, long x0, long x1, const LensTable& tab,
+                                       double reach2, double inner2, Sums& S,
+                                       detail::LensVoxel* out) {
+  double mx = 0, my = 0, mz = 0, mu = 0;  // mu: mass when the row is uniform
+  for (long x = x0; x <= x1; ++x) {
+    const float cf = r.chi[x];
+    if (cf <= 0.0f) continue;
+    const double dx = r.gx + r.l * double(x), d2 = dx * dx + r.s2;
+    if (d2 >= reach2) continue;
+    const std::uint8_t k = r.uniform ? r.uniform : r.lab[x];
+    if (d2 <= inner2) {  // rounding put an inside voxel here: count it as inside
+      S.in_mass[k] += cf;
+      S.ix += cf * dx; S.iy += cf * r.dy; S.iz += cf * r.dz;
+      continue;
+    }
+    const LensTable::Entry e = tab.at(d2);
+    const double w = e.volume * double(cf);
+    if (r.uniform) mu += w;
+    else S.lens_mass[k] += w;
+    const double wr = w * e.lever_over_d;
+    mx += wr * dx; my += wr * r.dy; mz += wr * r.dz;
+    *out++ = {dx, r.dy, r.dz, std::uint32_t(r.base + std::size_t(x)), k, {0, 0, 0}, cf};
+  }
+  if (r.uniform) S.lens_mass[r.uniform] += mu;
+  S.mx += mx; S.my += my; S.mz += mz;
+  return out;
+}
 
 // First pass: moments of all voxels within reach, collecting lens voxels in scratch.
 void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) {
-  auto& lens = vol.scratch().lens;
-  lens.clear();
   const auto& dims = vol.dims();
   const double l = vol.voxel_mm(), inv_l = 1.0 / l;
   const glm::dvec3 o = vol.origin_mm();
@@ -61,28 +106,40 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
   const std::uint8_t* lab = vol.label_data();
   const std::size_t nx = dims[0], ny = dims[1];
 
+  // Index ranges by truncation (std::floor/ceil are library calls without SSE4.1).
   auto lo_idx = [&](double c, double o_a, std::size_t n) {
-    const double f = std::ceil((c - o_a) * inv_l);
-    return f < 0 ? 0L : (f > double(n) ? long(n) : long(f));
+    const double u = (c - o_a) * inv_l;
+    if (u <= 0) return 0L;
+    if (u >= double(n)) return long(n);
+    const long t = long(u);
+    return double(t) < u ? t + 1 : t;  // ceil
   };
   auto hi_idx = [&](double c, double o_a, std::size_t n) {
-    const double f = std::floor((c - o_a) * inv_l);
-    return f >= double(n) ? long(n) - 1 : (f < -1 ? -1L : long(f));
+    const double u = (c - o_a) * inv_l;
+    if (u < 0) return -1L;
+    if (u >= double(n)) return long(n) - 1;
+    return long(u);  // floor (u ≥ 0)
   };
   const long z0 = lo_idx(p.z - reach, o.z, dims[2]), z1 = hi_idx(p.z + reach, o.z, dims[2]);
   const long y0 = lo_idx(p.y - reach, o.y, ny), y1 = hi_idx(p.y + reach, o.y, ny);
-  double ins_m[kMaxClasses] = {};
-  double ins_x = 0, ins_y = 0, ins_z = 0;  // Σ χ v over inside voxels (× v_in later)
+
+  // Lens buffer: at most every voxel of the bounding box (sized once per (R, l)).
+  auto& lens = vol.scratch().lens;
+  const std::size_t box = std::size_t(2 * reach * inv_l + 3);
+  if (lens.size() < box * box * box) lens.resize(box * box * box);
+  detail::LensVoxel* const first = lens.data();
+  detail::LensVoxel* out = first;
+  Sums S;
 
   for (long z = z0; z <= z1; ++z) {
     const double dz = o.z + l * double(z) - p.z, dz2 = dz * dz;
     if (dz2 >= reach2) continue;
     for (long y = y0; y <= y1; ++y) {
-      const double dy = o.y + l * double(y) - p.y, s2 = dz2 + dy * dy;
-      if (s2 >= reach2) continue;
       const std::size_t row = std::size_t(y) + ny * std::size_t(z);
       const long rlo = vol.row_lo(row), rhi = vol.row_hi(row);
       if (rlo > rhi) continue;
+      const double dy = o.y + l * double(y) - p.y, s2 = dz2 + dy * dy;
+      if (s2 >= reach2) continue;
       const double half = std::sqrt(reach2 - s2);
       const long xa = std::max(rlo, lo_idx(p.x - half, o.x, nx));
       const long xb = std::min(rhi, hi_idx(p.x + half, o.x, nx));
@@ -96,52 +153,33 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
         if (ia > ib) { ia = xb + 1; ib = xb; }
       }
       const std::size_t base = row * nx;
-      const float* c = chi + base;
-      auto lens_voxel = [&](long x) {
-        const float cf = c[x];
-        if (cf <= 0.0f) return;
-        const double dx = o.x + l * double(x) - p.x, d2 = dx * dx + s2;
-        if (d2 >= reach2) return;
-        const std::uint8_t k = lab[base + std::size_t(x)];
-        if (d2 <= inner2) {  // rounding put an inside voxel here: treat it as inside
-          ins_m[k] += cf;
-          ins_x += cf * dx; ins_y += cf * dy; ins_z += cf * dz;
-          return;
-        }
-        const LensTable::Entry e = tab.at(d2);
-        const double w = e.volume * cf;
-        mo.mass[k] += w;
-        const double wr = w * e.lever_over_d;
-        mo.m1.x += wr * dx; mo.m1.y += wr * dy; mo.m1.z += wr * dz;
-        lens.push_back({base + std::size_t(x), double(cf), e.area, e.lever_over_d, d2, dx, dy,
-                        dz, k});
-      };
-      for (long x = xa; x < ia; ++x) lens_voxel(x);
+      const Row r{chi + base, lab + base, base, o.x - p.x, l, dy, dz, s2, vol.row_label(row)};
+      out = lens_segment(r, xa, ia - 1, tab, reach2, inner2, S, out);
       if (ia <= ib) {
-        const std::uint8_t uk = vol.row_label(row);
-        if (uk != 0) {
+        if (r.uniform != 0) {
           double s0, s1;
-          sum_row(c, int(ia), int(ib), s0, s1);
-          ins_m[uk] += s0;
-          ins_x += l * s1 + (o.x - p.x) * s0;
-          ins_y += dy * s0;
-          ins_z += dz * s0;
+          sum_row(r.chi, int(ia), int(ib), s0, s1);
+          S.in_mass[r.uniform] += s0;
+          S.ix += l * s1 + r.gx * s0;
+          S.iy += dy * s0;
+          S.iz += dz * s0;
         } else {
           for (long x = ia; x <= ib; ++x) {
-            const double cf = c[x];
-            ins_m[lab[base + std::size_t(x)]] += cf;
-            ins_x += cf * (o.x + l * double(x) - p.x);
-            ins_y += cf * dy;
-            ins_z += cf * dz;
+            const double cf = r.chi[x];
+            S.in_mass[r.lab[x]] += cf;
+            S.ix += cf * (r.gx + l * double(x));
+            S.iy += cf * dy;
+            S.iz += cf * dz;
           }
         }
       }
-      for (long x = ib + 1; x <= xb; ++x) lens_voxel(x);
+      out = lens_segment(r, ib + 1, xb, tab, reach2, inner2, S, out);
     }
   }
-  for (int k = 1; k < kMaxClasses; ++k) mo.mass[k] += v_in * ins_m[k];
+  for (int k = 1; k < kMaxClasses; ++k) mo.mass[k] = S.lens_mass[k] + v_in * S.in_mass[k];
   mo.mass[0] = 0;  // label 0 has χ = 0 by construction
-  mo.m1 += v_in * glm::dvec3(ins_x, ins_y, ins_z);
+  mo.m1 = glm::dvec3(S.mx, S.my, S.mz) + v_in * glm::dvec3(S.ix, S.iy, S.iz);
+  mo.lens_count = std::size_t(out - first);
 }
 
 ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double R,
@@ -170,7 +208,7 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   if (!(m1n > 0)) return out;  // perfectly symmetric: no normal, no force
   const glm::dvec3 n = -mo.m1 / m1n;
   out.normal = n;
-  const double g = R * R * std::pow(b / R, 1.5);
+  const double g = R * R * (b / R) * std::sqrt(b / R);  // R²(b/R)^{3/2}
   for (int k = 1; k < kMaxClasses; ++k) {
     out.dF_dC1[k] = (mo.mass[k] / M) * g * n;
     out.elastic_N += prm.by_label[k].c1_N_per_mm2 * out.dF_dC1[k];
@@ -187,34 +225,58 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   // centre measured in the contact plane (MODEL.md step 4).
   const glm::dvec3 w = omega / wn;
   const double p0 = 3 * fe / (2 * kPi * a2), inv_a2 = 1.0 / a2;
+  // smallest r/d over the lens range (r/d falls with d): R/(R+η) at the outer edge, less
+  // a margin for the table's interpolation
+  const double rd_min = (tab.radius() / (tab.radius() + tab.eta())) * (1 - 1e-6);
+  const double rd_min2 = tab.radius() > tab.eta() ? rd_min * rd_min : 0.0;  // R < η: r/d ≶ 0
   const double l3 = vol.voxel_mm() * vol.voxel_mm() * vol.voxel_mm();
-  std::array<glm::dvec3, kMaxClasses> G{};
+  double G[kMaxClasses][3] = {};
+  double rem[kMaxClasses] = {}, en[kMaxClasses] = {};
+  double wmu[kMaxClasses], kero[kMaxClasses];  // μ|ω| and dt/(α l³) per class
+  for (int k = 0; k < kMaxClasses; ++k) {
+    const ClassConstants& cc = prm.by_label[k];
+    wmu[k] = cc.mu * wn;
+    kero[k] = std::isfinite(cc.alpha_N_per_mm2) ? dt / (cc.alpha_N_per_mm2 * l3) : 0.0;
+  }
   double power = 0;
   const bool do_erode = erode_vol != nullptr && dt > 0;
-  for (const detail::LensVoxel& e : vol.scratch().lens) {
-    const double vn = n.x * e.vx + n.y * e.vy + n.z * e.vz;
-    const double xi2 = e.lever_over_d * e.lever_over_d * (e.d2 - vn * vn);
+  const detail::LensVoxel* lv = vol.scratch().lens.data();
+  for (std::size_t j = 0; j < mo.lens_count; ++j) {
+    const detail::LensVoxel& v = lv[j];
+    const double vn = n.x * v.vx + n.y * v.vy + n.z * v.vz;
+    const double d2 = v.vx * v.vx + v.vy * v.vy + v.vz * v.vz;
+    const double t2 = d2 - vn * vn;  // squared distance of c from the normal axis
+    if (t2 * rd_min2 >= a2) continue;  // off the contact disc whatever r/d is
+    const LensTable::Entry e = tab.at(d2);
+    const double xi2 = e.lever_over_d * e.lever_over_d * t2;
     if (xi2 >= a2) continue;
     const double P = p0 * std::sqrt(1.0 - xi2 * inv_a2);
-    const double inv_d = 1.0 / std::sqrt(e.d2);
-    const double s = e.chi * e.area * P * inv_d;
-    // (v × ω̂)/|v|, weighted
-    G[e.label] += s * glm::dvec3(e.vy * w.z - e.vz * w.y, e.vz * w.x - e.vx * w.z,
-                                 e.vx * w.y - e.vy * w.x);
-    const ClassConstants& cc = prm.by_label[e.label];
-    if (cc.mu == 0) continue;
-    const double vw = (e.vx * w.x + e.vy * w.y + e.vz * w.z) * inv_d;
-    const double r = e.lever_over_d * e.d2 * inv_d;
-    const double W = cc.mu * e.chi * P * wn * r * (1.0 - vw * vw) * e.area;
+    const double chi = v.chi;
+    const double s = chi * e.area * P * e.inv_d;
+    // (v × ω̂)/|v|, weighted by χΔσP
+    const int k = v.label;
+    double* g = G[k];
+    g[0] += s * (v.vy * w.z - v.vz * w.y);
+    g[1] += s * (v.vz * w.x - v.vx * w.z);
+    g[2] += s * (v.vx * w.y - v.vy * w.x);
+    if (wmu[k] == 0) continue;
+    const double vw = (v.vx * w.x + v.vy * w.y + v.vz * w.z) * e.inv_d;
+    const double r = e.lever_over_d * d2 * e.inv_d;
+    const double W = wmu[k] * chi * P * r * (1.0 - vw * vw) * e.area;
     power += W;
     if (!do_erode) continue;
-    if (energy) (*energy)[e.label] += W * dt;
-    if (std::isfinite(cc.alpha_N_per_mm2))
-      (*removed)[e.label] += l3 * erode_vol->erode(e.index, dt * W / (cc.alpha_N_per_mm2 * l3));
+    en[k] += W * dt;
+    if (kero[k] > 0) rem[k] += erode_vol->erode(v.index, W * kero[k]);
+  }
+  if (do_erode) {
+    for (int k = 0; k < kMaxClasses; ++k) {
+      (*removed)[k] += l3 * rem[k];
+      if (energy) (*energy)[k] += en[k];
+    }
   }
   for (int k = 1; k < kMaxClasses; ++k) {
-    out.dFmu_dmu[k] = G[k];
-    out.friction_N += prm.by_label[k].mu * G[k];
+    out.dFmu_dmu[k] = glm::dvec3(G[k][0], G[k][1], G[k][2]);
+    out.friction_N += prm.by_label[k].mu * out.dFmu_dmu[k];
   }
   out.power_W_mJ_per_s = power;
   out.force_N = out.elastic_N + out.friction_N;

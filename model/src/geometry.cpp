@@ -50,11 +50,12 @@ LensTable::LensTable(double R, double l, int intervals)
   d2_hi_ = (R + eta_) * (R + eta_);
   inv_h_ = n_ / (d2_hi_ - d2_lo_);
   v_inside_ = sphere_volume(std::min(R, eta_));
-  tab_.resize(3 * static_cast<std::size_t>(n_ + 1));
+  tab_.resize(4 * static_cast<std::size_t>(n_ + 1));
   for (int i = 0; i <= n_; ++i) {
     const double d2 = d2_lo_ + (d2_hi_ - d2_lo_) * i / n_;
     const double d = std::sqrt(d2);
-    double* e = &tab_[3 * static_cast<std::size_t>(i)];
+    double* e = &tab_[4 * static_cast<std::size_t>(i)];
+    e[3] = d > 0 ? 1.0 / d : 0.0;  // only at d = 0 when R = η; never read there
     if (i == 0) {  // inner edge: limit of the lens forms (d = 0 when R = η)
       e[0] = v_inside_;
       e[2] = d2 > 0 ? 0.5 + (R * R - eta_ * eta_) / (2 * d2) : 0.5;

@@ -9,12 +9,16 @@
 
 namespace burrbench::model::detail {
 
+// 32 bytes, so even the ~6000 lens voxels of a buried micro-CT burr stay in cache; the
+// table entry is looked up again in the second pass (cheaper than storing it).
 struct LensVoxel {
-  std::size_t index;
-  double chi, area, lever_over_d, d2;
-  double vx, vy, vz;  // v = c − p
+  double vx, vy, vz;     // v = c − p
+  std::uint32_t index;   // linear voxel index (volumes are < 2³¹ voxels)
   std::uint8_t label;
+  std::uint8_t pad[3];
+  float chi;
 };
+static_assert(sizeof(LensVoxel) == 40 || sizeof(LensVoxel) == 32);
 
 struct Scratch {
   bool has_table = false;

@@ -25,33 +25,34 @@ struct LensGeometry {
 LensGeometry lens_geometry(double burr_radius_mm, double eta_mm, double d_mm);
 double lens_volume(double burr_radius_mm, double eta_mm, double d_mm);  // exact, any regime
 
-// Tables of ΔV, Δσ and r/d over the lens range as functions of d², linearly interpolated.
+// Tables of ΔV, Δσ, r/d and 1/d over the lens range as functions of d², linearly interpolated.
 // Only valid for |R−η|² < d² < (R+η)² (the caller classifies the regime first).
 class LensTable {
  public:
   LensTable() = default;
-  LensTable(double burr_radius_mm, double voxel_mm, int intervals = 4096);
+  LensTable(double burr_radius_mm, double voxel_mm, int intervals = 1024);
   double radius() const { return R_; }
   double voxel() const { return l_; }
   double eta() const { return eta_; }
   double d2_inner() const { return d2_lo_; }  // |R−η|²
   double d2_outer() const { return d2_hi_; }  // (R+η)²
   double inside_volume() const { return v_inside_; }
-  struct Entry { double volume, area, lever_over_d; };
+  struct Entry { double volume, area, lever_over_d, inv_d; };
   Entry at(double d2) const {
     double u = (d2 - d2_lo_) * inv_h_;
     int i = static_cast<int>(u);
     if (i < 0) i = 0;
     if (i >= n_) i = n_ - 1;
     const double f = u - i;
-    const double* a = &tab_[3 * static_cast<std::size_t>(i)];
-    return {a[0] + f * (a[3] - a[0]), a[1] + f * (a[4] - a[1]), a[2] + f * (a[5] - a[2])};
+    const double* a = &tab_[4 * static_cast<std::size_t>(i)];
+    return {a[0] + f * (a[4] - a[0]), a[1] + f * (a[5] - a[1]), a[2] + f * (a[6] - a[2]),
+            a[3] + f * (a[7] - a[3])};
   }
 
  private:
   double R_ = 0, l_ = 0, eta_ = 0, d2_lo_ = 0, d2_hi_ = 0, inv_h_ = 0, v_inside_ = 0;
   int n_ = 0;
-  std::vector<double> tab_;  // (n_+1) × {ΔV, Δσ, r/d}
+  std::vector<double> tab_;  // (n_+1) × {ΔV, Δσ, r/d, 1/d}
 };
 
 // Immersion depth b ∈ [0, 2R] solving π b² (R − b/3) = M (M clamped to [0, 4πR³/3]).
