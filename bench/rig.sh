@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# Acquisition speed against the virtual rig (issue 4): prints figure | measured | target | ok.
+#   1. two TCP devices polled at 1 kHz each for 60 s on loopback: achieved rate, period
+#      jitter p99, device samples lost (counter-verified; devices sample at 500 Hz so a
+#      poll on time sees every sample at least once)
+#   2. maximum request rate of `burrbench acquire` vs pymodbus' sync client and mbpoll
+#      (rig/virtual/measure_rate.py) on the same rig
+#   3. RTU through the paced relay at 115200 baud vs the wire-time limit
+# Usage: bench/rig.sh BUILD_DIR [SECONDS=60]. The machine may be shared: figures are
+# what this run saw, not a guarantee.
+set -euo pipefail
+build=${1:-build}
+seconds=${2:-60}
+here=$(cd "$(dirname "$0")" && pwd)
+src=$(dirname "$here")
+export BURRBENCH="$build/apps/burrbench" BURRBENCH_SOURCE_DIR="$src"
+[[ -x "$BURRBENCH" ]] || cmake --build "$build" --target burrbench -j 2 >/dev/null
+exec /usr/bin/python3 - "$seconds" <<'PY'
+import json, os, subprocess, sys, tempfile
+import numpy as np
+src = os.environ["BURRBENCH_SOURCE_DIR"]
+sys.path.insert(0, os.path.join(src, "tests", "rig"))
+import rig_helpers as rh
+from virtual_helpers import start_virtual_rig, start_virtual_rig_rtu
+
+seconds = float(sys.argv[1])
+tmp = tempfile.mkdtemp(prefix="bench-rig-")
+rows = []
+
+def row(fig, measured, target, ok):
+    rows.append((fig, measured, target, "yes" if ok else "NO"))
+
+# 1. two devices at 1 kHz for `seconds`
+with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "500"]) as (proc, host, port):
+    body = (rh.tcp_device("ft_sensor", port, 9, 180, 42, 1000, rh.FT_CHANNELS, counter=220)
+            + rh.tcp_device("stage", port, 1, 0, 8, 1000, rh.STAGE_CHANNELS, counter=6))
+    out = rh.acquire(tmp, rh.write_map(tmp, body, "two.toml"), seconds, out="two.h5", timeout=seconds + 120)
+rec = rh.read_recording(out)
+for name in ("ft_sensor", "stage"):
+    s = rec[name]
+    n = s["t_ns"].size
+    span = (s["t_send_ns"][-1] - s["t_send_ns"][0]) / 1e9
+    achieved = (n - 1) / (span * 1000.0)
+    d = np.diff(s["t_send_ns"]) / 1e3 - 1000.0
+    jit = np.percentile(np.abs(d), 99)
+    k = np.unique(s["device_counter"])
+    lost = int(k[-1] - k[0] + 1 - k.size)
+    row(f"{name} 1 kHz for {seconds:.0f} s: achieved rate", f"{100 * achieved:.3f} %", ">= 99.9 %", achieved >= 0.999)
+    row(f"{name}: period jitter p99", f"{jit:.0f} us", "<= 200 us", jit <= 200)
+    row(f"{name}: device samples lost (counter)", f"{lost}", "0", lost == 0)
+
+# 2. maximum request rate (42 registers, one device, back to back)
+def burrbench_max(port, secs=3.0):
+    body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 10000, rh.FT_CHANNELS[:1], counter=220)
+    out = rh.acquire(tmp, rh.write_map(tmp, body, "max.toml"), secs, out="max.h5")
+    s = rh.read_recording(out)["ft_sensor"]
+    os.remove(out)
+    return (s["t_ns"].size - 1) / ((s["t_send_ns"][-1] - s["t_send_ns"][0]) / 1e9)
+
+with start_virtual_rig(["--pattern", "ramp"]) as (proc, host, port):
+    ours = burrbench_max(port)
+    ref = json.loads(subprocess.run(["/usr/bin/python3", os.path.join(src, "rig", "virtual", "measure_rate.py"),
+                                     "--port", str(port), "--seconds", "3", "--mbpoll-procs", "1", "--json"],
+                                    capture_output=True, text=True, check=True).stdout)
+rates = {r["client"]: r["rate"] for r in ref}
+row("max request rate, burrbench acquire", f"{ours:.0f} req/s", "-", True)
+row("  vs pymodbus sync client", f"{ours / rates['pymodbus']:.2f}x ({rates['pymodbus']:.0f} req/s)", ">= 1", ours >= rates["pymodbus"])
+row("  vs mbpoll (1 process)", f"{ours / rates['mbpoll x1']:.1f}x ({rates['mbpoll x1']:.0f} req/s)", ">= 1", ours >= rates["mbpoll x1"])
+
+# 3. RTU at 115200 baud through the paced relay
+with start_virtual_rig_rtu(["--pattern", "ramp", "--baud", "115200"]) as (proc, pty):
+    body = rh.rtu_device("ft_sensor", pty, 9, 180, 42, 1000, rh.FT_CHANNELS[:1], counter=220, timeout_ms=200)
+    out = rh.acquire(tmp, rh.write_map(tmp, body, "rtu.toml"), 5.0, out="rtu.h5")
+s = rh.read_recording(out)["ft_sensor"]
+rate = (s["t_ns"].size - 1) / ((s["t_send_ns"][-1] - s["t_send_ns"][0]) / 1e9)
+wire = (8 + 5 + 2 * 42) * 10 / 115200.0
+frac = rate * wire
+row("RTU 115200 baud, 42 registers: request rate", f"{rate:.1f} req/s = {100 * frac:.1f} % of wire limit {1 / wire:.1f}", ">= 90 %", frac >= 0.9)
+
+load = os.getloadavg()[0]
+w = max(len(r[0]) for r in rows)
+print(f"\nrig acquisition bench (load average {load:.1f} on {os.cpu_count()} cores; a shared machine lowers every figure)")
+print(f"{'figure':<{w}} | {'measured':<40} | {'target':<10} | ok")
+for r in rows:
+    print(f"{r[0]:<{w}} | {r[1]:<40} | {r[2]:<10} | {r[3]}")
+import shutil
+shutil.rmtree(tmp, ignore_errors=True)
+PY
