@@ -1,0 +1,229 @@
+"""Volume importers through the CLI: NRRD / MetaImage / slice-stack fixtures written by an
+independent writer (fixtures_volumes.py), imported with `burrbench sample import`, and
+read back with h5py: geometry (origin = centre of the first voxel, spacing) and values."""
+import hashlib
+import json
+import os
+import subprocess
+
+import h5py
+import numpy as np
+import pytest
+
+from fixtures_volumes import read_nrrd, write_metaimage, write_nrrd, write_png, write_tiff
+
+BURRBENCH = os.environ["BURRBENCH"]
+
+
+def run(*args):
+    return subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, timeout=120)
+
+
+def sha(p):
+    return hashlib.sha256(open(p, "rb").read()).hexdigest()
+
+
+def load(path):
+    with h5py.File(path, "r") as f:
+        sources = dict(zip([p.decode() if isinstance(p, bytes) else p for p in f["sources/path"][()]],
+                           [h.decode() if isinstance(h, bytes) else h for h in f["sources/sha256"][()]]))
+        seg = f["segmentation_json"][()]
+        return {"labels": f["labels"][()], "fraction": f["fraction"][()],
+                "voxel": float(f.attrs["voxel_size_mm"]), "origin": np.array(f.attrs["origin_mm"]),
+                "sources": sources, "seg": json.loads(seg.decode() if isinstance(seg, bytes) else seg)}
+
+
+def phantom(shape, seed=0):
+    rng = np.random.default_rng(seed)
+    labels = rng.integers(0, 3, size=shape).astype(np.uint8)
+    frac = np.where(labels > 0, rng.uniform(0.05, 1.0, size=shape), 0).astype(np.float32)
+    return labels, frac
+
+
+def test_nrrd_attached_raw(tmp_path):
+    labels, frac = phantom((4, 5, 6))
+    L, F, out = tmp_path / "L.nrrd", tmp_path / "F.nrrd", tmp_path / "S.h5"
+    write_nrrd(L, labels, spacing=(0.2, 0.2, 0.2), origin=(1.5, -2.0, 3.25))
+    write_nrrd(F, frac, spacing=(0.2, 0.2, 0.2), origin=(1.5, -2.0, 3.25))
+    before = sha(L), sha(F)
+    r = run("sample", "import", "--labels", L, "--fraction", F, "--out", out)
+    assert r.returncode == 0, r.stderr
+    s = load(out)
+    np.testing.assert_array_equal(s["labels"], labels)
+    np.testing.assert_array_equal(s["fraction"], frac)
+    assert s["voxel"] == pytest.approx(0.2)
+    np.testing.assert_allclose(s["origin"], [1.5, -2.0, 3.25])
+    assert s["sources"] == {str(L): before[0], str(F): before[1]}
+    assert (sha(L), sha(F)) == before
+
+
+def test_nrrd_detached_gzip_big_endian_and_counter_fraction(tmp_path):
+    labels, frac = phantom((3, 4, 5), seed=1)
+    counter = np.round(frac * 255).astype(np.uint8)
+    L, F, out = tmp_path / "L.nhdr", tmp_path / "F.nhdr", tmp_path / "S.h5"
+    write_nrrd(L, labels.astype(np.int16), spacing=(0.5,) * 3, origin=(0, 0, -1), encoding="gzip", big=True,
+               detached=True, data_suffix=".raw.gz")
+    write_nrrd(F, counter, spacing=(0.5,) * 3, origin=(0, 0, -1), detached=True)
+    r = run("sample", "import", "--labels", L, "--fraction", F, "--out", out)
+    assert r.returncode == 0, r.stderr
+    s = load(out)
+    np.testing.assert_array_equal(s["labels"], labels)
+    np.testing.assert_allclose(s["fraction"], counter / 255.0, atol=1e-7)
+    np.testing.assert_allclose(s["origin"], [0, 0, -1])
+    # the detached data files are inputs too
+    assert str(tmp_path / "L.raw.gz") in s["sources"] and str(tmp_path / "F.raw") in s["sources"]
+
+
+def test_anisotropic_spacing_resampled_to_cubic(tmp_path):
+    nz, ny, nx = 5, 3, 4
+    labels = np.zeros((nz, ny, nx), np.uint8)
+    labels[2:] = 1
+    frac = np.repeat(np.linspace(0.0, 1.0, nz, dtype=np.float32), ny * nx).reshape(nz, ny, nx)
+    frac[labels == 0] = 0
+    L, F, out = tmp_path / "L.nrrd", tmp_path / "F.nrrd", tmp_path / "S.h5"
+    write_nrrd(L, labels, spacing=(0.1, 0.1, 0.3), origin=(2.0, 3.0, 4.0), encoding="gzip")
+    write_nrrd(F, frac, spacing=(0.1, 0.1, 0.3), origin=(2.0, 3.0, 4.0), encoding="gzip")
+    r = run("sample", "import", "--labels", L, "--fraction", F, "--out", out)
+    assert r.returncode == 2 and "cubic voxels" in r.stderr and str(L) in r.stderr
+    r = run("sample", "import", "--labels", L, "--fraction", F, "--out", out, "--resample")
+    assert r.returncode == 0, r.stderr
+    s = load(out)
+    assert s["voxel"] == pytest.approx(0.1)
+    np.testing.assert_allclose(s["origin"], [2.0, 3.0, 4.0])
+    assert s["labels"].shape == (13, 3, 4)  # z span 4 × 0.3 mm = 1.2 mm → 13 centres
+    zin = np.arange(13) * 0.1 / 0.3        # output z in input index units
+    np.testing.assert_array_equal(s["labels"][:, 0, 0], labels[np.floor(zin + 0.5).astype(int), 0, 0])
+    want = np.interp(zin, np.arange(nz), frac[:, 0, 0])
+    got = s["fraction"][:, 0, 0]
+    lab = s["labels"][:, 0, 0]
+    np.testing.assert_allclose(got[lab > 0], want[lab > 0], atol=1e-6)
+    assert (got[lab == 0] == 0).all()
+    # a chosen voxel size
+    r = run("sample", "import", "--labels", L, "--out", tmp_path / "S2.h5", "--voxel-mm", "0.15")
+    assert r.returncode == 0, r.stderr
+    s2 = load(tmp_path / "S2.h5")
+    assert s2["voxel"] == pytest.approx(0.15) and s2["labels"].shape == (9, 2, 3)
+
+
+def test_flipped_and_permuted_directions_fold_into_data(tmp_path):
+    labels, _ = phantom((3, 4, 5), seed=2)  # z, y, x
+    L, out = tmp_path / "L.nrrd", tmp_path / "S.h5"
+    # index axis 0 runs along −x, axis 1 along +y, axis 2 along +z
+    write_nrrd(L, labels, directions=[(-0.5, 0, 0), (0, 0.5, 0), (0, 0, 0.5)], origin=(10.0, 1.0, 2.0))
+    r = run("sample", "import", "--labels", L, "--out", out)
+    assert r.returncode == 0, r.stderr
+    s = load(out)
+    np.testing.assert_allclose(s["origin"], [10.0 - 0.5 * 4, 1.0, 2.0])
+    np.testing.assert_array_equal(s["labels"], labels[:, :, ::-1])
+    # swapping axes: index axis 0 along y, axis 1 along x
+    write_nrrd(L, labels, directions=[(0, 0.5, 0), (0.5, 0, 0), (0, 0, 0.5)])
+    r = run("sample", "import", "--labels", L, "--out", out)
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_array_equal(load(out)["labels"], labels.transpose(0, 2, 1))
+
+
+@pytest.mark.parametrize("msb,compressed,detached", [(False, False, False), (True, False, True), (False, True, True),
+                                                     (True, True, False)])
+def test_metaimage(tmp_path, msb, compressed, detached):
+    labels, frac = phantom((4, 3, 5), seed=3)
+    ext = ".mhd" if detached else ".mha"
+    L, F, out = tmp_path / ("L" + ext), tmp_path / ("F" + ext), tmp_path / "S.h5"
+    write_metaimage(L, labels.astype(np.uint16), spacing=(0.25,) * 3, offset=(-1, 2, 0.5), msb=msb,
+                    compressed=compressed, detached=detached)
+    write_metaimage(F, frac, spacing=(0.25,) * 3, offset=(-1, 2, 0.5), msb=msb, compressed=compressed,
+                    detached=detached)
+    r = run("sample", "import", "--labels", L, "--fraction", F, "--out", out)
+    assert r.returncode == 0, r.stderr
+    s = load(out)
+    np.testing.assert_array_equal(s["labels"], labels)
+    np.testing.assert_array_equal(s["fraction"], frac)
+    np.testing.assert_allclose(s["origin"], [-1, 2, 0.5])
+    assert s["voxel"] == pytest.approx(0.25)
+
+
+@pytest.mark.parametrize("writer,dtype", [(write_png, np.uint8), (write_tiff, np.uint16), (write_png, np.uint16)])
+def test_slice_stack_sorted_by_name(tmp_path, writer, dtype):
+    labels, _ = phantom((12, 4, 6), seed=4)
+    d = tmp_path / "slices"
+    d.mkdir()
+    ext = ".png" if writer is write_png else ".tif"
+    for z in range(12):  # s1 … s12: natural order, not s1, s10, s11, s12, s2
+        writer(d / f"s{z + 1}{ext}", labels[z].astype(dtype))
+    out = tmp_path / "S.h5"
+    r = run("sample", "import", "--labels", d, "--out", out)
+    assert r.returncode == 2 and "--spacing-mm" in r.stderr
+    r = run("sample", "import", "--labels", d, "--spacing-mm", "0.2,0.2,0.2", "--out", out)
+    assert r.returncode == 0, r.stderr
+    s = load(out)
+    np.testing.assert_array_equal(s["labels"], labels)
+    assert s["voxel"] == pytest.approx(0.2)
+    assert len(s["sources"]) == 12
+
+
+def test_ct_segmentation_through_cli(tmp_path):
+    # 24×24×30 voxels of 0.1 mm: air on top, a solid 1 mm slab, plates 1 voxel thick below.
+    ct = np.zeros((30, 24, 24), np.int16)
+    ct[14:24] = 1000
+    for z in range(0, 14):
+        ct[z, :, ::4] = 1000   # plates every 4th x
+    ct[0:14, ::4, :] = 1000
+    noise = np.random.default_rng(5).normal(0, 60, ct.shape)
+    ct = (ct + noise).astype(np.int16)
+    C, out = tmp_path / "CT.nrrd", tmp_path / "S.h5"
+    write_nrrd(C, ct, spacing=(0.1,) * 3, encoding="gzip")
+    before = sha(C)
+    r = run("sample", "import", "--ct", C, "--out", out, "--empty-grey", "0", "--bone-grey", "1000")
+    assert r.returncode == 0, r.stderr
+    s = load(out)
+    lab = s["labels"]
+    assert (lab[26:] == 0).mean() > 0.99          # air
+    assert (lab[16:22] == 1).mean() > 0.99        # inside the slab: compact
+    assert (lab[2:10][ct[2:10] > 500] == 2).mean() > 0.95  # plates: trabecular
+    seg = s["seg"]
+    assert seg["threshold_method"] == "otsu" and seg["empty_grey_source"] == "given"
+    assert seg["bone_grey"] == 1000 and "compact_open_mm" in seg and "bvtv_radius_mm" in seg
+    assert s["sources"] == {str(C): before} and sha(C) == before
+
+
+def test_export_nrrd_roundtrip(tmp_path):
+    S = tmp_path / "S.h5"
+    r = run("sample", "synth", "--voxel-mm", "0.2", "--extent-mm", "2,3,2", "--seed", "2", "--out", S)
+    assert r.returncode == 0, r.stderr
+    r = run("sample", "export-nrrd", S, "--out-prefix", tmp_path / "P")
+    assert r.returncode == 0, r.stderr
+    s = load(S)
+    lab, fl = read_nrrd(tmp_path / "P_labels.nrrd")
+    fr, ff = read_nrrd(tmp_path / "P_fraction.nrrd")
+    np.testing.assert_array_equal(lab, s["labels"])
+    np.testing.assert_array_equal(fr, s["fraction"])
+    assert fl["space origin"] == "(0.10000000000000001,0.10000000000000001,0.10000000000000001)"
+    assert fl["space directions"].startswith("(0.20000000000000001,0,0)")
+    # and our importer reads the export back to the same sample
+    r = run("sample", "import", "--labels", tmp_path / "P_labels.nrrd", "--fraction", tmp_path / "P_fraction.nrrd",
+            "--out", tmp_path / "S2.h5")
+    assert r.returncode == 0, r.stderr
+    s2 = load(tmp_path / "S2.h5")
+    np.testing.assert_array_equal(s2["labels"], s["labels"])
+    np.testing.assert_array_equal(s2["fraction"], s["fraction"])
+    np.testing.assert_allclose(s2["origin"], s["origin"])
+
+
+def test_synth_same_seed_same_contents(tmp_path):
+    outs = []
+    for name, seed in (("a", 1), ("b", 1), ("c", 2)):
+        p = tmp_path / f"{name}.h5"
+        r = run("sample", "synth", "--voxel-mm", "0.1", "--extent-mm", "3,3,2", "--compact-mm", "0.5",
+                "--porosity", "0.6", "--seed", seed, "--out", p)
+        assert r.returncode == 0, r.stderr
+        outs.append(load(p))
+    a, b, c = outs
+    np.testing.assert_array_equal(a["labels"], b["labels"])
+    np.testing.assert_array_equal(a["fraction"], b["fraction"])
+    assert a["seg"] == b["seg"]
+    assert not np.array_equal(a["fraction"], c["fraction"])
+    assert a["fraction"].dtype == np.float32
+    # compact layer 0.5 mm on top, porous core with the asked porosity
+    assert (a["labels"][15:] == 1).all()
+    core = a["fraction"][:15]
+    assert core.mean() == pytest.approx(0.4, abs=2e-3)
+    assert set(np.unique(a["labels"][:15])) == {0, 2}
