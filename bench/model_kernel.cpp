@@ -40,7 +40,8 @@ bm::ModelParams params() {
 // `depth` (depth < 0: that far below the surface, i.e. buried). The undo log is rolled
 // back every 4096 steps so the surface stays intact over any number of iterations.
 void run_steps(benchmark::State& st, double R, double l, double depth) {
-  const std::size_t n = std::size_t(std::ceil(4 * R / l)) + 8;
+  // Room for the burr buried a full diameter below the surface, inside the volume.
+  const std::size_t n = std::size_t(std::ceil(6 * R / l)) + 8;
   const double zs = (double(n) / 2 - 0.5) * l;
   bm::Volume v = flat(n, n, n, l, zs);
   const auto prm = params();
@@ -66,9 +67,10 @@ void run_steps(benchmark::State& st, double R, double l, double depth) {
 
 void BM_paper_R075_l03_depth_R4(benchmark::State& st) { run_steps(st, 0.75, 0.3, 0.75 / 4); }
 void BM_microct_R1_l005_depth_R4(benchmark::State& st) { run_steps(st, 1.0, 0.05, 0.25); }
-void BM_microct_R1_l005_buried(benchmark::State& st) { run_steps(st, 1.0, 0.05, 2.0 + 0.5); }
+void BM_microct_R1_l005_buried(benchmark::State& st) { run_steps(st, 1.0, 0.05, 2.0 + 0.25); }
 
-// Replay of 15 s at 1 kHz, R/l = 10 (R = 0.5 mm, l = 0.05 mm): plunge, sweeps, polishing.
+// Replay of 15 s at 1 kHz, R/l = 10 (R = 0.5 mm, l = 0.05 mm): plunge to R/2 while sweeping
+// ±2.5 mm along x at 0.5 Hz (up to 7.9 mm/s) and slowly along y, eroding.
 void BM_replay_15s_1kHz_R_over_l_10(benchmark::State& st) {
   const double R = 0.5, l = 0.05;
   const std::size_t nx = 160, ny = 80, nz = 60;
@@ -77,7 +79,7 @@ void BM_replay_15s_1kHz_R_over_l_10(benchmark::State& st) {
   bm::Trajectory tr;
   for (int k = 0; k < 15000; ++k) {
     const double t = k * 1e-3;
-    const double depth = std::min(0.4, 0.1 * t);                 // plunge at 0.1 mm/s
+    const double depth = std::min(0.25, 0.1 * t);                // plunge at 0.1 mm/s to R/2
     const double x = 4.0 + 2.5 * std::sin(2 * M_PI * 0.5 * t);  // ±2.5 mm sweeps
     const double y = 2.0 + 0.5 * std::sin(2 * M_PI * 0.13 * t);
     tr.t_s.push_back(t);
