@@ -148,9 +148,12 @@ bool read_string_values(hid_t type, std::size_t n, std::vector<std::string>& out
     H5Dvlen_reclaim(mt.get(), space, H5P_DEFAULT, ptrs.data());
     return true;
   }
-  const std::size_t size = H5Tget_size(type);
-  Handle mt(H5Tcopy(H5T_C_S1), H5Tclose);
+  // Fixed length (MATLAB, Fortran): one extra byte so a NULLTERM memory type keeps all
+  // characters of NULLPAD/SPACEPAD/NULLTERM file strings.
+  const std::size_t size = H5Tget_size(type) + 1;
+  Handle mt(H5Tcopy(type), H5Tclose);
   H5Tset_size(mt.get(), size);
+  H5Tset_strpad(mt.get(), H5T_STR_NULLTERM);
   std::vector<char> buf(n * size);
   if (read(mt.get(), buf.data()) < 0) return false;
   for (std::size_t i = 0; i < n; ++i) {
@@ -315,7 +318,7 @@ std::vector<hsize_t> Reader::shape(const std::string& ds_path, Elem e) const {
   Handle d = open_dataset(ds_path);
   Handle t(H5Dget_type(d.get()), H5Tclose);
   if (!convertible(t.get(), e))
-    throw InputError(file_, ds_path, fmt::format("a {} dataset", elem_name(e)), describe_type(t.get()));
+    throw InputError(file_, ds_path, fmt::format("{} dataset", elem_name(e)), describe_type(t.get()));
   Handle s(H5Dget_space(d.get()), H5Sclose);
   return space_dims(s.get());
 }
@@ -326,7 +329,7 @@ std::vector<T> Reader::read(const std::string& ds_path, Elem e, std::vector<hsiz
   Handle d = open_dataset(ds_path);
   Handle t(H5Dget_type(d.get()), H5Tclose);
   if (!convertible(t.get(), e))
-    throw InputError(file_, ds_path, fmt::format("a {} dataset", elem_name(e)), describe_type(t.get()));
+    throw InputError(file_, ds_path, fmt::format("{} dataset", elem_name(e)), describe_type(t.get()));
   Handle s(H5Dget_space(d.get()), H5Sclose);
   const std::vector<hsize_t> dims = space_dims(s.get());
   const std::uint64_t n = product(dims, max_elements);
