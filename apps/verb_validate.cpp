@@ -34,7 +34,6 @@ void run(const Args& a) {
     throw InputError(a.out, "--out", "a directory (or a path to create one)", "an existing file");
   // Everything that can be checked cheaply is checked before the replay.
   const auto criteria = analysis::read_criteria(a.criteria);
-  (void)criteria;
   const auto params = data_schema::read_params(a.params);
   fs::create_directories(a.out, ec);
   if (ec) throw InputError(a.out, "--out", "a directory that can be created", ec.message());
@@ -42,6 +41,8 @@ void run(const Args& a) {
   TerminalProgress progress("validate");
   auto in = analysis::replay_experiment(a.experiment, params, nullptr,
                                         {!a.no_tare, a.context, &progress});
+  // A criterion that selects data this experiment lacks is bad input, named by its file.
+  (void)analysis::evaluate_criteria(criteria, analysis::compute_metric_rows(in), a.criteria);
   in.params_path = fs::absolute(a.params).string();
   in.params_sha256 = sha256_file(a.params);
   in.criteria_path = fs::absolute(a.criteria).string();

@@ -1,0 +1,127 @@
+"""`burrbench validate` as a simulator CI uses it: exit 0 on a passing model, 1 on a
+failing one, 2 on broken inputs (one stderr line naming the file), on a real synthetic
+experiment (examples/experiments/synthetic/make.sh: burrbench sample synth + synth).
+The report it writes loads in headless Chromium with its plots drawn."""
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+import browser_check  # noqa: E402
+
+BURRBENCH = os.environ.get("BURRBENCH", "burrbench")
+SRC = os.environ.get("BURRBENCH_SOURCE_DIR", os.path.join(HERE, "..", ".."))
+CRITERIA = os.path.join(SRC, "examples", "criteria", "release.toml")
+
+
+def run(*args):
+    return subprocess.run([BURRBENCH, *args], capture_output=True, text=True, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def exp(tmp_path_factory):
+    d = tmp_path_factory.mktemp("synthetic")
+    subprocess.run(["sh", os.path.join(SRC, "examples/experiments/synthetic/make.sh"), BURRBENCH, str(d)],
+                   check=True, capture_output=True, timeout=300)
+    return d
+
+
+def sha(path):
+    return hashlib.sha256(open(path, "rb").read()).hexdigest()
+
+
+def validate(exp, out, params=None, criteria=CRITERIA, experiment=None):
+    return run("validate", "--experiment", str(experiment or exp / "experiment.toml"),
+               "--params", str(params or exp / "params_true.toml"), "--criteria", str(criteria),
+               "--out", str(out))
+
+
+def test_true_parameters_pass_and_report_renders(exp, tmp_path):
+    inputs = [exp / f for f in ("experiment.toml", "params_true.toml", "sample.h5", "polish.h5")]
+    before = [sha(p) for p in inputs]
+    out = tmp_path / "gate"
+    r = validate(exp, out)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "gate: PASS" in r.stdout
+    m = json.load(open(out / "metrics.json"))
+    assert m["pass"] is True and len(m["criteria"]) == 4
+    # held-out data is the "polish" recording only; the model with the truth sits at the
+    # synthetic noise floor (σ = 0.02 N per axis)
+    pooled = [x for x in m["rows"] if x["recording"] == "" and x["role"] == "validate"
+              and x["segment"] == "all" and x["axis"] == "x"][0]
+    assert 0.015 < pooled["rmse_N"] < 0.03, pooled
+    for f in ("report.html", "predictions.csv", "residuals.csv", "analysis.json", "criteria.toml"):
+        assert (out / f).exists(), f
+    assert [sha(p) for p in inputs] == before  # inputs untouched
+
+    html = open(out / "report.html", encoding="utf-8").read()
+    assert "http://" not in html and "https://" not in html
+    assert "ACCEPTANCE CRITERIA: PASS" in html
+    for version in ("Ceres Solver", "libmodbus", "OpenCV", "HDF5"):
+        assert version in html
+    assert sha(exp / "polish.h5") in html  # input hashes in the data section
+    res = json.loads(subprocess.run([sys.executable, os.path.join(HERE, "browser_check.py"),
+                                     str(out / "report.html"), str(tmp_path / "chromium")],
+                                    capture_output=True, text=True, timeout=200, check=True).stdout)
+    assert res["console_errors"] == []
+    # overview + 3 recordings × 3 plots + 2 histograms (calibrate, validate)
+    assert res["dom"].count('data-rendered="1"') == 12
+    assert res["coloured_fraction"] > 0.003
+
+
+def test_wrong_parameters_fail(exp, tmp_path):
+    text = open(exp / "params_true.toml").read()
+    # friction and contact stiffness far off: the held-out forces no longer match
+    wrong = re.sub(r"c1_N_per_mm2 = [0-9.]+", "c1_N_per_mm2 = 60.0", text)
+    assert wrong != text
+    p = tmp_path / "wrong.toml"
+    p.write_text(wrong)
+    out = tmp_path / "gate"
+    r = validate(exp, out, params=p)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert "gate: FAIL" in r.stdout
+    assert json.load(open(out / "metrics.json"))["pass"] is False
+    assert "ACCEPTANCE CRITERIA: FAIL" in open(out / "report.html", encoding="utf-8").read()
+
+
+BAD_CRITERIA = {
+    "unknown_key": 'format = "burrbench.criteria"\nformat_version = "1.0"\n[[criterion]]\n'
+                   'metric = "rmse_N"\naxis = "x"\nmax = 1\ntypo = 2\n',
+    "unknown_recording": 'format = "burrbench.criteria"\nformat_version = "1.0"\n[[criterion]]\n'
+                         'metric = "rmse_N"\naxis = "x"\nrecording = "nope"\nmax = 1\n',
+    "not_toml": "[[criterion\n",
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_CRITERIA))
+def test_bad_criteria_exit_2(exp, tmp_path, name):
+    c = tmp_path / "c.toml"
+    c.write_text(BAD_CRITERIA[name])
+    r = validate(exp, tmp_path / "gate", criteria=c)
+    assert r.returncode == 2, r.stdout + r.stderr
+    errors = [l for l in r.stderr.splitlines() if l.startswith("burrbench:")]
+    assert len(errors) == 1 and str(c) in errors[0], r.stderr
+    assert not (tmp_path / "gate" / "report.html").exists()
+
+
+def test_missing_and_broken_files_exit_2(exp, tmp_path):
+    r = validate(exp, tmp_path / "g1", params=tmp_path / "missing.toml")
+    assert r.returncode == 2 and "missing.toml" in r.stderr, r.stderr
+    broken = tmp_path / "experiment.toml"
+    shutil.copy(exp / "experiment.toml", broken)
+    broken.write_text(open(broken).read().replace('path = "plunge.h5"', 'path = "gone.h5"'))
+    r = validate(exp, tmp_path / "g2", experiment=broken)
+    assert r.returncode == 2 and "experiment.toml" in r.stderr, r.stderr
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    r = validate(exp, blocker)
+    assert r.returncode == 2 and "--out" in r.stderr, r.stderr
+    r = run("validate", "--experiment", str(exp / "experiment.toml"))  # missing options
+    assert r.returncode == 2
