@@ -110,11 +110,36 @@ std::string inflate_exact(std::string_view compressed, std::size_t expected, con
       throw InputError(file, "data", "a valid gzip/zlib stream", msg);
     }
   }
-  inflateEnd(&zs);
   if (out_pos < expected) {
+    inflateEnd(&zs);
     throw InputError(file, "data", fmt::format("{} bytes after decompression", expected),
                      fmt::format("{} bytes (truncated or corrupt stream)", out_pos));
   }
+  // All voxels are in; the stream must still end cleanly (trailer and checksum present)
+  // and hold nothing more.
+  while (rc != Z_STREAM_END) {
+    char extra = 0;
+    if (zs.avail_in == 0 && in_pos < compressed.size()) {
+      const std::size_t n = std::min(kChunk, compressed.size() - in_pos);
+      zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(compressed.data() + in_pos));
+      zs.avail_in = static_cast<uInt>(n);
+      in_pos += n;
+    }
+    zs.next_out = reinterpret_cast<Bytef*>(&extra);
+    zs.avail_out = 1;
+    rc = inflate(&zs, Z_NO_FLUSH);
+    if (zs.avail_out == 0) {
+      inflateEnd(&zs);
+      throw InputError(file, "data", fmt::format("{} bytes after decompression", expected), "more (sizes too small?)");
+    }
+    if (rc == Z_STREAM_END) break;
+    if (rc != Z_OK) {
+      const std::string msg = zs.msg ? zs.msg : (zs.avail_in == 0 ? "stream truncated before its end" : fmt::format("zlib error {}", rc));
+      inflateEnd(&zs);
+      throw InputError(file, "data", "a complete gzip/zlib stream", msg);
+    }
+  }
+  inflateEnd(&zs);
   return out;
 }
 
