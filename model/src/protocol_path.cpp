@@ -102,6 +102,9 @@ ProtocolPath sample_protocol(const Protocol& p, const data_schema::SampleVolume&
   out.surface_vol_mm = p.start_vol_mm + s0 * a;
   auto depth_of = [&](const glm::dvec3& x) { return glm::dot(x - out.surface_vol_mm, a); };
 
+  double n_segments = 0;  // refuse a path bomb (e.g. 10⁵ moves × 10⁵ strokes) before allocating
+  for (const auto& m : p.moves) n_segments += 2.0 * m.strokes + 2;
+  if (n_segments > 1e7) throw InputError(p.file, "moves", "at most 1e7 path segments (strokes count twice)");
   std::vector<Segment> segs;
   glm::dvec3 cur = p.start_vol_mm;
   double t = 0, rpm = p.spindle_rpm;

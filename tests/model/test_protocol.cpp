@@ -138,6 +138,13 @@ TEST(Protocol, BadProtocolsNameTheKey) {
   EXPECT_NE(error_of(bad_sign + "[[moves]]\ntype = \"dwell\"\nduration_s = 1\n").find("burr.spin_sign"),
             std::string::npos);
   EXPECT_THROW(read_protocol("/nonexistent/p.toml"), InputError);
+  // A path far too long is refused before allocating it.
+  std::string bomb = header();
+  for (int i = 0; i < 200; ++i)
+    bomb += "[[moves]]\ntype = \"polish\"\ndirection = [1,0,0]\nlength_mm = 1\nspeed_mm_s = 1\nstrokes = 100000\n";
+  EXPECT_THROW(sample_protocol(parse_protocol(bomb, "p.toml"), slab()), InputError);
+  const auto slow = parse_protocol(header() + "[[moves]]\ntype = \"dwell\"\nduration_s = 1e6\n", "p.toml");
+  EXPECT_THROW(sample_protocol(slow, slab()), InputError);  // 1e9 samples
 }
 
 TEST(Protocol, ShippedExamplesParseAndSample) {
