@@ -4,6 +4,7 @@
 //   channels/<channel>@unit}, /events/{t_ns, kind, stream, detail}.
 #include "burrbench/data_schema/recording.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -18,9 +19,10 @@ namespace burrbench::data_schema {
 
 namespace {
 
-// Largest per-dataset element count we read (2^31 values; 16 GiB would be 2^31 int64s,
-// so a stream is additionally bounded by the 4 GiB recording budget below).
+// Largest per-dataset element count we read; all streams together are further bounded
+// by the 4 GiB recording budget, checked from the headers in read_recording.
 constexpr std::uint64_t kMaxElements = 1ull << 31;
+constexpr std::uint64_t kMaxRecordingBytes = 4ull << 30;
 constexpr std::uint64_t kMaxEvents = 1ull << 24;
 constexpr std::uint64_t kMaxTextBytes = 16ull << 20;
 
@@ -314,16 +316,27 @@ Recording read_recording(const std::filesystem::path& path) {
   }
   m.register_map_toml = r.read_string("/meta/register_map_toml", kMaxTextBytes);
 
+  // Budget from the dataset headers before reading: every stream's sample count times
+  // the bytes a sample may take (4 int64 timestamps/counters + stale + channels + registers).
   std::uint64_t total_bytes = 0;
   for (const auto& name : r.members("/streams")) {
-    // Budget from the headers before reading: all streams together at most 4 GiB.
     const std::string b = "/streams/" + name;
-    for (const char* ds : {"t_ns"}) {
-      const auto shape = r.shape(b + "/" + ds, h5::Elem::kInt64);
-      if (shape.size() == 1) total_bytes += shape[0] * 8ull * 4;  // t_ns, send, recv, counter
+    const auto shape = r.shape(b + "/t_ns", h5::Elem::kInt64);
+    if (shape.size() != 1) throw InputError(file, b + "/t_ns", "a 1-D int64 dataset", fmt::format("rank {}", shape.size()));
+    std::uint64_t per_sample = 4 * 8 + 1;
+    if (r.exists(b + "/raw_registers")) {
+      const auto rs = r.shape(b + "/raw_registers", h5::Elem::kUInt16);
+      if (rs.size() == 2) per_sample += 2 * std::min<std::uint64_t>(rs[1], kMaxElements);
     }
-    if (total_bytes > (4ull << 30))
-      throw InputError(file, b + "/t_ns", "a recording within the 4 GiB memory budget", "larger");
+    if (r.exists(b + "/channels"))
+      for (const auto& c : r.members(b + "/channels")) {
+        const auto cs = r.shape(b + "/channels/" + c, h5::Elem::kFloat64);
+        per_sample += 8 * (cs.size() == 2 ? std::min<std::uint64_t>(cs[1], kMaxElements) : 1);
+      }
+    total_bytes += std::min<std::uint64_t>(shape[0], kMaxElements) * per_sample;
+    if (total_bytes > kMaxRecordingBytes)
+      throw InputError(file, b, "a recording within the 4 GiB memory budget",
+                       fmt::format("{} samples of {} bytes", shape[0], per_sample));
     rec.streams.push_back(read_stream(r, name));
   }
 

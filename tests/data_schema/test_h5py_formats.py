@@ -238,3 +238,12 @@ def test_truncated_and_foreign_files(fx, tmp_path):
     assert_rejected(tmp_path / "other.h5", "other.h5: /@format: expected a string attribute, got missing")
     rc, out, err = run("inspect", tmp_path / "absent.h5")
     assert rc == 2 and "absent.h5" in err
+
+
+def test_huge_recording_refused_before_allocating(fx, tmp_path):
+    def huge(f):
+        del f["streams/stage/t_ns"]
+        f.create_dataset("streams/stage/t_ns", shape=(200_000_000,), dtype=np.int64, chunks=(65536,))
+    p = edit(fx / "recording.h5", tmp_path / "HR.h5", huge)
+    assert p.stat().st_size < 1_000_000
+    assert_rejected(p, "HR.h5: /streams/stage: expected a recording within the 4 GiB memory budget")

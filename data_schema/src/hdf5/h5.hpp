@@ -73,15 +73,13 @@ class Reader {
 
   // Shape of a numeric dataset after checking its element type is convertible to `e`.
   std::vector<hsize_t> shape(const std::string& ds_path, Elem e) const;
-  // Reads a whole numeric dataset; checks type, rank (rank_ok(rank) = 1 or 2 ...) and
-  // refuses more than max_elements before allocating.
+  // Reads a whole numeric dataset after checking its type; refuses more than
+  // max_elements from the header, before allocating.
   template <class T>
   std::vector<T> read(const std::string& ds_path, Elem e, std::vector<hsize_t>* shape_out,
                       std::uint64_t max_elements) const;
   std::vector<std::string> read_strings(const std::string& ds_path, std::uint64_t max_elements) const;
   std::string read_string(const std::string& ds_path, std::uint64_t max_bytes) const;
-
-  std::string where(const std::string& obj_path) const { return obj_path; }
 
  private:
   Handle open_object(const std::string& obj_path) const;
