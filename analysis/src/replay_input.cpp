@@ -54,7 +54,8 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
               {"buried samples", ds::to_string(ex.manifest.fit.buried)}};
   if (fit) {
     in.calibration = {{"method", "Ceres least squares on the recorded sensor force (burrbench calibrate)"},
-                      {"nuisances applied", "per-recording bias, lag, depth offset from fit.json"}};
+                      {"nuisances applied", "per-recording bias, lag, depth offset from fit.json"},
+                      {"recordings without a fitted bias", opt.tare ? "tare: measured force minus its mean over samples with no predicted contact" : "none"}};
   } else {
     in.calibration = {{"method", "none: fixed parameters replayed (burrbench validate)"},
                       {"tare", opt.tare ? "measured force minus its mean over samples with no predicted contact"
@@ -119,7 +120,9 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
         ++free_n;
       }
     }
-    if (!fit && opt.tare && free_n >= kMinTareSamples) bias = free_sum / double(free_n);
+    // Held-out recordings of a calibration have no fitted bias: they get the tare too.
+    const bool fitted_bias = fit && std::isfinite(nuisance(fit, r.id, "bias_x", NAN));
+    if (!fitted_bias && opt.tare && free_n >= kMinTareSamples) bias = free_sum / double(free_n);
     for (auto& p : rs.predicted_N) p += bias;  // the bias is added to the prediction
     in.recordings.push_back(std::move(rs));
   }

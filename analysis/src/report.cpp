@@ -16,6 +16,7 @@
 #include "bone_image.hpp"
 #include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
+#include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/version.hpp"
 
@@ -280,8 +281,16 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     if (sha256_file(f.experiment_path) != f.experiment_sha256)
       throw InputError(f.experiment_path, "sha256", "the manifest the fit was made from (" +
                                                         f.experiment_sha256 + ")", "changed since");
-    in = replay_experiment(f.experiment_path, data_schema::parameter_set_from(f, (dir / "fit.json").string()),
-                           &f, {true, opt.context_of_use, opt.progress});
+    // params.toml is what calibrate hands on (start values stand in for constants the
+    // data could not identify); the fit's estimates only when it is absent.
+    const auto params = fs::exists(dir / "params.toml")
+                            ? data_schema::read_params(dir / "params.toml")
+                            : data_schema::parameter_set_from(f, (dir / "fit.json").string());
+    in = replay_experiment(f.experiment_path, params, &f, {true, opt.context_of_use, opt.progress});
+    if (fs::exists(dir / "params.toml")) {
+      in.params_path = fs::absolute(dir / "params.toml").string();
+      in.params_sha256 = sha256_file(dir / "params.toml");
+    }
     fs::create_directories(out_dir);
     write_analysis_input(out_dir, in);
   } else {

@@ -13,7 +13,7 @@
 namespace burrbench::analysis {
 
 struct ReplayInputOptions {
-  // Without a fit: subtract from the measured force its mean over the samples where the
+  // For recordings without a fitted bias (validate; held-out recordings of a fit): subtract from the measured force its mean over the samples where the
   // model predicts no contact (a tare; the sensor bias is not a model constant). Needs
   // ≥ 10 such samples, else no tare.
   bool tare = true;
