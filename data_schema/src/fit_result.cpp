@@ -58,7 +58,7 @@ class JsonView {
   std::uint64_t count(const std::string& k) {
     const json& v = get(k);
     if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<std::int64_t>() >= 0))
-      throw InputError(file_, field(k), "a non-negative integer", v.dump());
+      throw InputError(file_, field(k), "a non-negative integer", v.is_number() ? v.dump() : v.type_name());
     return v.get<std::uint64_t>();
   }
   bool boolean(const std::string& k) {
@@ -231,7 +231,7 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     // max_digits10 round trip: nlohmann prints doubles with 17 significant digits.
-    out << root.dump(2) << "\n";
+    out << root.dump(2, ' ', false, json::error_handler_t::replace) << "\n";
     if (!out) throw InputError(path.string(), "<file>", "a writable location");
   }
   std::error_code ec;

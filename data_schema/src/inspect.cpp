@@ -161,7 +161,7 @@ FileFormat detect_format(const std::filesystem::path& path) {
   const std::string file = path.string();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw InputError(file, "<file>", "an existing regular file");
-  if (H5Fis_hdf5(file.c_str()) > 0) {
+  if (h5::is_hdf5(path)) {
     const h5::Reader r(path);
     return from_name(file, "/@format", r.attr_string("/", "format"));
   }

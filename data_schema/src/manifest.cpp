@@ -254,9 +254,21 @@ std::uint8_t resolve_class(const ExperimentManifest& m, const std::string& key, 
 
 }  // namespace
 
+namespace {
+ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesystem::path& path);
+}  // namespace
+
 ExperimentManifest read_manifest(const std::filesystem::path& path) {
+  return parse_manifest_table(detail::parse_toml_file(path), path);
+}
+
+ExperimentManifest parse_manifest(std::string_view toml_text, const std::filesystem::path& as_path) {
+  return parse_manifest_table(detail::parse_toml_text(toml_text, as_path.string()), as_path);
+}
+
+namespace {
+ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesystem::path& path) {
   const std::string file = path.string();
-  const toml::table t = detail::parse_toml_file(path);
   detail::TomlView root(t, file, "");
   detail::check_format(file, "format", root.str("format"), kManifestFormat);
   detail::check_version(file, "format_version", root.str("format_version"), kManifestVersionMajor);
@@ -378,6 +390,7 @@ ExperimentManifest read_manifest(const std::filesystem::path& path) {
   for (auto& c : m.fit.classes) c.label = resolve_class(m, c.key, file);
   return m;
 }
+}  // namespace
 
 namespace {
 

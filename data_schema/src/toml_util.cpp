@@ -37,7 +37,12 @@ toml::table parse_toml_file(const std::filesystem::path& path) {
   if (!in) throw InputError(file, "<file>", "a readable file");
   std::ostringstream ss;
   ss << in.rdbuf();
-  const std::string text = ss.str();
+  return parse_toml_text(ss.str(), file);
+}
+
+toml::table parse_toml_text(std::string_view text, const std::string& file) {
+  if (text.size() > kMaxTomlBytes)
+    throw InputError(file, "<file>", "a TOML file of at most 16 MiB", std::to_string(text.size()) + " bytes");
   try {
     return toml::parse(text, file);
   } catch (const toml::parse_error& e) {

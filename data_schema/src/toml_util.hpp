@@ -18,6 +18,7 @@ namespace burrbench::data_schema::detail {
 
 // Reads and parses a TOML file (at most 16 MiB); syntax errors name line and column.
 toml::table parse_toml_file(const std::filesystem::path& path);
+toml::table parse_toml_text(std::string_view text, const std::string& file_for_messages);
 
 class TomlView {
  public:

@@ -9,7 +9,7 @@ BURRBENCH = os.environ.get("BURRBENCH", "burrbench")
 
 def run(*args, timeout=60):
     """Runs the burrbench CLI; returns (exit code, stdout, stderr)."""
-    p = subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, timeout=timeout)
+    p = subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, errors="replace", timeout=timeout)
     return p.returncode, p.stdout, p.stderr
 
 

@@ -113,3 +113,26 @@ TEST(FormatsFit, BadFilesAreRejected) {
   bad("\"termination\"", "\"termination\" \"", {"F.json", "valid JSON"});
   bad("\"matrix\": [", "\"matrix\": [1.0, ", {"correlation.matrix", "2×2 values"});
 }
+
+// Seeded corruption of a valid file: every outcome is a result or an InputError.
+TEST(FormatsFit, CorruptedFilesOnlyEverRaiseInputError) {
+  TempDir dir;
+  bb::write_fit(dir / "f.json", make_fit());
+  const std::string base = burrbench::test::file_bytes(dir / "f.json");
+  std::uint64_t state = 777;
+  auto next = [&] { return state = state * 6364136223846793005ull + 1442695040888963407ull, state >> 33; };
+  int rejected = 0;
+  for (int i = 0; i < 300; ++i) {
+    std::string t = base;
+    if (i % 2) t.resize(next() % t.size());
+    else for (int k = 0; k < 3; ++k) t[next() % t.size()] = char(next() % 256);
+    burrbench::test::write_text(dir / "c.json", t);
+    try {
+      bb::read_fit(dir / "c.json");
+    } catch (const burrbench::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("c.json: "), std::string::npos);
+      ++rejected;
+    }
+  }
+  EXPECT_GT(rejected, 150);
+}

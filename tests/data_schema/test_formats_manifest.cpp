@@ -280,3 +280,43 @@ TEST(FormatsManifest, ReferencesAndFiles) {
   expect_input_error([&] { bb::read_manifest(f.manifest); }, {"E.toml"});
   EXPECT_EQ(before, burrbench::test::file_bytes(f.manifest));
 }
+
+TEST(FormatsManifest, ParseFromTextNamesTheGivenPath) {
+  Files f;
+  const auto m = bb::parse_manifest(kBase, f.dir / "exp" / "virtual.toml");
+  EXPECT_EQ(m.recordings.size(), 2u);
+  expect_input_error([&] { bb::parse_manifest("format = 1", f.dir / "exp" / "virtual.toml"); },
+                     {"virtual.toml: format: expected a string, got an integer"});
+}
+
+// Seeded corruption (truncation, byte flips, duplicated spans): every outcome is a
+// manifest or an InputError — never another exception or a crash.
+TEST(FormatsManifest, CorruptedTextOnlyEverRaisesInputError) {
+  Files f;
+  const std::string base = kBase;
+  std::uint64_t state = 12345;
+  auto next = [&] { return state = state * 6364136223846793005ull + 1442695040888963407ull, state >> 33; };
+  int ok = 0, rejected = 0;
+  for (int i = 0; i < 400; ++i) {
+    std::string t = base;
+    switch (next() % 3) {
+      case 0: t.resize(next() % t.size()); break;
+      case 1:
+        for (int k = 0; k < 4; ++k) t[next() % t.size()] = char(next() % 256);
+        break;
+      default: {
+        const std::size_t a = next() % t.size(), n = next() % 40;
+        t.insert(next() % t.size(), t.substr(a, n));
+      }
+    }
+    try {
+      bb::parse_manifest(t, f.dir / "exp" / "fuzz.toml");
+      ++ok;
+    } catch (const burrbench::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("fuzz.toml: "), std::string::npos) << e.what();
+      ++rejected;
+    }
+  }
+  EXPECT_GT(rejected, 200);
+  EXPECT_EQ(ok + rejected, 400);
+}

@@ -130,3 +130,26 @@ TEST(FormatsSample, BrokenFilesAreRejectedAndUntouched) {
   }
   EXPECT_EQ(bytes, burrbench::test::file_bytes(dir / "c.h5"));
 }
+
+// Seeded byte corruption of our own files: HDF5 metadata checksums (1.8 format) and the
+// validators turn every outcome into a valid volume or an InputError — never a crash.
+TEST(FormatsSample, CorruptedFilesOnlyEverRaiseInputError) {
+  TempDir dir;
+  bb::write_sample(dir / "s.h5", make_sample());
+  const std::string base = burrbench::test::file_bytes(dir / "s.h5");
+  std::uint64_t state = 4242;
+  auto next = [&] { return state = state * 6364136223846793005ull + 1442695040888963407ull, state >> 33; };
+  int rejected = 0;
+  for (int i = 0; i < 300; ++i) {
+    std::string t = base;
+    for (int k = 0; k < 4; ++k) t[next() % t.size()] = char(next() % 256);
+    burrbench::test::write_text(dir / "c.h5", t);
+    try {
+      bb::read_sample(dir / "c.h5");
+    } catch (const burrbench::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("c.h5: "), std::string::npos);
+      ++rejected;
+    }
+  }
+  EXPECT_GT(rejected, 100);
+}

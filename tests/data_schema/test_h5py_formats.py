@@ -247,3 +247,21 @@ def test_huge_recording_refused_before_allocating(fx, tmp_path):
     p = edit(fx / "recording.h5", tmp_path / "HR.h5", huge)
     assert p.stat().st_size < 1_000_000
     assert_rejected(p, "HR.h5: /streams/stage: expected a recording within the 4 GiB memory budget")
+
+
+@pytest.mark.parametrize("name", ["recording.h5", "sample.h5"])
+def test_corrupted_bytes_give_exit_0_or_2_with_one_line(fx, tmp_path, name):
+    import random
+    rng = random.Random(2026)
+    src = (fx / name).read_bytes()
+    for i in range(12):
+        b = bytearray(src)
+        for _ in range(4):
+            b[rng.randrange(len(b))] = rng.randrange(256)
+        p = tmp_path / f"c{i}.h5"
+        p.write_bytes(bytes(b))
+        rc, out, err = run("inspect", p)
+        assert rc in (0, 2), (i, rc, err)
+        if rc == 2:
+            assert len(err.strip().splitlines()) == 1 and str(p) in err, err
+        assert p.read_bytes() == bytes(b)

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <system_error>
 
@@ -26,7 +27,28 @@ void Handle::reset() {
   id_ = -1;
 }
 
+namespace {
+// HDF5 closes itself at exit; after a read of a corrupt file it may be unable to release
+// some cached metadata and then prints "infinite loop closing library" to stderr. Our
+// writers always close their files explicitly, so we let the OS reclaim the rest.
+void init_library() {
+  static const bool done = [] {
+    H5dont_atexit();
+    H5open();
+    return true;
+  }();
+  (void)done;
+}
+}  // namespace
+
+bool is_hdf5(const std::filesystem::path& path) {
+  init_library();
+  ErrorSilencer quiet;
+  return H5Fis_hdf5(path.string().c_str()) > 0;
+}
+
 ErrorSilencer::ErrorSilencer() {
+  init_library();
   H5Eget_auto2(H5E_DEFAULT, &old_func_, &old_data_);
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
 }
@@ -116,6 +138,26 @@ Handle string_type() {
   H5Tset_size(t.get(), H5T_VARIABLE);
   H5Tset_cset(t.get(), H5T_CSET_UTF8);
   return t;
+}
+
+// We write fixed-length UTF-8 strings (NUL-terminated, size = longest + 1): variable-length
+// strings live in HDF5's global heap, which has no checksum and whose corruption crashes
+// libhdf5 1.10 (H5HG_read). h5py reads them as bytes (.asstr() / .decode()), MATLAB as char.
+Handle fixed_string_type(std::size_t longest) {
+  Handle t(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(t.get(), longest + 1);
+  H5Tset_strpad(t.get(), H5T_STR_NULLTERM);
+  H5Tset_cset(t.get(), H5T_CSET_UTF8);
+  return t;
+}
+
+// Packs strings into one buffer of n × (longest + 1) bytes, NUL-padded.
+std::vector<char> pack(const std::vector<std::string>& values, std::size_t& longest) {
+  longest = 0;
+  for (const auto& v : values) longest = std::max(longest, v.size());
+  std::vector<char> buf(std::max<std::size_t>(values.size(), 1) * (longest + 1), '\0');
+  for (std::size_t i = 0; i < values.size(); ++i) std::memcpy(buf.data() + i * (longest + 1), values[i].data(), values[i].size());
+  return buf;
 }
 
 std::vector<hsize_t> space_dims(hid_t space) {
@@ -395,7 +437,12 @@ Writer::Writer(const std::filesystem::path& target)
       file_(target.string()) {
   Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
   H5Pset_link_creation_order(fcpl.get(), H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED);
-  f_ = Handle(H5Fcreate(tmp_.string().c_str(), H5F_ACC_TRUNC, fcpl.get(), H5P_DEFAULT), H5Fclose);
+  // The 1.8 file format checksums its metadata (superblock, object headers, heaps), so a
+  // corrupted file is refused by HDF5 instead of being decoded (libhdf5 can crash on
+  // corrupt v1 metadata). Readable by HDF5 >= 1.8: h5py, MATLAB, Slicer.
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V18, H5F_LIBVER_V18);
+  f_ = Handle(H5Fcreate(tmp_.string().c_str(), H5F_ACC_TRUNC, fcpl.get(), fapl.get()), H5Fclose);
   if (!f_.valid()) throw InputError(file_, "<file>", "a writable location", "cannot create " + tmp_.string());
 }
 
@@ -428,10 +475,11 @@ void write_attr(hid_t f, const std::string& file, const std::string& obj, const 
 }  // namespace
 
 void Writer::attr(const std::string& obj, const std::string& name, const std::string& value) {
-  Handle t = string_type();
+  std::size_t longest = 0;
+  const std::vector<char> buf = pack({value}, longest);
+  Handle t = fixed_string_type(longest);
   Handle s(H5Screate(H5S_SCALAR), H5Sclose);
-  const char* p = value.c_str();
-  write_attr(f_.get(), file_, obj, name, t.get(), s.get(), t.get(), &p);
+  write_attr(f_.get(), file_, obj, name, t.get(), s.get(), t.get(), buf.data());
 }
 
 void Writer::attr(const std::string& obj, const std::string& name, double value) {
@@ -495,7 +543,9 @@ template void Writer::dataset(const std::string&, const std::vector<hsize_t>&, c
 template void Writer::dataset(const std::string&, const std::vector<hsize_t>&, const float*, bool);
 
 void Writer::strings(const std::string& path, const std::vector<std::string>& values) {
-  Handle t = string_type();
+  std::size_t longest = 0;
+  const std::vector<char> buf = pack(values, longest);
+  Handle t = fixed_string_type(longest);
   const hsize_t n = values.size();
   Handle space(H5Screate_simple(1, &n, nullptr), H5Sclose);
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
@@ -503,21 +553,20 @@ void Writer::strings(const std::string& path, const std::vector<std::string>& va
   Handle d(H5Dcreate2(f_.get(), path.c_str(), t.get(), space.get(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT),
            H5Dclose);
   if (!d.valid()) throw InputError(file_, path, "a new dataset", "HDF5 could not create it");
-  std::vector<const char*> ptrs;
-  for (const auto& v : values) ptrs.push_back(v.c_str());
-  if (n > 0 && H5Dwrite(d.get(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data()) < 0)
+  if (n > 0 && H5Dwrite(d.get(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0)
     throw InputError(file_, path, "a writable dataset", "HDF5 write failed");
 }
 
 void Writer::string(const std::string& path, const std::string& value) {
-  Handle t = string_type();
+  std::size_t longest = 0;
+  const std::vector<char> buf = pack({value}, longest);
+  Handle t = fixed_string_type(longest);
   Handle space(H5Screate(H5S_SCALAR), H5Sclose);
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
   H5Pset_create_intermediate_group(lcpl.get(), 1);
   Handle d(H5Dcreate2(f_.get(), path.c_str(), t.get(), space.get(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT),
            H5Dclose);
-  const char* p = value.c_str();
-  if (!d.valid() || H5Dwrite(d.get(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &p) < 0)
+  if (!d.valid() || H5Dwrite(d.get(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0)
     throw InputError(file_, path, "a writable dataset", "HDF5 write failed");
 }
 

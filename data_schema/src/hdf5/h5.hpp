@@ -4,6 +4,7 @@
 // HDF5's own error stack printing is silenced while our files are open.
 // Writers go through TempFile: data lands in "<target>.tmp-<pid>" and is renamed onto
 // the target only after a clean close, so a failed write never leaves a half file.
+// Debian's serial HDF5 is not thread-safe: do file I/O from one thread at a time.
 #include <hdf5.h>
 
 #include <cstdint>
@@ -46,6 +47,9 @@ class ErrorSilencer {
   H5E_auto2_t old_func_ = nullptr;
   void* old_data_ = nullptr;
 };
+
+// True when the file carries the HDF5 signature.
+bool is_hdf5(const std::filesystem::path& path);
 
 // Element types we store; `name` is used in messages ("int64", "float32", ...).
 enum class Elem { kInt64, kUInt16, kUInt8, kFloat64, kFloat32 };

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -127,6 +128,9 @@ const char* to_string(BuriedPolicy b);
 void validate(const ExperimentManifest& m, const std::string& file_for_messages);
 // Parses, resolves paths, validates, resolves class keys against the samples' class tables.
 ExperimentManifest read_manifest(const std::filesystem::path& path);
+// The same from TOML text (e.g. a fuzz target); paths resolve against as_path's folder
+// and messages name as_path.
+ExperimentManifest parse_manifest(std::string_view toml_text, const std::filesystem::path& as_path);
 // Writes paths relative to the manifest's folder.
 void write_manifest(const std::filesystem::path& path, const ExperimentManifest& m);
 

@@ -80,6 +80,9 @@ struct Recording {
 };
 
 // Throws InputError naming file and field on any defect (lengths, NaN/Inf, version...).
+// Non-finite values: positions never; other channels may hold NaN (never ±Inf) only on
+// rows flagged stale = 1 — consumers must skip stale rows. Timestamps non-decreasing.
+// Memory budget: all streams together ≤ 4 GiB, checked from the file headers.
 void validate(const Recording& rec, const std::string& file_for_messages);
 void write_recording(const std::filesystem::path& path, const Recording& rec);
 Recording read_recording(const std::filesystem::path& path);  // validates
