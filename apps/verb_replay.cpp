@@ -1,10 +1,10 @@
 // burrbench replay: the simulated burr follows every recording of an experiment;
 // predicted forces (on the burr and at the sensor) with diagnostics, beside the measured.
+#include <fmt/format.h>
+
 #include <chrono>
 #include <map>
 #include <memory>
-
-#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
@@ -25,7 +25,8 @@ struct Args {
 };
 
 void run(const Args& a) {
-  if (!(a.step_us >= 0)) throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
+  if (!(a.step_us >= 0))
+    throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
   const auto t0 = std::chrono::steady_clock::now();
   const model::Experiment e = model::load_experiment(a.experiment);
   const auto params = data_schema::read_params(a.params);
@@ -52,7 +53,9 @@ void run(const Args& a) {
   std::array<double, model::kMaxClasses> removed{};
   for (const auto& r : e.recordings) {
     auto it = volumes.find(r.sample_id);
-    if (it == volumes.end()) it = volumes.emplace(r.sample_id, model::Volume::from_sample(e.samples.at(r.sample_id))).first;
+    if (it == volumes.end())
+      it =
+          volumes.emplace(r.sample_id, model::Volume::from_sample(e.samples.at(r.sample_id))).first;
     TerminalProgress progress("replay " + r.id);
     preds.push_back(model::predict(r, it->second, mp, opt, &progress));
     const auto& p = preds.back();
@@ -60,8 +63,10 @@ void run(const Args& a) {
     for (auto x : p.buried) b += x;
     samples += p.t_s.size();
     buried += b;
-    for (int k = 0; k < model::kMaxClasses; ++k) removed[std::size_t(k)] += p.removed_mm3[std::size_t(k)];
-    progress.finish(fmt::format("{} samples, {} buried, {} steps, {:.2f} s replay", p.t_s.size(), b, p.steps, p.wall_s));
+    for (int k = 0; k < model::kMaxClasses; ++k)
+      removed[std::size_t(k)] += p.removed_mm3[std::size_t(k)];
+    progress.finish(fmt::format("{} samples, {} buried, {} steps, {:.2f} s replay", p.t_s.size(), b,
+                                p.steps, p.wall_s));
   }
   model::write_prediction(a.out, preds, prov);
   if (!a.csv.empty()) model::write_prediction_csv(a.csv, preds);
@@ -74,20 +79,23 @@ void run(const Args& a) {
     rem += fmt::format(" {}={:.6g}", name, removed[std::size_t(k)]);
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  fmt::print("replay: {} recordings, {} samples, {} buried, removed mm³:{}, wall {:.2f} s\n", preds.size(),
-             samples, buried, rem.empty() ? " none" : rem, wall);
+  fmt::print("replay: {} recordings, {} samples, {} buried, removed mm³:{}, wall {:.2f} s\n",
+             preds.size(), samples, buried, rem.empty() ? " none" : rem, wall);
   fmt::print("wrote {}{}\n", a.out, a.csv.empty() ? "" : " and " + a.csv);
 }
 
 void setup(CLI::App& root) {
-  auto* cmd = root.add_subcommand("replay", "Replay an experiment's recordings through the model: "
-                                            "predicted force at every sample");
+  auto* cmd = root.add_subcommand("replay",
+                                  "Replay an experiment's recordings through the model: "
+                                  "predicted force at every sample");
   auto a = std::make_shared<Args>();
   cmd->add_option("--experiment", a->experiment, "experiment manifest (.toml)")->required();
   cmd->add_option("--params", a->params, "parameter set (.toml)")->required();
-  cmd->add_option("--out", a->out, "prediction file to write (.h5, format burrbench.prediction)")->required();
+  cmd->add_option("--out", a->out, "prediction file to write (.h5, format burrbench.prediction)")
+      ->required();
   cmd->add_option("--csv", a->csv, "also write the prediction as CSV");
-  cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")->capture_default_str();
+  cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")
+      ->capture_default_str();
   cmd->add_flag("--no-erosion", a->no_erosion, "forces only, the volume is not eroded");
   cmd->callback([a] { run(*a); });
 }

@@ -1,9 +1,9 @@
 // burrbench synth: a recording with known ground truth (model driven through a protocol).
+#include <fmt/format.h>
+
 #include <chrono>
 #include <fstream>
 #include <memory>
-
-#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
@@ -37,7 +37,8 @@ void refuse_overwriting_inputs(const Args& a) {
 
 void run(const Args& a) {
   if (a.bias_N.size() != 3) throw InputError("command line", "--bias-N", "three numbers x,y,z (N)");
-  if (!(a.step_us >= 0)) throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
+  if (!(a.step_us >= 0))
+    throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
   refuse_overwriting_inputs(a);
   const auto sample = data_schema::read_sample(a.sample);
   const auto protocol = model::read_protocol(a.protocol);
@@ -68,24 +69,32 @@ void run(const Args& a) {
   for (const auto& [name, v] : truth["removed_mm3_by_class"].items())
     removed += fmt::format(" {}={:.6g}", name, v.get<double>());
   progress.finish(fmt::format("{} samples ({:.3f} s), {} buried, removed mm³:{}, wall {:.2f} s",
-                              res.path.t_s.size(), res.path.duration_s, res.buried_samples, removed, wall));
+                              res.path.t_s.size(), res.path.duration_s, res.buried_samples, removed,
+                              wall));
   fmt::print("wrote {} and {}\n", a.out, a.truth);
 }
 
 void setup(CLI::App& root) {
-  auto* cmd = root.add_subcommand("synth", "Write a recording with known ground truth: the model "
-                                           "driven through a protocol on a sample");
+  auto* cmd = root.add_subcommand("synth",
+                                  "Write a recording with known ground truth: the model "
+                                  "driven through a protocol on a sample");
   auto a = std::make_shared<Args>();
   cmd->add_option("--sample", a->sample, "sample volume (.h5)")->required();
-  cmd->add_option("--protocol", a->protocol, "protocol (.toml, format burrbench.protocol)")->required();
+  cmd->add_option("--protocol", a->protocol, "protocol (.toml, format burrbench.protocol)")
+      ->required();
   cmd->add_option("--params", a->params, "true parameter set (.toml)")->required();
   cmd->add_option("--out", a->out, "recording to write (.h5)")->required();
   cmd->add_option("--truth", a->truth, "ground truth to write (.json)")->required();
-  cmd->add_option("--noise-N", a->noise_N, "σ of Gaussian force noise per component (N)")->capture_default_str();
-  cmd->add_option("--bias-N", a->bias_N, "force bias x,y,z (N, sensor frame)")->delimiter(',')->expected(3);
-  cmd->add_option("--lag-ms", a->lag_ms, "recorded force at t = true force at t − lag (ms)")->capture_default_str();
+  cmd->add_option("--noise-N", a->noise_N, "σ of Gaussian force noise per component (N)")
+      ->capture_default_str();
+  cmd->add_option("--bias-N", a->bias_N, "force bias x,y,z (N, sensor frame)")
+      ->delimiter(',')
+      ->expected(3);
+  cmd->add_option("--lag-ms", a->lag_ms, "recorded force at t = true force at t − lag (ms)")
+      ->capture_default_str();
   cmd->add_option("--seed", a->seed, "noise seed")->capture_default_str();
-  cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")->capture_default_str();
+  cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")
+      ->capture_default_str();
   cmd->callback([a] { run(*a); });
 }
 BURRBENCH_VERB("synth", setup);

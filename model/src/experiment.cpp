@@ -1,10 +1,10 @@
 // Experiment layer: recordings → aligned, registered trajectories (docs/replay.md).
 #include "burrbench/model/experiment.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 
@@ -57,9 +57,10 @@ const data_schema::Channel& channel(const data_schema::Recording& rec, const cha
   if (!s) throw InputError(file, "streams", fmt::format("a stream with the channel {}", name));
   const data_schema::Channel* c = s->channel(name);
   if (c->width != width || c->samples() != s->samples())
-    throw InputError(file, fmt::format("streams/{}/{}", s->name, name),
-                     fmt::format("{} column(s) and one row per sample", width),
-                     fmt::format("{} column(s), {} rows for {} samples", c->width, c->samples(), s->samples()));
+    throw InputError(
+        file, fmt::format("streams/{}/{}", s->name, name),
+        fmt::format("{} column(s) and one row per sample", width),
+        fmt::format("{} column(s), {} rows for {} samples", c->width, c->samples(), s->samples()));
   if (s->samples() == 0) throw InputError(file, "streams/" + s->name, "at least one sample");
   return *c;
 }
@@ -91,19 +92,22 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
   const auto& force = channel(rec, data_schema::kForce, 3, file);
   const data_schema::Stream& f_stream = *rec.stream_with(data_schema::kForce);
   const auto f_keep = fresh(f_stream);
-  if (f_keep.empty()) throw InputError(file, "streams/" + f_stream.name, "at least one fresh sample");
+  if (f_keep.empty())
+    throw InputError(file, "streams/" + f_stream.name, "at least one fresh sample");
   a.dropped_force_samples = f_stream.samples() - f_keep.size();
   a.t0_ns = f_stream.t_ns[f_keep.front()];
   for (std::size_t i : f_keep) {
     a.t_s.push_back(seconds(f_stream.t_ns[i], a.t0_ns));
-    a.force_sensor_N.emplace_back(force.values[3 * i], force.values[3 * i + 1], force.values[3 * i + 2]);
+    a.force_sensor_N.emplace_back(force.values[3 * i], force.values[3 * i + 1],
+                                  force.values[3 * i + 2]);
   }
 
   const auto& pos = channel(rec, data_schema::kPosition, 3, file);
   const data_schema::Stream& p_stream = *rec.stream_with(data_schema::kPosition);
   for (std::size_t i : fresh(p_stream)) {
     a.stage_rig_mm.t_s.push_back(seconds(p_stream.t_ns[i], a.t0_ns));
-    a.stage_rig_mm.value.emplace_back(pos.values[3 * i], pos.values[3 * i + 1], pos.values[3 * i + 2]);
+    a.stage_rig_mm.value.emplace_back(pos.values[3 * i], pos.values[3 * i + 1],
+                                      pos.values[3 * i + 2]);
   }
   const auto& rpm = channel(rec, data_schema::kSpindle, 1, file);
   const data_schema::Stream& s_stream = *rec.stream_with(data_schema::kSpindle);
@@ -111,8 +115,10 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     a.spindle_rpm.t_s.push_back(seconds(s_stream.t_ns[i], a.t0_ns));
     a.spindle_rpm.value.push_back(rpm.values[i]);
   }
-  if (a.stage_rig_mm.t_s.empty()) throw InputError(file, "streams/" + p_stream.name, "at least one fresh sample");
-  if (a.spindle_rpm.t_s.empty()) throw InputError(file, "streams/" + s_stream.name, "at least one fresh sample");
+  if (a.stage_rig_mm.t_s.empty())
+    throw InputError(file, "streams/" + p_stream.name, "at least one fresh sample");
+  if (a.spindle_rpm.t_s.empty())
+    throw InputError(file, "streams/" + s_stream.name, "at least one fresh sample");
 
   // Segments: a sample is used when some use=true segment holds it and no use=false one does.
   // Bounds are inclusive and compared in integer ns (start_s rounded to the ns), so a
@@ -144,14 +150,16 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
   const double axis_len = glm::length(m.burr.shaft_axis_rig);
   if (!(axis_len > 0)) throw InputError(mfile, "burr.shaft_axis_rig", "a non-zero vector");
   if (!(m.burr.radius_mm > 0)) throw InputError(mfile, "burr.radius_mm", "a radius > 0");
-  if (m.burr.spin_sign != 1 && m.burr.spin_sign != -1) throw InputError(mfile, "burr.spin_sign", "1 or -1");
+  if (m.burr.spin_sign != 1 && m.burr.spin_sign != -1)
+    throw InputError(mfile, "burr.spin_sign", "1 or -1");
   a.shaft_axis_vol = glm::normalize(a.rig_to_vol.R * (m.burr.shaft_axis_rig / axis_len));
   a.spin_sign = m.burr.spin_sign;
   a.radius_mm = m.burr.radius_mm;
   a.tool_offset_rig_mm = m.burr.tool_offset_mm;
   a.sensor_to_rig = m.sensor.rotation_sensor_to_rig;
   a.sensor_sign = m.sensor.measures == data_schema::SensorMeasures::kForceOnSample ? -1.0 : 1.0;
-  if (!std::isfinite(ref.lag_ms)) throw InputError(mfile, fmt::format("recordings[{}].lag_ms", index), "a finite number");
+  if (!std::isfinite(ref.lag_ms))
+    throw InputError(mfile, fmt::format("recordings[{}].lag_ms", index), "a finite number");
   a.lag_s = ref.lag_ms * 1e-3;
   return a;
 }
@@ -159,7 +167,8 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
 Experiment load_experiment(const std::filesystem::path& manifest_path) {
   Experiment e;
   e.manifest = data_schema::read_manifest(manifest_path);
-  for (const auto& s : e.manifest.samples) e.samples.emplace(s.id, data_schema::read_sample(s.path));
+  for (const auto& s : e.manifest.samples)
+    e.samples.emplace(s.id, data_schema::read_sample(s.path));
   for (const auto& r : e.manifest.recordings) {
     const auto rec = data_schema::read_recording(r.path);
     e.recordings.push_back(align_recording(e.manifest, r, rec, r.path.string()));

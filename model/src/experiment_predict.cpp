@@ -4,13 +4,12 @@
 // HDF5: data_schema's RAII layer is private to that library and the model target does
 // not get HDF5's include directory, so this file includes the Debian path directly and
 // keeps its own tiny writer (the library itself is linked through data_schema).
+#include <fmt/format.h>
 #include <hdf5/serial/hdf5.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
-#include <unistd.h>
-
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "burrbench/data_schema/error.hpp"
@@ -55,7 +54,9 @@ namespace {
 struct H5 {  // owns one hid_t
   hid_t id;
   herr_t (*close)(hid_t);
-  ~H5() { if (id >= 0) close(id); }
+  ~H5() {
+    if (id >= 0) close(id);
+  }
 };
 
 class Writer {
@@ -85,8 +86,10 @@ class Writer {
                hid_t file_type, hid_t mem_type, const char* unit) const {
     const hsize_t dims[2] = {rows, cols};
     H5 space{H5Screate_simple(cols == 1 ? 1 : 2, dims, nullptr), H5Sclose};
-    H5 ds{H5Dcreate2(group, name, file_type, space.id, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose};
-    if (ds.id < 0 || (rows > 0 && H5Dwrite(ds.id, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0))
+    H5 ds{H5Dcreate2(group, name, file_type, space.id, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+          H5Dclose};
+    if (ds.id < 0 ||
+        (rows > 0 && H5Dwrite(ds.id, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0))
       fail(name);
     attr(ds.id, "unit", unit);
   }
@@ -99,7 +102,8 @@ class Writer {
   void scalars(hid_t g, const char* name, const std::vector<double>& v, const char* unit) const {
     dataset(g, name, v.data(), v.size(), 1, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, unit);
   }
-  void bytes(hid_t g, const char* name, const std::vector<std::uint8_t>& v, const char* unit) const {
+  void bytes(hid_t g, const char* name, const std::vector<std::uint8_t>& v,
+             const char* unit) const {
     dataset(g, name, v.data(), v.size(), 1, H5T_STD_U8LE, H5T_NATIVE_UINT8, unit);
   }
 
@@ -109,8 +113,8 @@ class Writer {
 
 }  // namespace
 
-void write_prediction(const std::filesystem::path& path, const std::vector<RecordingPrediction>& preds,
-                      const Provenance& prov) {
+void write_prediction(const std::filesystem::path& path,
+                      const std::vector<RecordingPrediction>& preds, const Provenance& prov) {
   const std::string file = path.string();
   // Written beside the target and renamed after a clean close: never a half file.
   const std::string tmp = fmt::format("{}.tmp-{}", file, ::getpid());
@@ -133,12 +137,14 @@ void write_prediction(const std::filesystem::path& path, const std::vector<Recor
                          {"command_line", prov.command_line},
                          {"created_utc", prov.created_utc},
                          {"inputs", nlohmann::json::array()}};
-    for (const auto& in : prov.inputs) pj["inputs"].push_back({{"path", in.path}, {"sha256", in.sha256}});
+    for (const auto& in : prov.inputs)
+      pj["inputs"].push_back({{"path", in.path}, {"sha256", in.sha256}});
     w.attr(f.id, "provenance", pj.dump());
     H5 recs{H5Gcreate2(f.id, "recordings", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose};
     if (recs.id < 0) w.fail("/recordings");
     for (const auto& p : preds) {
-      H5 g{H5Gcreate2(recs.id, p.recording_id.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose};
+      H5 g{H5Gcreate2(recs.id, p.recording_id.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+           H5Gclose};
       if (g.id < 0) w.fail("/recordings/" + p.recording_id);
       w.scalars(g.id, "t_s", p.t_s, "s");
       w.vec3(g.id, "force_burr_vol_N", p.force_burr_vol_N, "N");
@@ -162,20 +168,21 @@ void write_prediction(const std::filesystem::path& path, const std::vector<Recor
   }
 }
 
-void write_prediction_csv(const std::filesystem::path& path, const std::vector<RecordingPrediction>& preds) {
+void write_prediction_csv(const std::filesystem::path& path,
+                          const std::vector<RecordingPrediction>& preds) {
   std::ofstream out(path);
   if (!out) throw InputError(path.string(), "<file>", "a writable output path");
   out << "recording,t_s,Fburr_x_N,Fburr_y_N,Fburr_z_N,Fpred_x_N,Fpred_y_N,Fpred_z_N,"
          "Fmeas_x_N,Fmeas_y_N,Fmeas_z_N,b_mm,n_x,n_y,n_z,class_mask,buried,use\n";
   for (const auto& p : preds)
     for (std::size_t k = 0; k < p.t_s.size(); ++k) {
-      const auto &fb = p.force_burr_vol_N[k], &fp = p.force_sensor_pred_N[k], &fm = p.force_sensor_meas_N[k],
-                 &n = p.normal_vol[k];
-      out << fmt::format("{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},"
-                         "{:.9g},{:.9g},{:.9g},{},{},{}\n",
-                         p.recording_id, p.t_s[k], fb.x, fb.y, fb.z, fp.x, fp.y, fp.z, fm.x, fm.y, fm.z,
-                         p.depth_b_mm[k], n.x, n.y, n.z, int(p.class_mask[k]), int(p.buried[k]),
-                         int(p.use[k]));
+      const auto &fb = p.force_burr_vol_N[k], &fp = p.force_sensor_pred_N[k],
+                 &fm = p.force_sensor_meas_N[k], &n = p.normal_vol[k];
+      out << fmt::format(
+          "{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},"
+          "{:.9g},{:.9g},{:.9g},{},{},{}\n",
+          p.recording_id, p.t_s[k], fb.x, fb.y, fb.z, fp.x, fp.y, fp.z, fm.x, fm.y, fm.z,
+          p.depth_b_mm[k], n.x, n.y, n.z, int(p.class_mask[k]), int(p.buried[k]), int(p.use[k]));
     }
   if (!out) throw InputError(path.string(), "<file>", "a writable output path", "write failed");
 }

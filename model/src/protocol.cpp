@@ -1,13 +1,13 @@
 // Reading protocols: TOML → Protocol, every defect reported with its key path.
 #include "burrbench/model/protocol.hpp"
 
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
 #include <cmath>
 #include <fstream>
 #include <initializer_list>
 #include <sstream>
-
-#include <fmt/format.h>
-#include <toml++/toml.h>
 
 #include "burrbench/data_schema/error.hpp"
 
@@ -30,7 +30,8 @@ struct Reader {
     }
   }
 
-  std::optional<double> number(const toml::table& t, const std::string& prefix, std::string_view k) const {
+  std::optional<double> number(const toml::table& t, const std::string& prefix,
+                               std::string_view k) const {
     const toml::node* n = t.get(k);
     if (!n) return std::nullopt;
     if (!n->is_number()) throw InputError(file, key(prefix, k), "a number");
@@ -73,7 +74,8 @@ struct Reader {
 
   glm::dvec3 vec3(const toml::table& t, const std::string& prefix, std::string_view k) const {
     const toml::array* a = t.get_as<toml::array>(k);
-    if (!a || a->size() != 3) throw InputError(file, key(prefix, k), "an array of 3 numbers (required)");
+    if (!a || a->size() != 3)
+      throw InputError(file, key(prefix, k), "an array of 3 numbers (required)");
     glm::dvec3 v;
     for (std::size_t i = 0; i < 3; ++i) {
       const toml::node* e = a->get(i);
@@ -112,17 +114,20 @@ ProtocolMove read_move(const Reader& r, const toml::table& t, const std::string&
     m.kind = MoveKind::kPlunge;
     r.only(t, at, {"type", "label", "spindle_rpm", "depth_mm", "feed_mm_s"});
     m.depth_mm = r.number(t, at, "depth_mm");
-    if (!m.depth_mm) throw InputError(r.file, at + ".depth_mm", "a number (mm; required for a plunge)");
+    if (!m.depth_mm)
+      throw InputError(r.file, at + ".depth_mm", "a number (mm; required for a plunge)");
     m.speed_mm_s = r.positive(t, at, "feed_mm_s");
   } else if (type == "sweep") {
     m.kind = MoveKind::kSweep;
-    r.only(t, at, {"type", "label", "spindle_rpm", "depth_mm", "feed_mm_s", "direction", "length_mm",
-                   "speed_mm_s"});
+    r.only(t, at,
+           {"type", "label", "spindle_rpm", "depth_mm", "feed_mm_s", "direction", "length_mm",
+            "speed_mm_s"});
     lateral();
   } else if (type == "polish") {
     m.kind = MoveKind::kPolish;
-    r.only(t, at, {"type", "label", "spindle_rpm", "depth_mm", "feed_mm_s", "direction", "length_mm",
-                   "speed_mm_s", "strokes"});
+    r.only(t, at,
+           {"type", "label", "spindle_rpm", "depth_mm", "feed_mm_s", "direction", "length_mm",
+            "speed_mm_s", "strokes"});
     lateral();
     const toml::node* s = t.get("strokes");
     if (!s || !s->is_integer() || s->value<std::int64_t>().value() < 1 ||
@@ -149,11 +154,16 @@ ProtocolMove read_move(const Reader& r, const toml::table& t, const std::string&
 
 const char* to_string(MoveKind k) {
   switch (k) {
-    case MoveKind::kPlunge: return "plunge";
-    case MoveKind::kSweep: return "sweep";
-    case MoveKind::kPolish: return "polish";
-    case MoveKind::kDwell: return "dwell";
-    case MoveKind::kRetract: return "retract";
+    case MoveKind::kPlunge:
+      return "plunge";
+    case MoveKind::kSweep:
+      return "sweep";
+    case MoveKind::kPolish:
+      return "polish";
+    case MoveKind::kDwell:
+      return "dwell";
+    case MoveKind::kRetract:
+      return "retract";
   }
   return "?";
 }
@@ -167,15 +177,18 @@ Protocol parse_protocol(std::string_view text, const std::string& file) {
                      std::string(e.description()));
   }
   const Reader r{file};
-  r.only(root, "", {"format", "format_version", "name", "description", "sample_rate_hz", "spindle_rpm",
-                    "burr", "start", "moves"});
+  r.only(root, "",
+         {"format", "format_version", "name", "description", "sample_rate_hz", "spindle_rpm",
+          "burr", "start", "moves"});
   if (r.text(root, "", "format", true) != kProtocolFormat)
     throw InputError(file, "format", fmt::format("\"{}\"", kProtocolFormat),
                      "\"" + r.text(root, "", "format", true) + "\"");
   const std::string version = r.text(root, "", "format_version", true);
   if (version.rfind(fmt::format("{}.", kProtocolVersionMajor), 0) != 0)
-    throw InputError(file, "format_version", fmt::format("major version {} (\"{}.x\")",
-                     kProtocolVersionMajor, kProtocolVersionMajor), "\"" + version + "\"");
+    throw InputError(
+        file, "format_version",
+        fmt::format("major version {} (\"{}.x\")", kProtocolVersionMajor, kProtocolVersionMajor),
+        "\"" + version + "\"");
   Protocol p;
   p.file = file;
   p.name = r.text(root, "", "name", false);
@@ -191,8 +204,7 @@ Protocol parse_protocol(std::string_view text, const std::string& file) {
   p.burr_radius_mm = r.positive(burr, "burr", "radius_mm");
   p.burr_axis_vol = r.unit(burr, "burr", "axis");
   const toml::node* sign = burr.get("spin_sign");
-  if (!sign || !sign->is_integer() ||
-      std::abs(sign->value<std::int64_t>().value()) != 1)
+  if (!sign || !sign->is_integer() || std::abs(sign->value<std::int64_t>().value()) != 1)
     throw InputError(file, "burr.spin_sign", "1 or -1 (required)");
   p.spin_sign = int(sign->value<std::int64_t>().value());
 
@@ -219,7 +231,8 @@ Protocol read_protocol(const std::filesystem::path& path) {
   std::ostringstream ss;
   ss << in.rdbuf();
   const std::string text = ss.str();
-  if (text.size() > (16u << 20)) throw InputError(path.string(), "<file>", "a protocol below 16 MiB");
+  if (text.size() > (16u << 20))
+    throw InputError(path.string(), "<file>", "a protocol below 16 MiB");
   return parse_protocol(text, path.string());
 }
 

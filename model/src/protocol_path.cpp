@@ -1,11 +1,11 @@
 // Sampling a protocol: find the bone surface along the approach line, turn the moves into
 // straight segments at constant speed, sample them at the protocol's rate.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
-
-#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/protocol.hpp"
@@ -79,10 +79,13 @@ double distance_to_surface(const data_schema::SampleVolume& s, const glm::dvec3&
   }
   double t_cell = t_in;  // where the line enters the current cell
   for (;;) {
-    const std::size_t idx = s.index(std::size_t(cell[0]), std::size_t(cell[1]), std::size_t(cell[2]));
+    const std::size_t idx =
+        s.index(std::size_t(cell[0]), std::size_t(cell[1]), std::size_t(cell[2]));
     if (is_bone(s, idx)) {
       if (t_cell <= 0)
-        throw InputError(file, "start.point_mm", "a burr centre whose leading point (centre + R·approach) is clear of bone");
+        throw InputError(
+            file, "start.point_mm",
+            "a burr centre whose leading point (centre + R·approach) is clear of bone");
       return t_cell;
     }
     int k = 0;
@@ -91,12 +94,14 @@ double distance_to_surface(const data_schema::SampleVolume& s, const glm::dvec3&
     t_cell = t_next[k];
     t_next[k] += t_delta[k];
     cell[std::size_t(k)] += step[std::size_t(k)];
-    if (cell[std::size_t(k)] < 0 || cell[std::size_t(k)] >= long(s.dims[std::size_t(k)])) throw no_bone();
+    if (cell[std::size_t(k)] < 0 || cell[std::size_t(k)] >= long(s.dims[std::size_t(k)]))
+      throw no_bone();
   }
 }
 
 ProtocolPath sample_protocol(const Protocol& p, const data_schema::SampleVolume& sample) {
-  const double s0 = distance_to_surface(sample, p.start_vol_mm, p.approach_vol, p.burr_radius_mm, p.file);
+  const double s0 =
+      distance_to_surface(sample, p.start_vol_mm, p.approach_vol, p.burr_radius_mm, p.file);
   const glm::dvec3 a = p.approach_vol;
   ProtocolPath out;
   out.surface_vol_mm = p.start_vol_mm + s0 * a;
@@ -104,7 +109,8 @@ ProtocolPath sample_protocol(const Protocol& p, const data_schema::SampleVolume&
 
   double n_segments = 0;  // refuse a path bomb (e.g. 10⁵ moves × 10⁵ strokes) before allocating
   for (const auto& m : p.moves) n_segments += 2.0 * m.strokes + 2;
-  if (n_segments > 1e7) throw InputError(p.file, "moves", "at most 1e7 path segments (strokes count twice)");
+  if (n_segments > 1e7)
+    throw InputError(p.file, "moves", "at most 1e7 path segments (strokes count twice)");
   std::vector<Segment> segs;
   glm::dvec3 cur = p.start_vol_mm;
   double t = 0, rpm = p.spindle_rpm;
@@ -125,7 +131,9 @@ ProtocolPath sample_protocol(const Protocol& p, const data_schema::SampleVolume&
     const int mi = int(i);
     if (m.spindle_rpm) rpm = *m.spindle_rpm;
     switch (m.kind) {
-      case MoveKind::kPlunge: to_depth(*m.depth_mm, m.speed_mm_s, mi); break;
+      case MoveKind::kPlunge:
+        to_depth(*m.depth_mm, m.speed_mm_s, mi);
+        break;
       case MoveKind::kSweep:
         if (m.depth_mm) to_depth(*m.depth_mm, m.feed_mm_s.value_or(m.speed_mm_s), mi);
         move_to(cur + m.length_mm * m.direction, m.speed_mm_s, mi);
@@ -138,7 +146,9 @@ ProtocolPath sample_protocol(const Protocol& p, const data_schema::SampleVolume&
           move_to(home, m.speed_mm_s, mi);
         }
         break;
-      case MoveKind::kDwell: go(cur, m.duration_s, mi); break;
+      case MoveKind::kDwell:
+        go(cur, m.duration_s, mi);
+        break;
       case MoveKind::kRetract:
         if (m.distance_mm) {
           move_to(cur - *m.distance_mm * a, m.speed_mm_s, mi);

@@ -1,10 +1,10 @@
 #include "burrbench/model/registration.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 
@@ -14,7 +14,8 @@ namespace {
 // Cyclic Jacobi eigen-decomposition of a small symmetric matrix A (row-major, N×N).
 // On return A's diagonal holds the eigenvalues and V's columns the eigenvectors.
 template <int N>
-void jacobi_eigen(std::array<std::array<double, N>, N>& A, std::array<std::array<double, N>, N>& V) {
+void jacobi_eigen(std::array<std::array<double, N>, N>& A,
+                  std::array<std::array<double, N>, N>& V) {
   for (int i = 0; i < N; ++i)
     for (int j = 0; j < N; ++j) V[i][j] = (i == j) ? 1.0 : 0.0;
   for (int sweep = 0; sweep < 100; ++sweep) {
@@ -28,7 +29,8 @@ void jacobi_eigen(std::array<std::array<double, N>, N>& A, std::array<std::array
       for (int q = p + 1; q < N; ++q) {
         if (A[p][q] == 0) continue;
         const double theta = (A[q][q] - A[p][p]) / (2 * A[p][q]);
-        const double t = (theta >= 0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1));
+        const double t =
+            (theta >= 0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1));
         const double c = 1 / std::sqrt(t * t + 1), s = t * c;
         for (int k = 0; k < N; ++k) {  // A ← Jᵀ A J
           const double akp = A[k][p], akq = A[k][q];

@@ -4,9 +4,9 @@
 // for bit.
 #include "burrbench/model/synth.hpp"
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <cmath>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/version.hpp"
@@ -26,8 +26,8 @@ double GaussianSource::operator()() {
   return r * std::cos(2 * M_PI * u2);
 }
 
-void describe_for_manifest(const Protocol& p, const SynthOptions& o, data_schema::ExperimentManifest& m,
-                           data_schema::RecordingRef& ref) {
+void describe_for_manifest(const Protocol& p, const SynthOptions& o,
+                           data_schema::ExperimentManifest& m, data_schema::RecordingRef& ref) {
   const RigidTransform reg = o.rig_to_vol.value_or(RigidTransform{});
   m.burr.radius_mm = p.burr_radius_mm;
   m.burr.shaft_axis_rig = glm::transpose(reg.R) * p.burr_axis_vol;
@@ -46,7 +46,8 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
                        const data_schema::ParameterSet& params, const SynthOptions& o,
                        const Provenance& provenance, Progress* progress) {
   const std::string opt = "synth options";
-  if (!(o.noise_N >= 0) || !std::isfinite(o.noise_N)) throw InputError(opt, "noise_N", "a finite σ ≥ 0 (N)");
+  if (!(o.noise_N >= 0) || !std::isfinite(o.noise_N))
+    throw InputError(opt, "noise_N", "a finite σ ≥ 0 (N)");
   for (int k = 0; k < 3; ++k)
     if (!std::isfinite(o.bias_N[k])) throw InputError(opt, "bias_N", "finite components (N)");
   if (!std::isfinite(o.lag_ms) || std::abs(o.lag_ms) > 1e4)
@@ -70,7 +71,8 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
   rec.meta.spin_sign = p.spin_sign;
   rec.meta.sensor_model = "synthetic (burrbench synth)";
   rec.meta.session_monotonic_ns = o.t0_ns;
-  rec.meta.notes = fmt::format("protocol \"{}\"; ground truth in the truth file written alongside", p.name);
+  rec.meta.notes =
+      fmt::format("protocol \"{}\"; ground truth in the truth file written alongside", p.name);
 
   std::vector<std::int64_t> t_ns(n);
   for (std::size_t k = 0; k < n; ++k) t_ns[k] = o.t0_ns + std::llround(path.t_s[k] * 1e9);
@@ -84,7 +86,8 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
     s.channels = std::move(channels);
     return s;
   };
-  data_schema::Channel pos{data_schema::kPosition, "mm", 3, {}}, rpm{data_schema::kSpindle, "rpm", 1, {}};
+  data_schema::Channel pos{data_schema::kPosition, "mm", 3, {}},
+      rpm{data_schema::kSpindle, "rpm", 1, {}};
   for (std::size_t k = 0; k < n; ++k) {
     const glm::dvec3 x = vol_to_rig.apply(path.centre_vol_mm[k]);
     pos.values.insert(pos.values.end(), {x.x, x.y, x.z});
@@ -98,9 +101,12 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
   rec.events.push_back({t_ns.front(), "start", "", "synthetic session"});
   for (std::size_t k = 0; k < n; ++k)
     if (k == 0 || path.move[k] != path.move[k - 1])
-      rec.events.push_back({t_ns[k], "move", "", fmt::format("{} {}", path.move[k] >= 0 ?
-                            to_string(p.moves[std::size_t(path.move[k])].kind) : "none", path.move[k] >= 0 ?
-                            p.moves[std::size_t(path.move[k])].label : "")});
+      rec.events.push_back(
+          {t_ns[k], "move", "",
+           fmt::format(
+               "{} {}",
+               path.move[k] >= 0 ? to_string(p.moves[std::size_t(path.move[k])].kind) : "none",
+               path.move[k] >= 0 ? p.moves[std::size_t(path.move[k])].label : "")});
   rec.events.push_back({t_ns.back(), "stop", "", "synthetic session"});
 
   // The true force, through the same alignment the replay verb uses.
@@ -111,7 +117,8 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
   m.recordings.push_back(ref);
   const AlignedRecording aligned = align_recording(m, ref, rec, "synthetic recording");
   Volume volume = Volume::from_sample(sample);
-  const ReplayResult res = replay(volume, p.burr_radius_mm, mp, aligned.trajectory(), o.replay, false, progress);
+  const ReplayResult res =
+      replay(volume, p.burr_radius_mm, mp, aligned.trajectory(), o.replay, false, progress);
   out.removed_mm3 = res.removed_mm3;
 
   GaussianSource gauss(o.seed);
@@ -133,15 +140,16 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
   return out;
 }
 
-nlohmann::json truth_json(const SynthResult& r, const data_schema::SampleVolume& sample, const Protocol& p,
-                          const data_schema::ParameterSet& params, const SynthOptions& o,
-                          const Provenance& prov) {
+nlohmann::json truth_json(const SynthResult& r, const data_schema::SampleVolume& sample,
+                          const Protocol& p, const data_schema::ParameterSet& params,
+                          const SynthOptions& o, const Provenance& prov) {
   using nlohmann::json;
   json classes = json::array();
   for (const auto& [label, c] : params.classes)
     classes.push_back({{"label", label},
                        {"name", c.name},
-                       {"alpha_N_per_mm2", std::isfinite(c.alpha_N_per_mm2) ? json(c.alpha_N_per_mm2) : json(nullptr)},
+                       {"alpha_N_per_mm2",
+                        std::isfinite(c.alpha_N_per_mm2) ? json(c.alpha_N_per_mm2) : json(nullptr)},
                        {"c1_N_per_mm2", c.c1_N_per_mm2},
                        {"mu", c.mu}});
   json removed = json::object();
@@ -149,7 +157,8 @@ nlohmann::json truth_json(const SynthResult& r, const data_schema::SampleVolume&
   for (int k = 1; k < kMaxClasses; ++k) {
     if (r.removed_mm3[std::size_t(k)] == 0 && !sample.classes.count(std::uint8_t(k))) continue;
     const auto it = sample.classes.find(std::uint8_t(k));
-    removed[it != sample.classes.end() ? it->second : std::to_string(k)] = r.removed_mm3[std::size_t(k)];
+    removed[it != sample.classes.end() ? it->second : std::to_string(k)] =
+        r.removed_mm3[std::size_t(k)];
     total += r.removed_mm3[std::size_t(k)];
   }
   const RigidTransform reg = o.rig_to_vol.value_or(RigidTransform{});
@@ -164,27 +173,36 @@ nlohmann::json truth_json(const SynthResult& r, const data_schema::SampleVolume&
       {"bias_N", {o.bias_N.x, o.bias_N.y, o.bias_N.z}},
       {"lag_ms", o.lag_ms},
       {"noise_N", o.noise_N},
-      {"noise_distribution", "white Gaussian per component; mt19937_64 53-bit uniforms, Box-Muller "
-                             "(cos then sin), drawn x,y,z per sample in time order"},
+      {"noise_distribution",
+       "white Gaussian per component; mt19937_64 53-bit uniforms, Box-Muller "
+       "(cos then sin), drawn x,y,z per sample in time order"},
       {"seed", o.seed},
       {"removed_mm3_by_class", removed},
       {"removed_mm3_total", total},
       {"samples", r.path.t_s.size()},
       {"buried_samples", r.buried_samples},
       {"duration_s", r.path.duration_s},
-      {"protocol", {{"name", p.name}, {"file", p.file}, {"sample_rate_hz", p.sample_rate_hz},
-                    {"burr_radius_mm", p.burr_radius_mm}, {"spin_sign", p.spin_sign},
-                    {"burr_axis_vol", {p.burr_axis_vol.x, p.burr_axis_vol.y, p.burr_axis_vol.z}},
-                    {"surface_vol_mm", {r.path.surface_vol_mm.x, r.path.surface_vol_mm.y, r.path.surface_vol_mm.z}}}},
-      {"frames", {{"sensor", "= rig frame; measures the force on the sample (= -force on burr)"},
-                  {"registration_rig_to_vol", {{"rotation", rot}, {"translation_mm", {reg.t.x, reg.t.y, reg.t.z}}}},
-                  {"tool_offset_mm", {0.0, 0.0, 0.0}},
-                  {"torque", "torque_Nmm is written as zero (not modelled)"}}},
+      {"protocol",
+       {{"name", p.name},
+        {"file", p.file},
+        {"sample_rate_hz", p.sample_rate_hz},
+        {"burr_radius_mm", p.burr_radius_mm},
+        {"spin_sign", p.spin_sign},
+        {"burr_axis_vol", {p.burr_axis_vol.x, p.burr_axis_vol.y, p.burr_axis_vol.z}},
+        {"surface_vol_mm",
+         {r.path.surface_vol_mm.x, r.path.surface_vol_mm.y, r.path.surface_vol_mm.z}}}},
+      {"frames",
+       {{"sensor", "= rig frame; measures the force on the sample (= -force on burr)"},
+        {"registration_rig_to_vol",
+         {{"rotation", rot}, {"translation_mm", {reg.t.x, reg.t.y, reg.t.z}}}},
+        {"tool_offset_mm", {0.0, 0.0, 0.0}},
+        {"torque", "torque_Nmm is written as zero (not modelled)"}}},
       {"replay_step_s", o.replay.step_s},
-      {"provenance", {{"software_version", prov.software_version},
-                      {"command_line", prov.command_line},
-                      {"created_utc", prov.created_utc},
-                      {"inputs", inputs}}},
+      {"provenance",
+       {{"software_version", prov.software_version},
+        {"command_line", prov.command_line},
+        {"created_utc", prov.created_utc},
+        {"inputs", inputs}}},
   };
 }
 

@@ -1,9 +1,9 @@
 // Experiment layer: stream alignment at different instants, lag, tool offset,
 // registration, segments, ω and the sensor-force mapping — on in-memory recordings.
-#include <cmath>
-
-#include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
@@ -22,7 +22,8 @@ glm::dmat3 rotation(double angle, glm::dvec3 axis) {
 glm::dvec3 stage_at(double t) { return {1 + 2 * t, -3 * t, 0.5 + t}; }
 double rpm_at(double t) { return 1000 + 500 * t; }
 
-ds::Stream make_stream(const char* name, std::int64_t t0_ns, std::int64_t period_ns, std::size_t n) {
+ds::Stream make_stream(const char* name, std::int64_t t0_ns, std::int64_t period_ns,
+                       std::size_t n) {
   ds::Stream s;
   s.name = name;
   for (std::size_t k = 0; k < n; ++k) s.t_ns.push_back(t0_ns + std::int64_t(k) * period_ns);
@@ -99,7 +100,8 @@ TEST(Experiment, LagShiftsPositionsAndClampsAtTheEnds) {
   const double lag = 0.0123;  // the force at t answers the position at t − 12.3 ms
   const Trajectory tr = a.trajectory(lag);
   for (std::size_t k = 20; k < 200; k += 17) {
-    const glm::dvec3 want = R * (stage_at(a.t_s[k] - lag) + m.burr.tool_offset_mm) + glm::dvec3(10, 20, 30);
+    const glm::dvec3 want =
+        R * (stage_at(a.t_s[k] - lag) + m.burr.tool_offset_mm) + glm::dvec3(10, 20, 30);
     EXPECT_NEAR(glm::length(tr.centre_vol_mm[k] - want), 0, 1e-12) << k;
   }
   // Before the first stage sample (t = −0.3 ms): clamped to it.
@@ -108,8 +110,10 @@ TEST(Experiment, LagShiftsPositionsAndClampsAtTheEnds) {
   // Negative lag: after the last stage sample, clamped to it.
   const Trajectory late = a.trajectory(-0.5);
   const double t_last = (169 * 1.25e6 - 0.3e6) * 1e-9;
-  EXPECT_NEAR(glm::length(late.centre_vol_mm[199] - (R * (stage_at(t_last) + m.burr.tool_offset_mm) +
-                                                     glm::dvec3(10, 20, 30))), 0, 1e-12);
+  EXPECT_NEAR(
+      glm::length(late.centre_vol_mm[199] -
+                  (R * (stage_at(t_last) + m.burr.tool_offset_mm) + glm::dvec3(10, 20, 30))),
+      0, 1e-12);
   // The manifest's lag is the default.
   auto m2 = manifest();
   m2.recordings[0].lag_ms = 12.3;
@@ -148,7 +152,8 @@ TEST(Experiment, SegmentsStaleSamplesAndFiducials) {
   const glm::dmat3 R = rotation(-0.4, {1, 1, 1});
   const glm::dvec3 t{1, 2, 3};
   m_fid.recordings[0].registration = {};
-  for (glm::dvec3 p : {glm::dvec3(0, 0, 0), glm::dvec3(10, 0, 0), glm::dvec3(0, 10, 0), glm::dvec3(0, 0, 10)}) {
+  for (glm::dvec3 p :
+       {glm::dvec3(0, 0, 0), glm::dvec3(10, 0, 0), glm::dvec3(0, 10, 0), glm::dvec3(0, 0, 10)}) {
     m_fid.recordings[0].registration.fiducials_rig_mm.push_back(p);
     m_fid.recordings[0].registration.fiducials_vol_mm.push_back(R * p + t);
   }
@@ -179,8 +184,10 @@ TEST(Experiment, MissingChannelsAreInputErrors) {
     align_recording(m, m.recordings[0], rec, "rec.h5");
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("rec.h5: streams: expected a stream with the channel spindle_rpm"),
-              std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(
+                  "rec.h5: streams: expected a stream with the channel spindle_rpm"),
+              std::string::npos)
+        << e.what();
   }
   auto rec2 = recording();
   rec2.streams[1].channels[0].width = 2;

@@ -1,9 +1,9 @@
 // Protocols: parsing with key-path errors, and the sampled path against a flat slab
 // (positions, speeds, depths measured from the bone surface, spindle speed).
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <filesystem>
-
-#include <gtest/gtest.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/protocol.hpp"
@@ -33,7 +33,8 @@ ds::SampleVolume slab() {
 std::string header(const std::string& start = "[2.0, 2.0, 3.5]") {
   return "format = \"burrbench.protocol\"\nformat_version = \"1.0\"\nsample_rate_hz = 1000\n"
          "spindle_rpm = 30000\n[burr]\nradius_mm = 1.0\naxis = [0, 0, 2]\nspin_sign = -1\n"
-         "[start]\npoint_mm = " + start + "\napproach = [0, 0, -1]\n";
+         "[start]\npoint_mm = " +
+         start + "\napproach = [0, 0, -1]\n";
 }
 
 std::string error_of(const std::string& text) {
@@ -54,17 +55,20 @@ TEST(Protocol, SurfaceIsWhereTheLeadingPointMeetsBone) {
   const glm::dvec3 a = glm::normalize(glm::dvec3(0.3, 0, -1));
   const double s0 = distance_to_surface(s, {1.0, 2.0, 3.5}, a, 1.0, "p");
   EXPECT_NEAR((3.5 + a.z * 1.0) + s0 * a.z, 2.0, 1e-12);
-  EXPECT_THROW(distance_to_surface(s, {2.0, 2.0, 2.5}, {0, 0, -1}, 1.0, "p"), InputError);  // in bone
-  EXPECT_THROW(distance_to_surface(s, {2.0, 2.0, 3.5}, {0, 0, 1}, 1.0, "p"), InputError);   // away
-  EXPECT_THROW(distance_to_surface(s, {9.0, 2.0, 3.5}, {0, 0, -1}, 1.0, "p"), InputError);  // beside
+  EXPECT_THROW(distance_to_surface(s, {2.0, 2.0, 2.5}, {0, 0, -1}, 1.0, "p"),
+               InputError);  // in bone
+  EXPECT_THROW(distance_to_surface(s, {2.0, 2.0, 3.5}, {0, 0, 1}, 1.0, "p"), InputError);  // away
+  EXPECT_THROW(distance_to_surface(s, {9.0, 2.0, 3.5}, {0, 0, -1}, 1.0, "p"),
+               InputError);  // beside
 }
 
 TEST(Protocol, PlungeDwellRetractPath) {
-  const auto p = parse_protocol(header() +
-                                    "[[moves]]\ntype = \"plunge\"\ndepth_mm = 0.25\nfeed_mm_s = 0.5\n"
-                                    "[[moves]]\ntype = \"dwell\"\nduration_s = 0.2\nspindle_rpm = 10000\n"
-                                    "[[moves]]\ntype = \"retract\"\nspeed_mm_s = 2.0\n",
-                                "p.toml");
+  const auto p =
+      parse_protocol(header() +
+                         "[[moves]]\ntype = \"plunge\"\ndepth_mm = 0.25\nfeed_mm_s = 0.5\n"
+                         "[[moves]]\ntype = \"dwell\"\nduration_s = 0.2\nspindle_rpm = 10000\n"
+                         "[[moves]]\ntype = \"retract\"\nspeed_mm_s = 2.0\n",
+                     "p.toml");
   EXPECT_EQ(p.spin_sign, -1);
   EXPECT_DOUBLE_EQ(p.burr_axis_vol.z, 1.0);  // normalised
   const auto path = sample_protocol(p, slab());
@@ -97,7 +101,8 @@ TEST(Protocol, SweepKeepsDepthAndSpeedPolishReturns) {
   const auto p = parse_protocol(
       header("[1.0, 2.0, 3.2]") +
           "[[moves]]\ntype = \"plunge\"\ndepth_mm = 0.2\nfeed_mm_s = 1.0\n"
-          "[[moves]]\ntype = \"sweep\"\ndirection = [1, 0, 0.5]\nlength_mm = 1.0\nspeed_mm_s = 2.0\n"
+          "[[moves]]\ntype = \"sweep\"\ndirection = [1, 0, 0.5]\nlength_mm = 1.0\nspeed_mm_s = "
+          "2.0\n"
           "[[moves]]\ntype = \"polish\"\ndirection = [0, -1, 0]\nlength_mm = 0.5\nstrokes = 3\n"
           "speed_mm_s = 10.0\ndepth_mm = 0.1\nfeed_mm_s = 0.5\n",
       "p.toml");
@@ -120,30 +125,42 @@ TEST(Protocol, SweepKeepsDepthAndSpeedPolishReturns) {
 
 TEST(Protocol, BadProtocolsNameTheKey) {
   EXPECT_NE(error_of(header() + "[[moves]]\ntype = \"plunge\"\nfeed_mm_s = 1\n")
-                .find("p.toml: moves[0].depth_mm"), std::string::npos);
-  EXPECT_NE(error_of(header() + "[[moves]]\ntype = \"drill\"\n").find("moves[0].type"), std::string::npos);
+                .find("p.toml: moves[0].depth_mm"),
+            std::string::npos);
+  EXPECT_NE(error_of(header() + "[[moves]]\ntype = \"drill\"\n").find("moves[0].type"),
+            std::string::npos);
   EXPECT_NE(error_of(header() + "[[moves]]\ntype = \"dwell\"\nduration_s = 1\nspeed = 3\n")
-                .find("moves[0].speed"), std::string::npos);
+                .find("moves[0].speed"),
+            std::string::npos);
   EXPECT_NE(error_of(header() + "[[moves]]\ntype = \"sweep\"\ndirection = [0,0,1]\nlength_mm = 1\n"
-                                "speed_mm_s = 1\n").find("moves[0].direction"), std::string::npos);
+                                "speed_mm_s = 1\n")
+                .find("moves[0].direction"),
+            std::string::npos);
   EXPECT_NE(error_of(header() + "[[moves]]\ntype = \"polish\"\ndirection = [1,0,0]\nlength_mm = 1\n"
-                                "speed_mm_s = 1\nstrokes = 0\n").find("moves[0].strokes"), std::string::npos);
+                                "speed_mm_s = 1\nstrokes = 0\n")
+                .find("moves[0].strokes"),
+            std::string::npos);
   EXPECT_NE(error_of(header() + "[[moves]]\ntype = \"dwell\"\nduration_s = -1\n")
-                .find("moves[0].duration_s"), std::string::npos);
+                .find("moves[0].duration_s"),
+            std::string::npos);
   EXPECT_NE(error_of(header()).find("moves"), std::string::npos);
   EXPECT_NE(error_of("format = \"burrbench.params\"\n").find("p.toml: format"), std::string::npos);
   EXPECT_NE(error_of("format = \n").find("valid TOML"), std::string::npos);
   std::string bad_sign = header();
   bad_sign.replace(bad_sign.find("spin_sign = -1"), 14, "spin_sign = 2");
-  EXPECT_NE(error_of(bad_sign + "[[moves]]\ntype = \"dwell\"\nduration_s = 1\n").find("burr.spin_sign"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(bad_sign + "[[moves]]\ntype = \"dwell\"\nduration_s = 1\n").find("burr.spin_sign"),
+      std::string::npos);
   EXPECT_THROW(read_protocol("/nonexistent/p.toml"), InputError);
   // A path far too long is refused before allocating it.
   std::string bomb = header();
   for (int i = 0; i < 200; ++i)
-    bomb += "[[moves]]\ntype = \"polish\"\ndirection = [1,0,0]\nlength_mm = 1\nspeed_mm_s = 1\nstrokes = 100000\n";
+    bomb +=
+        "[[moves]]\ntype = \"polish\"\ndirection = [1,0,0]\nlength_mm = 1\nspeed_mm_s = 1\nstrokes "
+        "= 100000\n";
   EXPECT_THROW(sample_protocol(parse_protocol(bomb, "p.toml"), slab()), InputError);
-  const auto slow = parse_protocol(header() + "[[moves]]\ntype = \"dwell\"\nduration_s = 1e6\n", "p.toml");
+  const auto slow =
+      parse_protocol(header() + "[[moves]]\ntype = \"dwell\"\nduration_s = 1e6\n", "p.toml");
   EXPECT_THROW(sample_protocol(slow, slab()), InputError);  // 1e9 samples
 }
 
@@ -156,8 +173,8 @@ TEST(Protocol, ShippedExamplesParseAndSample) {
   s.fraction.assign(s.voxel_count(), 0.f);
   for (std::size_t i = 0; i < 80 * 80 * 30; ++i) s.labels[i] = 1, s.fraction[i] = 1.f;
   for (const char* name : {"plunge", "sweep", "polish"}) {
-    const auto p = read_protocol(std::filesystem::path(BURRBENCH_SOURCE_DIR) / "examples/protocols" /
-                                 (std::string(name) + ".toml"));
+    const auto p = read_protocol(std::filesystem::path(BURRBENCH_SOURCE_DIR) /
+                                 "examples/protocols" / (std::string(name) + ".toml"));
     const auto path = sample_protocol(p, s);
     EXPECT_NEAR(path.surface_vol_mm.z, 4.0, 1e-12) << name;
     EXPECT_GT(path.t_s.size(), 1000u) << name;

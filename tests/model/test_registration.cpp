@@ -1,8 +1,8 @@
 // Registration rig → volume: recovery of a known transform, RMS error, bad fiducials.
-#include <random>
+#include <gtest/gtest.h>
 
 #include <glm/gtc/matrix_transform.hpp>
-#include <gtest/gtest.h>
+#include <random>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/registration.hpp"
@@ -45,8 +45,9 @@ TEST(Registration, NoisyFiducialsRmsMatchesNoise) {
   }
   const auto fit = fit_rigid(rig, vol);
   // Rotation error well below the noise over a 20 mm lever, translation within noise.
-  double angle_err = std::acos(std::clamp((glm::dot(glm::dvec3(1, 0, 0), glm::transpose(R) *
-                                          fit.transform.R * glm::dvec3(1, 0, 0))), -1.0, 1.0));
+  double angle_err = std::acos(std::clamp(
+      (glm::dot(glm::dvec3(1, 0, 0), glm::transpose(R) * fit.transform.R * glm::dvec3(1, 0, 0))),
+      -1.0, 1.0));
   EXPECT_LT(angle_err, 0.005);
   EXPECT_LT(glm::length(fit.transform.t - t), 0.05);
   // RMS of 3-D residuals ≈ σ√3·√((n−6)/n) (6 fitted dof): within 20 %.

@@ -1,15 +1,14 @@
 // Ground-truth synthesis: reproducible noise, noise statistics, bias and lag in the
 // output, and the round trip synth → files → experiment → replay reproducing the
 // noiseless force.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <unistd.h>
-
-#include <fmt/format.h>
-
 #include <glm/gtc/matrix_transform.hpp>
-#include <gtest/gtest.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/synth.hpp"
@@ -67,7 +66,8 @@ spindle_rpm = 60000
 [[moves]]
 type = "retract"
 speed_mm_s = 2.0
-)", "test.toml");
+)",
+                        "test.toml");
 }
 
 ds::ParameterSet params() {

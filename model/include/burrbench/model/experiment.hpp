@@ -14,12 +14,11 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <glm/glm.hpp>
 #include <map>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <glm/glm.hpp>
 
 #include "burrbench/data_schema/manifest.hpp"
 #include "burrbench/data_schema/recording.hpp"
@@ -46,25 +45,25 @@ struct AlignedRecording {
   std::string id;
   std::string sample_id;
   std::filesystem::path file;
-  std::int64_t t0_ns = 0;                 // host time of the first force sample
+  std::int64_t t0_ns = 0;  // host time of the first force sample
 
-  std::vector<double> t_s;                // force timestamps (s from t0), strictly increasing
-  std::vector<glm::dvec3> force_sensor_N; // measured, sensor frame, as recorded
-  std::vector<std::uint8_t> use;          // 1: inside a used segment (all 1 without segments)
-  std::size_t dropped_force_samples = 0;  // stale or non-increasing timestamps
+  std::vector<double> t_s;                 // force timestamps (s from t0), strictly increasing
+  std::vector<glm::dvec3> force_sensor_N;  // measured, sensor frame, as recorded
+  std::vector<std::uint8_t> use;           // 1: inside a used segment (all 1 without segments)
+  std::size_t dropped_force_samples = 0;   // stale or non-increasing timestamps
 
-  Series<glm::dvec3> stage_rig_mm;        // stage-reported position (fresh samples only)
-  Series<double> spindle_rpm;             // signed: negative = reverse spin
+  Series<glm::dvec3> stage_rig_mm;  // stage-reported position (fresh samples only)
+  Series<double> spindle_rpm;       // signed: negative = reverse spin
 
-  RigidTransform rig_to_vol;              // from the manifest or fitted to fiducials
+  RigidTransform rig_to_vol;                    // from the manifest or fitted to fiducials
   std::optional<RegistrationFit> fiducial_fit;  // set when fitted (RMS in fiducial_fit->rms_mm)
   glm::dvec3 tool_offset_rig_mm{0};
-  glm::dvec3 shaft_axis_vol{0, 0, 1};     // unit
+  glm::dvec3 shaft_axis_vol{0, 0, 1};  // unit
   int spin_sign = 1;
   double radius_mm = 0;
   glm::dmat3 sensor_to_rig{1.0};
-  double sensor_sign = -1;                // −1: sensor measures force on the sample
-  double lag_s = 0;                       // the manifest's lag_ms / 1000
+  double sensor_sign = -1;  // −1: sensor measures force on the sample
+  double lag_s = 0;         // the manifest's lag_ms / 1000
 
   // Burr centre (volume frame) for a stage position. depth_offset_mm moves the burr
   // along −shaft_axis_vol (towards the burr tip: deeper for a feed along the shaft).
@@ -119,6 +118,7 @@ inline constexpr const char* kPredictionFormat = "burrbench.prediction";
 inline constexpr const char* kPredictionVersion = "1.0";
 void write_prediction(const std::filesystem::path& path, const std::vector<RecordingPrediction>& p,
                       const Provenance& provenance);
-void write_prediction_csv(const std::filesystem::path& path, const std::vector<RecordingPrediction>& p);
+void write_prediction_csv(const std::filesystem::path& path,
+                          const std::vector<RecordingPrediction>& p);
 
 }  // namespace burrbench::model

@@ -10,12 +10,11 @@
 // χ ≥ 0.5; a cell is the cube of side l centred on the voxel centre). The depth of any
 // centre position p is (p − p_surface)·â: positive = into the bone.
 #include <filesystem>
+#include <glm/glm.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <glm/glm.hpp>
 
 #include "burrbench/data_schema/sample_volume.hpp"
 
@@ -45,12 +44,12 @@ struct Protocol {
   std::string file;  // for messages
   std::string name, description;
   double sample_rate_hz = 1000;
-  double spindle_rpm = 0;                // initial spindle speed
+  double spindle_rpm = 0;  // initial spindle speed
   double burr_radius_mm = 0;
-  glm::dvec3 burr_axis_vol{0, 0, 1};     // shaft direction, unit
-  int spin_sign = 1;                     // +1: ω along the axis, −1 against
-  glm::dvec3 start_vol_mm{0};            // burr centre at t = 0
-  glm::dvec3 approach_vol{0, 0, -1};     // unit, towards the bone
+  glm::dvec3 burr_axis_vol{0, 0, 1};  // shaft direction, unit
+  int spin_sign = 1;                  // +1: ω along the axis, −1 against
+  glm::dvec3 start_vol_mm{0};         // burr centre at t = 0
+  glm::dvec3 approach_vol{0, 0, -1};  // unit, towards the bone
   std::vector<ProtocolMove> moves;
 };
 

@@ -3,10 +3,9 @@
 // The fit is Horn's closed-form quaternion method (least squares, always a proper
 // rotation, never a reflection); GLM has no eigen/SVD routine, so a small Jacobi
 // eigen-solver lives in registration.cpp.
+#include <glm/glm.hpp>
 #include <string>
 #include <vector>
-
-#include <glm/glm.hpp>
 
 namespace burrbench::model {
 
@@ -23,10 +22,10 @@ struct RigidTransform {
 };
 
 struct RegistrationFit {
-  RigidTransform transform;          // rig → volume
-  double rms_mm = 0;                 // RMS fiducial registration error after the fit
-  double max_mm = 0;                 // worst fiducial
-  std::vector<double> residual_mm;   // |R·rig_i + t − vol_i| per pair
+  RigidTransform transform;         // rig → volume
+  double rms_mm = 0;                // RMS fiducial registration error after the fit
+  double max_mm = 0;                // worst fiducial
+  std::vector<double> residual_mm;  // |R·rig_i + t − vol_i| per pair
 };
 
 // Least-squares rigid fit of `to ≈ R·from + t`. Needs ≥ 3 pairs, equal counts, finite

@@ -8,13 +8,12 @@
 // measures the force on the SAMPLE (= −force on the burr). No tool offset.
 #include <array>
 #include <cstdint>
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
 #include <string>
 #include <vector>
-
-#include <glm/glm.hpp>
-#include <nlohmann/json.hpp>
 
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/recording.hpp"
@@ -40,13 +39,13 @@ class GaussianSource {
 };
 
 struct SynthOptions {
-  double noise_N = 0;                      // σ of white Gaussian noise per force component
-  glm::dvec3 bias_N{0};                    // added to every force sample (sensor frame)
-  double lag_ms = 0;                       // recorded force at t = true force at t − lag
+  double noise_N = 0;    // σ of white Gaussian noise per force component
+  glm::dvec3 bias_N{0};  // added to every force sample (sensor frame)
+  double lag_ms = 0;     // recorded force at t = true force at t − lag
   std::uint64_t seed = 1;
   std::optional<RigidTransform> rig_to_vol;  // absent: rig frame = volume frame
-  ReplayOptions replay;                    // internal step (0 → half the sample period)
-  std::int64_t t0_ns = 1'000'000'000;      // host timestamp of the first sample
+  ReplayOptions replay;                      // internal step (0 → half the sample period)
+  std::int64_t t0_ns = 1'000'000'000;        // host timestamp of the first sample
 };
 
 struct SynthResult {
