@@ -253,12 +253,12 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
     const double P = p0 * std::sqrt(1.0 - xi2 * inv_a2);
     const double chi = v.chi;
     const double s = chi * e.area * P * e.inv_d;
-    // (v × ω̂)/|v|, weighted by χΔσP
+    // Σ s (v × ω̂) = (Σ s v) × ω̂: accumulate Σ s v, cross once per class at the end
     const int k = v.label;
     double* g = G[k];
-    g[0] += s * (v.vy * w.z - v.vz * w.y);
-    g[1] += s * (v.vz * w.x - v.vx * w.z);
-    g[2] += s * (v.vx * w.y - v.vy * w.x);
+    g[0] += s * v.vx;
+    g[1] += s * v.vy;
+    g[2] += s * v.vz;
     if (wmu[k] == 0) continue;
     const double vw = (v.vx * w.x + v.vy * w.y + v.vz * w.z) * e.inv_d;
     const double r = e.lever_over_d * d2 * e.inv_d;
@@ -275,7 +275,7 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
     }
   }
   for (int k = 1; k < kMaxClasses; ++k) {
-    out.dFmu_dmu[k] = glm::dvec3(G[k][0], G[k][1], G[k][2]);
+    out.dFmu_dmu[k] = glm::cross(glm::dvec3(G[k][0], G[k][1], G[k][2]), w);
     out.friction_N += prm.by_label[k].mu * out.dFmu_dmu[k];
   }
   out.power_W_mJ_per_s = power;

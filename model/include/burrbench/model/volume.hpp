@@ -60,7 +60,7 @@ class Volume {
     const double old = double(chi_[i]) + double(chi_lo_[i]);
     double now = old - dchi;
     if (now < 0) now = 0;
-    if (undo_on_) log_first_touch(i);
+    if (undo_on_ && !(touched_[i >> 6] & (std::uint64_t(1) << (i & 63)))) log_first_touch(i);
     const float hi = static_cast<float>(now);
     chi_[i] = hi;
     chi_lo_[i] = static_cast<float>(now - double(hi));
