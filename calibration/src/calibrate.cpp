@@ -291,18 +291,13 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path,
   auto record = [&](const StepSweep& s) {
     sweeps.push_back({{"parameter", s.name}, {"h", s.h}, {"curvature", s.curvature}, {"chosen", s.chosen}});
   };
-  if (!alpha_idx.empty()) {
-    double h = 0;
-    for (std::size_t i : alpha_idx) {
-      auto s = sweep_step(obj, x, w_all, i, {0.4, 0.2, 0.1, 0.05}, -1);
+  // α (per class; a class whose cost does not curve keeps the default 0.1).
+  for (const auto& p : layout.physics())
+    if (p.index >= 0 && p.kind == PhysKind::kAlpha) {
+      auto s = sweep_step(obj, x, w_all, std::size_t(p.index), {0.4, 0.2, 0.1, 0.05}, -1);
       record(s);
-      h = std::max(h, s.chosen);
+      if (s.curvature.front() > 0) steps.log_alpha[p.label] = s.chosen;
     }
-    steps.log_alpha = h;
-  } else {
-    // α fixed: its coupling term for C1 and μ still needs a step.
-    steps.log_alpha = 0.1;
-  }
   if (!lag_idx.empty()) {
     auto s = sweep_step(obj, x, w_all, lag_idx[0], {2.0, 1.0, 0.5, 0.25}, 0);
     record(s);
@@ -320,7 +315,19 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path,
   SolveOptions so;
   so.max_iterations = opt.max_iterations;
   so.progress = opt.progress;
-  const auto fit = obj.solve(x, w_all, so);
+  auto fit = obj.solve(x, w_all, so);
+  {
+    // A second pass from the solution with a fresh trust region: the first one can stop
+    // early in the long α–μ valley when its region has shrunk.
+    SolveOptions again = so;
+    again.max_iterations = std::max(5, opt.max_iterations / 3);
+    auto second = obj.solve(fit.x, w_all, again);
+    if (second.usable && second.final_cost <= fit.final_cost) {
+      second.initial_cost = fit.initial_cost;
+      second.iterations += fit.iterations;
+      fit = second;
+    }
+  }
   x = fit.x;
   const Evaluation ev = obj.evaluate(x, w_all);
   UncertaintyReport unc = assess_uncertainty(obj, x, w_all, ev);
@@ -454,7 +461,11 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path,
   st["residual_variance"] = unc.residual_variance;
   st["parameterisation"] = "ln(alpha), ln(C1), ln(mu); bias N; lag ms; depth offset mm";
   st["derivatives"] = {{"c1_mu", "exact fixed-geometry partials + erosion coupling (-d/d ln alpha)"},
-                       {"step_log_alpha", steps.log_alpha},
+                       {"step_log_alpha", [&] {
+                          nlohmann::json j = nlohmann::json::object();
+                          for (const auto& [label, name] : present) j[name] = steps.log_alpha[label];
+                          return j;
+                        }()},
                        {"step_lag_ms", steps.lag_ms},
                        {"step_depth_mm", steps.depth_mm},
                        {"sweeps", sweeps}};

@@ -101,7 +101,7 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
       alpha_pair[c.label] = int(jobs.size());
       for (double s : {+1.0, -1.0}) {
         PhysicsValues v = at.physics;
-        v.alpha[c.label] *= std::exp(s * steps_.log_alpha);
+        v.alpha[c.label] *= std::exp(s * steps_.log_alpha[c.label]);
         jobs.push_back(job(v, lag_s, at.depth_mm));
       }
     }
@@ -142,7 +142,7 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
     const std::size_t k = c.label;
     for (std::size_t j = 0; j < n; ++j) {
       const auto& ct = base.samples[j].contact;
-      const glm::dvec3 geo = alpha_pair[k] >= 0 ? central(alpha_pair[k], steps_.log_alpha, j)
+      const glm::dvec3 geo = alpha_pair[k] >= 0 ? central(alpha_pair[k], steps_.log_alpha[k], j)
                                                 : glm::dvec3(0);
       switch (c.kind) {
         case ColumnKind::kLogAlpha: col[j] = geo; break;

@@ -59,7 +59,7 @@ class ReplayPool {
 };
 
 struct DiffSteps {
-  double log_alpha = 0.1;  // ln α
+  PerLabel log_alpha = [] { PerLabel a; a.fill(0.1); return a; }();  // ln α, per class
   double lag_ms = 1.0;
   double depth_mm = 0.02;
 };

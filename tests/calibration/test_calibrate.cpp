@@ -1,0 +1,216 @@
+// End to end through the real CLI: `burrbench synth` makes recordings with known truth,
+// `burrbench calibrate` fits them; fit.json / params.toml are read back with data_schema.
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "burrbench/data_schema/fit_result.hpp"
+#include "burrbench/data_schema/parameter_set.hpp"
+#include "reference_fixture.hpp"
+
+namespace fs = std::filesystem;
+namespace ds = burrbench::data_schema;
+using burrbench::calibration::testing::make_reference_experiment;
+using burrbench::calibration::testing::ReferenceSpec;
+
+namespace {
+
+std::string cli() {
+  const char* b = std::getenv("BURRBENCH");
+  return b ? b : "burrbench";
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / fmt::format("bb_calib_{}_{}", name, ::getpid());
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+struct Run {
+  int code;
+  std::string err;
+};
+
+Run calibrate(const fs::path& manifest, const fs::path& out, const std::string& extra = "") {
+  const fs::path err = out.string() + ".stderr";
+  const std::string cmd = fmt::format("'{}' calibrate --experiment '{}' --out '{}' {} > /dev/null 2> '{}'",
+                                      cli(), manifest.string(), out.string(), extra, err.string());
+  const int st = std::system(cmd.c_str());
+  std::ifstream f(err);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, ss.str()};
+}
+
+const ds::FitParameter& param(const ds::FitResult& f, int label, const char* name) {
+  const auto* p = f.parameter(std::uint8_t(label), name);
+  if (!p) throw std::runtime_error("missing parameter");
+  return *p;
+}
+
+}  // namespace
+
+TEST(Calibrate, RecoversTwoClassesFromPlungeSweepPolish) {
+  const fs::path dir = scratch("recovery");
+  ReferenceSpec s;  // noise 0.02 N, bias, 4 ms lag, R/l = 5
+  const fs::path manifest = make_reference_experiment(dir, s, cli());
+  const auto r = calibrate(manifest, dir / "out");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const ds::FitResult fit = ds::read_fit(dir / "out" / "fit.json");
+  const std::array<std::array<double, 3>, 3> truth{{{0, 0, 0}, {s.alpha1, s.c1_1, s.mu1}, {s.alpha2, s.c1_2, s.mu2}}};
+  for (int k : {1, 2}) {
+    const auto& a = param(fit, k, "alpha");
+    const auto& c = param(fit, k, "c1");
+    const auto& m = param(fit, k, "mu");
+    ASSERT_TRUE(a.identifiable && c.identifiable && m.identifiable) << a.reason << c.reason << m.reason;
+    EXPECT_NEAR(c.estimate / truth[std::size_t(k)][1], 1.0, 0.02) << "C1 of class " << k;
+    EXPECT_NEAR(m.estimate / truth[std::size_t(k)][2], 1.0, 0.05) << "mu of class " << k;
+    EXPECT_NEAR(a.estimate / truth[std::size_t(k)][0], 1.0, 0.10) << "alpha of class " << k;
+    EXPECT_LT(c.ci95_low, c.estimate);
+    EXPECT_GT(c.ci95_high, c.estimate);
+  }
+  // Bias and lag: the truth inside the reported 95 % intervals.
+  int i = 0;
+  std::string last;
+  for (const auto& n : fit.nuisance) {
+    if (n.recording_id != last) {
+      last = n.recording_id;
+      i = int(std::find_if(fit.nuisance.begin(), fit.nuisance.end(),
+                           [&](const ds::FitNuisance& q) { return q.recording_id == last; }) -
+              fit.nuisance.begin()) / 5;
+    }
+    double t = NAN;
+    if (n.name == "bias_x") t = 0.05 + 0.01 * i;
+    if (n.name == "bias_y") t = -0.03;
+    if (n.name == "bias_z") t = 0.1 - 0.02 * i;
+    if (n.name == "lag") t = s.lag_ms;
+    if (std::isnan(t)) continue;
+    EXPECT_FALSE(n.fixed);
+    EXPECT_LE(n.ci95_low, t) << n.recording_id << "." << n.name << " = " << n.estimate;
+    EXPECT_GE(n.ci95_high, t) << n.recording_id << "." << n.name << " = " << n.estimate;
+  }
+  EXPECT_GT(fit.residuals_summary.samples_used, 1000u);
+  EXPECT_NEAR(fit.residuals_summary.sigma_N, s.noise_N, 0.2 * s.noise_N);  // estimated σ
+  EXPECT_FALSE(fit.cross_validation.empty());
+  for (const auto& cv : fit.cross_validation) EXPECT_TRUE(cv.metrics["held_out"]["rmse_N"].is_number());
+  // params.toml: the estimates, readable by a simulator release.
+  const auto ps = ds::read_params(dir / "out" / "params.toml");
+  EXPECT_DOUBLE_EQ(ps.classes.at(1).c1_N_per_mm2, param(fit, 1, "c1").estimate);
+  EXPECT_DOUBLE_EQ(ps.classes.at(2).mu, param(fit, 2, "mu").estimate);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(Calibrate, OnlyCompactTouchedLeavesTrabecularNotIdentifiable) {
+  const fs::path dir = scratch("compact_only");
+  ReferenceSpec s;
+  s.trabecular = false;
+  s.multistart = 1;
+  const auto r = calibrate(make_reference_experiment(dir, s, cli()), dir / "out", "--no-cross-validation");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto fit = ds::read_fit(dir / "out" / "fit.json");
+  for (const char* n : {"alpha", "c1", "mu"}) {
+    const auto& t = param(fit, 2, n);
+    EXPECT_FALSE(t.identifiable) << n;
+    EXPECT_TRUE(std::isnan(t.estimate)) << n;
+    EXPECT_NE(t.reason.find("never in contact"), std::string::npos) << t.reason;
+    EXPECT_TRUE(param(fit, 1, n).identifiable) << n << ": " << param(fit, 1, n).reason;
+  }
+  EXPECT_NEAR(param(fit, 1, "c1").estimate / s.c1_1, 1.0, 0.02);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(Calibrate, ErosionOffLeavesAlphaNotIdentifiable) {
+  const fs::path dir = scratch("no_erosion");
+  ReferenceSpec s;
+  s.erosion = false;
+  s.multistart = 1;
+  const auto r = calibrate(make_reference_experiment(dir, s, cli()), dir / "out", "--no-cross-validation");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto fit = ds::read_fit(dir / "out" / "fit.json");
+  for (int k : {1, 2}) {
+    EXPECT_FALSE(param(fit, k, "alpha").identifiable) << "class " << k << " alpha = " << param(fit, k, "alpha").estimate;
+    EXPECT_FALSE(param(fit, k, "alpha").reason.empty());
+    EXPECT_TRUE(param(fit, k, "c1").identifiable) << param(fit, k, "c1").reason;
+    EXPECT_NEAR(param(fit, k, "c1").estimate / (k == 1 ? s.c1_1 : s.c1_2), 1.0, 0.03);
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+// Bad manifests: one small valid experiment, then one defect at a time → exit 2 + message.
+class BadManifest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(scratch("bad"));
+    ReferenceSpec s;
+    s.trabecular = false;
+    s.time_scale = 0.5;
+    good_ = new fs::path(make_reference_experiment(*dir_, s, cli()));
+    std::ifstream f(*good_);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    text_ = new std::string(ss.str());
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*dir_);
+    delete dir_;
+    delete good_;
+    delete text_;
+  }
+  // Replace `from` by `to` in the manifest, run, expect exit 2 and `needle` on stderr.
+  void expect_rejected(const std::string& from, const std::string& to, const std::string& needle) {
+    std::string t = *text_;
+    const auto at = t.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    t.replace(at, from.size(), to);
+    const fs::path m = *dir_ / "bad.toml";
+    burrbench::calibration::testing::write_text(m, t);
+    const auto before = fs::last_write_time(*dir_ / "sample.h5");
+    const auto r = calibrate(m, *dir_ / "out_bad", "--no-cross-validation");
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line: " << r.err;
+    EXPECT_EQ(fs::last_write_time(*dir_ / "sample.h5"), before);  // inputs untouched
+  }
+  static fs::path* dir_;
+  static fs::path* good_;
+  static std::string* text_;
+};
+fs::path* BadManifest::dir_ = nullptr;
+fs::path* BadManifest::good_ = nullptr;
+std::string* BadManifest::text_ = nullptr;
+
+TEST_F(BadManifest, MissingRecordingFile) {
+  expect_rejected("path = \"sweep.h5\"", "path = \"no_such_sweep.h5\"", "no_such_sweep.h5");
+}
+TEST_F(BadManifest, MissingSampleFile) {
+  expect_rejected("path = \"sample.h5\"", "path = \"absent.h5\"", "absent.h5");
+}
+TEST_F(BadManifest, UnknownClass) {
+  expect_rejected("[fit.classes.trabecular]", "[fit.classes.cortical_bone]", "cortical_bone");
+}
+TEST_F(BadManifest, EmptySegment) {
+  expect_rejected("lag_ms = 0.0\n", "lag_ms = 0.0\n  [[recordings.segments]]\n  start_s = 500.0\n  end_s = 600.0\n",
+                  "segments[0]");
+}
+TEST_F(BadManifest, BoundsReversed) {
+  expect_rejected("c1    = { initial = 10.0, lower = 0.1, upper = 200.0 }",
+                  "c1    = { initial = 10.0, lower = 200.0, upper = 0.1 }", "c1");
+}
+TEST_F(BadManifest, NoCalibratingRecording) {
+  std::string t = *text_;
+  for (std::size_t p; (p = t.find("role = \"calibrate\"")) != std::string::npos;)
+    t.replace(p, 18, "role = \"validate\"");
+  burrbench::calibration::testing::write_text(*dir_ / "bad2.toml", t);
+  const auto r = calibrate(*dir_ / "bad2.toml", *dir_ / "out_bad2");
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("role"), std::string::npos) << r.err;
+}
