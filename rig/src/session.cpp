@@ -238,7 +238,6 @@ struct Session::Impl {
       auto* st = *std::min_element(group.begin(), group.end(), [](auto* a, auto* b) { return a->next_ns < b->next_ns; });
       sleep_until_ns(st->next_ns);
       if (stopping.load()) break;
-      const auto deadline = st->next_ns;
       st->next_ns += st->period_ns;
       // Overrun: skip deadlines already past instead of bursting to catch up.
       const auto now = monotonic_ns();
@@ -248,7 +247,6 @@ struct Session::Impl {
         std::lock_guard lk(st->m);
         st->status.missed_polls += static_cast<std::uint64_t>(skip);
       }
-      (void)deadline;
       if (!link.connected()) {
         try_reconnect(*st, link);
         if (!link.connected()) {
