@@ -152,7 +152,7 @@ struct Session::Impl {
       from = st.last_counter + 1;
       const std::int64_t oldest = newest - f.depth + 1;
       if (from < oldest) {
-        event(st.index, "gap", fmt::format("fifo overrun: records {}..{} lost", from, oldest - 1));
+        event(st.index, "gap", fmt::format("fifo overrun: counter {} → {}, {} records lost", st.last_counter, oldest, oldest - from));
         st.status.lost += static_cast<std::uint64_t>(oldest - from);
         from = oldest;
       }

@@ -72,3 +72,18 @@ def test_rig_restart_gap_is_recorded_and_both_sides_kept(tmp_path):
     # the counter jumped by the samples the rig took while down: recorded, not invented
     jump = np.diff(ft["device_counter"]).max()
     assert jump >= 0.4 * RATE
+
+
+def test_fifo_overrun_is_a_gap_event_naming_the_lost_records(tmp_path):
+    # Replies delayed 30 ms while an 8-deep FIFO at 500 Hz holds only 16 ms: records are
+    # lost by design, and every lost record must be named by a gap event.
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "500", "--delay-ms", "30"]) as (proc, host, port):
+        rig_map = rh.preset("virtual-fifo", port, rate_hz=100, timeout_ms=200).replace(
+            "device_rate_hz = 1000", "device_rate_hz = 500")
+        out = rh.acquire(tmp_path, rh.write_map(tmp_path, rig_map), 1.5)
+    rec = rh.read_recording(out)
+    ft = rec["ft_sensor"]
+    rh.assert_ramp_exact(ft)
+    assert np.all(np.diff(ft["device_counter"]) >= 1)  # never a record twice
+    lost = rh.assert_losses_recorded(rec, "ft_sensor")
+    assert lost > 50 and len(rh.events(rec, "gap", "ft_sensor")) >= 5
