@@ -120,6 +120,8 @@ void run(const Options& o) {
   std::cout << fmt::format("{:<14} {:>9} {:>9} {:>10} {:>12} {:>9} {:>8} {:>10} {:>7} {:>7}\n", "device", "req Hz",
                            "got Hz", "samples", "jitter p99", "timeouts", "errors", "reconnects", "missed", "lost");
   for (const auto& d : status.devices)
+    if (d.samples == 0) std::cerr << fmt::format("warning: device {} delivered no sample (see the recording's events)\n", d.name);
+  for (const auto& d : status.devices)
     std::cout << fmt::format("{:<14} {:>9.1f} {:>9.1f} {:>10} {:>9.0f} µs {:>9} {:>8} {:>10} {:>7} {:>7}\n", d.name,
                              d.rate_hz, d.achieved_hz, d.samples, d.jitter_p99_us, d.timeouts, d.errors, d.reconnects,
                              d.missed_polls, d.lost);
