@@ -103,6 +103,10 @@ TEST(Report, BadInputsExitTwo) {
   const auto dir = burrbench::testing::temp_dir("report-bad");
   auto r = run(cli() + " report " + (dir / "nothing").string() + " --out " + (dir / "r.html").string());
   EXPECT_EQ(r.rc, 2) << r.out;
+  EXPECT_NE(r.out.find("nothing"), std::string::npos) << r.out;
+  fs::create_directories(dir / "empty");
+  r = run(cli() + " report " + (dir / "empty").string() + " --out " + (dir / "r.html").string());
+  EXPECT_EQ(r.rc, 2) << r.out;
   EXPECT_NE(r.out.find("analysis.json"), std::string::npos) << r.out;
   write_analysis_input(dir, burrbench::testing::small_input());
   r = run(cli() + " report " + dir.string() + " --out " + (dir / "r.html").string() + " --assets " +
