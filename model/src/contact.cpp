@@ -123,11 +123,10 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
   const long z0 = lo_idx(p.z - reach, o.z, dims[2]), z1 = hi_idx(p.z + reach, o.z, dims[2]);
   const long y0 = lo_idx(p.y - reach, o.y, ny), y1 = hi_idx(p.y + reach, o.y, ny);
 
-  // Lens buffer: at most every voxel of the bounding box (sized once per (R, l)).
+  // Lens buffer: grown (rarely) so that a whole row always fits; it keeps its size
+  // across calls, so steady-state evaluation does not allocate.
   auto& lens = vol.scratch().lens;
-  const std::size_t box = std::size_t(2 * reach * inv_l + 3);
-  if (lens.size() < box * box * box) lens.resize(box * box * box);
-  detail::LensVoxel* const first = lens.data();
+  detail::LensVoxel* first = lens.data();
   detail::LensVoxel* out = first;
   Sums S;
 
@@ -144,6 +143,12 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
       const long xa = std::max(rlo, lo_idx(p.x - half, o.x, nx));
       const long xb = std::min(rhi, hi_idx(p.x + half, o.x, nx));
       if (xa > xb) continue;
+      const std::size_t used = std::size_t(out - first), need = std::size_t(xb - xa + 1);
+      if (used + need > lens.size()) {
+        lens.resize(std::max(2 * lens.size(), used + need + 1024));
+        first = lens.data();
+        out = first + used;
+      }
       // Fully-inside span [ia, ib] (d ≤ R − η), summed without per-voxel geometry.
       long ia = xb + 1, ib = xb;
       if (inner > 0 && s2 < inner * inner) {
