@@ -68,6 +68,9 @@ inline detail::LensVoxel* lens_segment(const Row& r, long x0, long x1, const Len
                                        double reach2, double inner2, Sums& S,
                                        detail::LensVoxel* out) {
   double mx = 0, my = 0, mz = 0, mu = 0;  // mu: mass when the row is uniform
+  const double* const T = tab.data();
+  const double t_lo = tab.d2_inner(), t_ih = tab.inv_step();
+  const int t_last = tab.intervals() - 1;
   for (long x = x0; x <= x1; ++x) {
     const float cf = r.chi[x];
     if (cf <= 0.0f) continue;
@@ -79,11 +82,15 @@ inline detail::LensVoxel* lens_segment(const Row& r, long x0, long x1, const Len
       S.ix += cf * dx; S.iy += cf * r.dy; S.iz += cf * r.dz;
       continue;
     }
-    const LensTable::Entry e = tab.at(d2);
-    const double w = e.volume * double(cf);
+    const double u = (d2 - t_lo) * t_ih;
+    const int i = std::min(std::max(int(u), 0), t_last);
+    const double f = u - i;
+    const double* a = T + 4 * i;
+    const double vol = a[0] + f * (a[4] - a[0]), rd = a[2] + f * (a[6] - a[2]);
+    const double w = vol * double(cf);
     if (r.uniform) mu += w;
     else S.lens_mass[k] += w;
-    const double wr = w * e.lever_over_d;
+    const double wr = w * rd;
     mx += wr * dx; my += wr * r.dy; mz += wr * r.dz;
     *out++ = {dx, r.dy, r.dz, std::uint32_t(r.base + std::size_t(x)), k, {0, 0, 0}, cf};
   }

@@ -37,6 +37,11 @@ class LensTable {
   double d2_inner() const { return d2_lo_; }  // |R−η|²
   double d2_outer() const { return d2_hi_; }  // (R+η)²
   double inside_volume() const { return v_inside_; }
+  // Raw view for the kernel's hot loop (values in locals, so stores elsewhere cannot be
+  // assumed to alias them): node i holds {ΔV, Δσ, r/d, 1/d} at data()[4i..4i+3].
+  const double* data() const { return tab_.data(); }
+  double inv_step() const { return inv_h_; }
+  int intervals() const { return n_; }
   struct Entry { double volume, area, lever_over_d, inv_d; };
   Entry at(double d2) const {
     double u = (d2 - d2_lo_) * inv_h_;
