@@ -483,7 +483,13 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   if (!fs::equivalent(dir, out_dir, ec)) {
     if (fs::exists(dir / "predictions.csv"))
       fs::copy_file(dir / "predictions.csv", out_dir / "predictions.csv", fs::copy_options::overwrite_existing);
-    if (has_fit) fs::copy_file(dir / "fit.json", out_dir / "fit.json", fs::copy_options::overwrite_existing);
+    if (fit_result) {
+      // The copy beside the report carries the metrics (FitResult::metrics is analysis's
+      // to fill); the calibrate directory's own fit.json is an input and stays as it is.
+      auto f = *fit_result;
+      f.metrics = {{"format", "burrbench.metrics"}, {"rows", metric_rows_to_json(rows)}};
+      data_schema::write_fit(out_dir / "fit.json", f);
+    }
   }
   write_residuals_csv(out_dir / "residuals.csv", in);
   json mj = {{"format", "burrbench.metrics"}, {"format_version", "1.0"},
