@@ -49,26 +49,30 @@ SessionHeader header_from_json(const std::string& text, const std::string& file)
 
 namespace {
 
-// FIFO device time: t = a + b·counter, fitted to the poll midpoints of each poll's
-// newest record, then shifted to the lower envelope (a poll can only follow its
-// newest sample, never precede it). A counter reset starts a new segment.
+// FIFO device time: t = a + b·counter. b is the least-squares slope of the polls'
+// midpoints against their newest record's counter (kept only within 1 % of the nominal
+// period). a is pinned by what each poll proves about its newest record: it was taken
+// before the reply came (t ≤ t_recv) and at most one period before the request reached
+// the device (t > t_send − period). The intersection of those bounds over all polls is
+// narrow; a is its middle. A counter reset starts a new segment.
 void fit_fifo_time(data_schema::Stream& s, double device_rate_hz) {
   const std::size_t n = s.samples();
+  const double nominal = 1e9 / device_rate_hz;
   std::size_t seg_start = 0;
   for (std::size_t i = 1; i <= n; ++i) {
     if (i < n && s.device_counter[i] > s.device_counter[i - 1]) continue;
-    // segment [seg_start, i): newest record of each poll = last one with that t_send
-    std::vector<std::pair<double, double>> pts;  // counter, t_mid
+    struct Poll { double c, send, recv; };
+    std::vector<Poll> pts;  // newest record of each poll = last one with that t_send
     for (std::size_t k = seg_start; k < i; ++k)
       if (k + 1 == i || s.t_send_ns[k + 1] != s.t_send_ns[k])
-        pts.emplace_back(static_cast<double>(s.device_counter[k]), 0.5 * static_cast<double>(s.t_send_ns[k] + s.t_recv_ns[k]));
-    const double nominal = 1e9 / device_rate_hz;
-    double b = nominal, a = 0;
-    const double c0 = pts.front().first, t0 = pts.front().second;
+        pts.push_back({static_cast<double>(s.device_counter[k]), static_cast<double>(s.t_send_ns[k]),
+                       static_cast<double>(s.t_recv_ns[k])});
+    const double c0 = pts.front().c, t0 = pts.front().send;
+    double b = nominal;
     if (pts.size() >= 10) {
       double sx = 0, sy = 0, sxx = 0, sxy = 0;
-      for (auto [c, t] : pts) {
-        const double x = c - c0, y = t - t0;
+      for (const auto& p : pts) {
+        const double x = p.c - c0, y = 0.5 * (p.send + p.recv) - t0;
         sx += x; sy += y; sxx += x * x; sxy += x * y;
       }
       const double m = static_cast<double>(pts.size());
@@ -78,9 +82,12 @@ void fit_fifo_time(data_schema::Stream& s, double device_rate_hz) {
         if (std::abs(fit / nominal - 1.0) < 0.01) b = fit;  // clock rate within 1 %: trust it
       }
     }
-    double lo = 1e300;
-    for (auto [c, t] : pts) lo = std::min(lo, (t - t0) - b * (c - c0));
-    a = t0 + lo;
+    double lo = -1e300, hi = 1e300;
+    for (const auto& p : pts) {
+      lo = std::max(lo, (p.send - t0) - b - b * (p.c - c0));
+      hi = std::min(hi, (p.recv - t0) - b * (p.c - c0));
+    }
+    const double a = t0 + (lo <= hi ? 0.5 * (lo + hi) : hi);
     for (std::size_t k = seg_start; k < i; ++k)
       s.t_ns[k] = static_cast<std::int64_t>(std::llround(a + b * (static_cast<double>(s.device_counter[k]) - c0)));
     seg_start = i;

@@ -95,7 +95,7 @@ def read_recording(path):
         ev = f["events"]
         dec = lambda a: [x.decode() if isinstance(x, bytes) else x for x in a]
         out["_events"] = list(zip(ev["t_ns"][()], dec(ev["kind"][()]), dec(ev["stream"][()]), dec(ev["detail"][()])))
-        out["_meta"] = dict(f["meta"].attrs)
+        out["_meta"] = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f["meta"].attrs.items()}
         out["_meta_sets"] = {k: f["meta"][k][()] for k in f["meta"]}
     return out
 

@@ -70,7 +70,7 @@ def test_fifo_mode_is_lossless_at_device_rate(tmp_path):
     rh.assert_ramp_exact(ft)
     # Device time = counter × period fitted to host time: close to when the rig took it.
     err_ms = (ft["t_ns"] - (start + k * 4e6)) / 1e6
-    assert np.median(np.abs(err_ms)) < 2.0, np.median(np.abs(err_ms))
+    assert np.median(np.abs(err_ms)) < 1.0, (np.median(np.abs(err_ms)), err_ms.min(), err_ms.max())
     assert np.all(np.diff(ft["t_ns"]) > 0)
 
 
