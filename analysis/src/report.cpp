@@ -67,7 +67,13 @@ std::string kv_table(const json& j) {
   return h + "</table>";
 }
 
-std::string versions_table() {
+std::string versions_table(const fs::path& assets) {
+  std::string uplot = "unknown";
+  try {
+    std::ifstream f(assets / "node_modules/uplot/package.json");
+    uplot = json::parse(f).value("version", uplot);
+  } catch (const json::exception&) {
+  }
   unsigned a = 0, b = 0, c = 0;
   H5get_libversion(&a, &b, &c);
   json v = {{"burrbench", software_version()},
@@ -75,7 +81,7 @@ std::string versions_table() {
             {"libmodbus", LIBMODBUS_VERSION_STRING},
             {"OpenCV", cv::getVersionString()},
             {"HDF5", fmt::format("{}.{}.{}", a, b, c)},
-            {"uPlot (inlined)", "see package-lock.json of analysis/report"}};
+            {"uPlot (inlined)", uplot}};
   return kv_table(v);
 }
 
@@ -265,13 +271,23 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   const fs::path out_dir = out_html.parent_path().empty() ? fs::path(".") : out_html.parent_path();
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError(dir.string(), "DIR", "an analysis directory", "not a directory");
-  const bool has_fit = fs::exists(dir / "fit.json");
+  // Assets first: a missing one should fail before any replay.
+  const fs::path assets = opt.assets_dir.empty() ? default_assets_dir() : opt.assets_dir;
+  const std::string tmpl = read_text(assets / "template.html", "template.html");
+  const std::string css = read_text(assets / "report.css", "report.css") + "\n" +
+                          read_text(assets / "node_modules/uplot/dist/uPlot.min.css", "uPlot CSS (npm ci)");
+  const std::string js =
+      strip_url_schemes(read_text(assets / "node_modules/uplot/dist/uPlot.iife.min.js", "uPlot (npm ci)")) +
+      "\n" + read_text(assets / "report.js", "report.js");
+
+  const bool has_analysis = fs::exists(dir / "analysis.json");
+  AnalysisInput in;
+  if (has_analysis) in = read_analysis_input(dir);
+  // A validate run replayed fixed constants: a fit.json lying in its folder is not its own.
+  const bool has_fit = fs::exists(dir / "fit.json") && (!has_analysis || in.mode == "calibrate");
   std::optional<data_schema::FitResult> fit_result;
   if (has_fit) fit_result = data_schema::read_fit(dir / "fit.json");  // validates
-  AnalysisInput in;
-  if (fs::exists(dir / "analysis.json")) {
-    in = read_analysis_input(dir);
-  } else if (fit_result) {
+  if (!has_analysis && fit_result) {
     // A calibrate output directory: replay the experiment with the fitted constants and
     // nuisances, and keep that analysis input beside the report.
     const auto& f = *fit_result;
@@ -293,12 +309,11 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     }
     fs::create_directories(out_dir);
     write_analysis_input(out_dir, in);
-  } else {
+  } else if (!has_analysis) {
     throw InputError((dir / "analysis.json").string(), "DIR",
                      "an analysis directory with analysis.json (validate) or fit.json (calibrate)", "neither found");
   }
   const auto rows = compute_metric_rows(in);
-  const fs::path assets = opt.assets_dir.empty() ? default_assets_dir() : opt.assets_dir;
 
   ReportSummary sum;
   sum.html = out_html;
@@ -319,13 +334,6 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
       throw InputError((dir / "fit.json").string(), "file", "valid JSON", e.what());
     }
   }
-
-  const std::string tmpl = read_text(assets / "template.html", "template.html");
-  const std::string css = read_text(assets / "report.css", "report.css") + "\n" +
-                          read_text(assets / "node_modules/uplot/dist/uPlot.min.css", "uPlot CSS (npm ci)");
-  const std::string js =
-      strip_url_schemes(read_text(assets / "node_modules/uplot/dist/uPlot.iife.min.js", "uPlot (npm ci)")) +
-      "\n" + read_text(assets / "report.js", "report.js");
 
   fs::create_directories(out_dir);
 
@@ -450,7 +458,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   b += "<h2 id=\"repro\">13. Reproducibility</h2><h3>Command lines</h3><pre>" +
        esc(in.provenance.command_line.empty() ? "(library call)" : in.provenance.command_line) + "\n" +
        esc(invocation().empty() ? "(report: library call)" : invocation()) + "</pre>";
-  b += "<h3>Versions</h3>" + versions_table();
+  b += "<h3>Versions</h3>" + versions_table(assets);
   b += "<h3>Inputs</h3><table><tr><th>file</th><th>SHA-256</th></tr>";
   for (const auto& f : in.provenance.inputs)
     b += "<tr>" + td("<code>" + esc(f.path) + "</code>") + td("<span class=\"hash\">" + esc(f.sha256) + "</span>") + "</tr>";
