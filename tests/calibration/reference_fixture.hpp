@@ -20,7 +20,7 @@ namespace burrbench::calibration::testing {
 
 struct ReferenceSpec {
   double voxel_mm = 0.1;
-  double radius_mm = 0.5;
+  double radius_mm = 1.0;   // R/l = 10
   double time_scale = 1.0;     // > 1: slower moves, more strokes (longer recordings)
   double noise_N = 0.02;
   double lag_ms = 4.0;
@@ -112,9 +112,12 @@ type = "plunge"
 depth_mm = {}
 feed_mm_s = {}
 [[moves]]
+type = "dwell"
+duration_s = {}
+[[moves]]
 type = "retract"
 speed_mm_s = 2.0
-)", 0.4 * R, 1.0 / k));
+)", 0.4 * R, 1.0 / k, 0.2 * k));
   protocol("sweep", sweep_x0, fmt::format(R"([[moves]]
 type = "plunge"
 depth_mm = {}
@@ -147,9 +150,9 @@ speed_mm_s = 10.0
 [[moves]]
 type = "retract"
 speed_mm_s = 2.0
-)", 0.15 * R, pol_len, int(std::lround(2 * k)));
+)", 0.25 * R, pol_len, int(std::lround(2 * k)));
   protocol("polish", pol_x0, polish_moves);
-  if (s.trabecular) protocol("polish2", 4.0 + 1.5 * R, polish_moves);
+  if (s.trabecular) protocol("polish2", 4.0 + 1.2 * R, polish_moves);
 
   std::vector<std::string> names{"plunge", "sweep", "polish"};
   if (s.trabecular) {
@@ -206,11 +209,11 @@ buried = "exclude"
 seed = {}
 multistart = {}
   [fit.classes.compact]
-  alpha = {{ initial = 300.0, lower = 5.0, upper = 5000.0 }}
+  alpha = {{ initial = 300.0, lower = 5.0, upper = 1.0e6 }}
   c1    = {{ initial = 10.0, lower = 0.1, upper = 200.0 }}
   mu    = {{ initial = 0.3, lower = 0.01, upper = 2.0 }}
   [fit.classes.trabecular]
-  alpha = {{ initial = 300.0, lower = 5.0, upper = 5000.0 }}
+  alpha = {{ initial = 300.0, lower = 5.0, upper = 1.0e6 }}
   c1    = {{ initial = 10.0, lower = 0.1, upper = 200.0 }}
   mu    = {{ initial = 0.3, lower = 0.01, upper = 2.0 }}
   [fit.nuisance]

@@ -78,26 +78,27 @@ TEST(Calibrate, RecoversTwoClassesFromPlungeSweepPolish) {
     EXPECT_LT(c.ci95_low, c.estimate);
     EXPECT_GT(c.ci95_high, c.estimate);
   }
-  // Bias and lag: the truth inside the reported 95 % intervals.
-  int i = 0;
-  std::string last;
-  for (const auto& n : fit.nuisance) {
-    if (n.recording_id != last) {
-      last = n.recording_id;
-      i = int(std::find_if(fit.nuisance.begin(), fit.nuisance.end(),
-                           [&](const ds::FitNuisance& q) { return q.recording_id == last; }) -
-              fit.nuisance.begin()) / 5;
-    }
-    double t = NAN;
+  // Bias and lag: the truth inside the reported 95 % intervals. With 5 recordings × 4
+  // nuisances = 20 intervals at 95 %, all 20 covering the truth happens only ~36 % of the
+  // time even for exact intervals; ≥ 18 of 20 (90 %) is what a correct 95 % interval gives
+  // reliably. Each estimate must also be close in absolute terms.
+  int inside = 0, checked = 0;
+  for (std::size_t q = 0; q < fit.nuisance.size(); ++q) {
+    const auto& n = fit.nuisance[q];
+    const int i = int(q / 5);  // five entries per recording, recordings in manifest order
+    double t = NAN, tol = 0.01;
     if (n.name == "bias_x") t = 0.05 + 0.01 * i;
     if (n.name == "bias_y") t = -0.03;
     if (n.name == "bias_z") t = 0.1 - 0.02 * i;
-    if (n.name == "lag") t = s.lag_ms;
+    if (n.name == "lag") { t = s.lag_ms; tol = 2.0; }
     if (std::isnan(t)) continue;
     EXPECT_FALSE(n.fixed);
-    EXPECT_LE(n.ci95_low, t) << n.recording_id << "." << n.name << " = " << n.estimate;
-    EXPECT_GE(n.ci95_high, t) << n.recording_id << "." << n.name << " = " << n.estimate;
+    ++checked;
+    inside += n.ci95_low <= t && t <= n.ci95_high;
+    EXPECT_NEAR(n.estimate, t, tol) << n.recording_id << "." << n.name;
   }
+  EXPECT_EQ(checked, 20);
+  EXPECT_GE(inside, 18) << "nuisance intervals holding the truth";
   EXPECT_GT(fit.residuals_summary.samples_used, 1000u);
   EXPECT_NEAR(fit.residuals_summary.sigma_N, s.noise_N, 0.2 * s.noise_N);  // estimated σ
   EXPECT_FALSE(fit.cross_validation.empty());
