@@ -1,5 +1,6 @@
 // MetaImage reader (ITK's .mha / .mhd): "Key = Value" lines, ElementDataFile last.
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <sstream>
 
@@ -84,7 +85,8 @@ ImageVolume parse_metaimage(std::string_view bytes, const std::string& file, con
   need("dimsize", "DimSize");
   const auto ds = numbers(f, "dimsize", 3, file);
   for (std::size_t i = 0; i < 3; ++i) {
-    if (ds[i] < 1 || ds[i] != static_cast<double>(static_cast<long long>(ds[i])) || ds[i] > 1e15) {
+    // Range first: converting an out-of-range double to an integer is undefined.
+    if (!(ds[i] >= 1 && ds[i] <= 1e15) || ds[i] != std::floor(ds[i])) {
       throw InputError(file, "DimSize", "3 positive integers", f["dimsize"]);
     }
     v.dims[i] = static_cast<std::size_t>(ds[i]);

@@ -56,7 +56,8 @@ std::optional<double> median_where(const std::vector<float>& g, const std::vecto
   return *mid;
 }
 
-int vox(double mm, double voxel_mm) { return static_cast<int>(std::lround(mm / voxel_mm)); }
+// Radii in voxels; anything beyond 1000 voxels is refused later, so clamp before casting.
+int vox(double mm, double voxel_mm) { return static_cast<int>(std::lround(std::min(mm / voxel_mm, 1e4))); }
 
 }  // namespace
 
