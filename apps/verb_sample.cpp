@@ -63,7 +63,7 @@ ImageVolume load(const std::string& path, const ImportArgs& a, Interpolation int
 void run_import(const ImportArgs& a) {
   if (a.labels.empty() == a.ct.empty()) throw InputError("<command line>", "--labels / --ct", "exactly one of --labels or --ct");
   if (!a.fraction.empty() && a.labels.empty()) throw InputError("<command line>", "--fraction", "--labels with it (a CT gives its own fraction)");
-  if (!(a.budget_mb > 0)) throw InputError("<command line>", "--budget-mb", "a positive budget");
+  if (!(a.budget_mb > 0 && a.budget_mb <= double(1 << 30))) throw InputError("<command line>", "--budget-mb", "a budget in (0, 2^30] MiB");
   check_out_not_input(a.out, {a.labels, a.fraction, a.ct});
   const ImportLimits lim{static_cast<std::size_t>(a.budget_mb * double(1 << 20))};
   std::vector<fs::path> inputs;

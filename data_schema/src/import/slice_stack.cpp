@@ -1,6 +1,7 @@
 // TIFF/PNG slice stacks through OpenCV imgcodecs, and the by-extension dispatcher.
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
@@ -108,7 +109,9 @@ ImageVolume read_volume(const std::filesystem::path& path, std::optional<glm::dv
   else if (ext == ".mha" || ext == ".mhd") v = read_metaimage(path, lim);
   else throw InputError(path.string(), "<file>", "a .nrrd/.nhdr/.mha/.mhd file or a folder of slices", "'" + ext + "'");
   if (spacing_mm) {
-    for (int i = 0; i < 3; ++i) if (!((*spacing_mm)[i] > 0)) throw InputError(path.string(), "spacing", "3 positive spacings (mm)");
+    for (int i = 0; i < 3; ++i) {
+      if (!((*spacing_mm)[i] > 0) || !std::isfinite((*spacing_mm)[i])) throw InputError(path.string(), "spacing", "3 positive finite spacings (mm)");
+    }
     v.spacing_mm = *spacing_mm;
   }
   return v;
