@@ -16,8 +16,11 @@ trap 'rm -rf "$work"' EXIT
 # 1. speed on the reference experiment (time scale 3 ≈ 15 s of recordings)
 m=$("$G" "$work/ref" "$B" 1 3)
 t0=$(date +%s.%N)
-"$B" calibrate --experiment "$m" --out "$work/ref/out" --no-cross-validation > "$work/ref.log" 2>&1
+/usr/bin/time -f "%U %S" -o "$work/ref.cpu" \
+  "$B" calibrate --experiment "$m" --out "$work/ref/out" --no-cross-validation > "$work/ref.log" 2>&1
 t1=$(date +%s.%N)
+cpu=$($PY -c "u,s=open('$work/ref.cpu').read().split()[-2:]; print(f'{float(u)+float(s):.1f}')")
+load=$(cut -d' ' -f1 /proc/loadavg)
 read -r wall iters replays dur <<<"$($PY - "$work/ref/out/fit.json" "$t0" "$t1" "$work/ref" <<'PY'
 import json, sys, glob
 f = json.load(open(sys.argv[1]))
@@ -63,6 +66,7 @@ lcov=$($PY -c "print(f'{100*$lag_hits/max(1,$lag_total):.1f}')")
 ok() { $PY -c "import sys; print('ok' if $1 else 'FAIL')"; }
 printf '%-52s %-14s %-14s %s\n' figure value target ok?
 printf '%-52s %-14s %-14s %s\n' "calibrate reference (${dur} s of data) wall time" "${wall} s" "<= 60 s" "$(ok "$wall <= 60")"
+printf '%-52s %-14s %-14s %s\n' "  CPU time (user+sys; load avg $load)" "${cpu} s" "-" "-"
 printf '%-52s %-14s %-14s %s\n' "  replays per second" "$rps" "-" "-"
 printf '%-52s %-14s %-14s %s\n' "  solver iterations" "$iters" "-" "-"
 printf '%-52s %-14s %-14s %s\n' "95 % interval coverage, physics ($reps seeds)" "$cov % ($hits/$total)" ">= 90 %" "$(ok "$cov >= 90")"

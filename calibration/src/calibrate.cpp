@@ -265,7 +265,7 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path,
           xs[i] = layout.lower(i) + (layout.upper(i) - layout.lower(i)) * std::clamp(f, 0.05, 0.95);
         }
       SolveOptions so;
-      so.max_iterations = 6;
+      so.max_iterations = 4;
       so.geometry_terms = false;
       so.hold.assign(layout.size(), false);
       for (std::size_t i : alpha_idx) so.hold[i] = true;
@@ -409,7 +409,7 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path,
     for (const auto& f : folds) {
       say(fmt::format("cross-validation: without {}", f.name));
       SolveOptions sf;
-      sf.max_iterations = 10;
+      sf.max_iterations = 6;
       sf.hold = unc.held;
       auto r = obj.solve(x, f.train, sf);
       std::vector<double> xf = r.x;
@@ -417,7 +417,7 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path,
         // The held-out recording's own nuisances (bias, lag, depth) are re-fitted on it
         // with the physics held at the fold's estimates: they belong to that recording.
         SolveOptions sn;
-        sn.max_iterations = 10;
+        sn.max_iterations = 6;
         sn.hold.assign(layout.size(), true);
         const auto& nz = layout.recordings()[std::size_t(f.rec)];
         for (int i : {nz.bias, nz.bias + 1, nz.bias + 2})

@@ -83,9 +83,17 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
                                            "matrix{}", partners.empty() ? "" : " (with " + partners + ")"));
         }
       const double se = cov.ok ? std::sqrt(std::max(0.0, cov.cov[a * m + a])) : NAN;
-      if (cov.ok && se > kMaxLogSE)
+      if (cov.ok && se > kMaxLogSE) {
         more |= flag(int(i), fmt::format("95 % interval wider than a factor 10 either way "
                                          "(SE of ln = {:.3g})", se));
+      } else if (cov.ok && (x[i] + kZ95 * se > L.upper(i) || x[i] - kZ95 * se < L.lower(i))) {
+        const bool up = x[i] + kZ95 * se > L.upper(i);
+        more |= flag(int(i), fmt::format("95 % interval reaches past its {} bound ({:.4g} {}): "
+                                         "the data give only a {} limit ({} {:.4g})",
+                                         up ? "upper" : "lower", std::exp(up ? L.upper(i) : L.lower(i)),
+                                         unit_of(p->kind), up ? "lower" : "upper", up ? ">=" : "<=",
+                                         std::exp(up ? x[i] - kZ95 * se : x[i] + kZ95 * se)));
+      }
     }
     if (!more) break;
   }

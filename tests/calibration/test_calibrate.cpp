@@ -72,6 +72,9 @@ TEST(Calibrate, RecoversTwoClassesFromPlungeSweepPolish) {
     const auto& c = param(fit, k, "c1");
     const auto& m = param(fit, k, "mu");
     ASSERT_TRUE(a.identifiable && c.identifiable && m.identifiable) << a.reason << c.reason << m.reason;
+    std::printf("class %d: C1 %+.2f %%, mu %+.2f %%, alpha %+.2f %% (estimate vs truth)\n", k,
+                100 * (c.estimate / truth[std::size_t(k)][1] - 1), 100 * (m.estimate / truth[std::size_t(k)][2] - 1),
+                100 * (a.estimate / truth[std::size_t(k)][0] - 1));
     EXPECT_NEAR(c.estimate / truth[std::size_t(k)][1], 1.0, 0.02) << "C1 of class " << k;
     EXPECT_NEAR(m.estimate / truth[std::size_t(k)][2], 1.0, 0.05) << "mu of class " << k;
     EXPECT_NEAR(a.estimate / truth[std::size_t(k)][0], 1.0, 0.10) << "alpha of class " << k;

@@ -8,7 +8,8 @@
 //  3. the estimate sits at a bound (within 1 % in log space);
 //  4. the information matrix (JᵀJ, scaled to unit diagonal) has an eigenvalue below
 //     1e-8 of the largest whose eigenvector loads on it (|v| > 0.5): a near-null direction;
-//  5. its 95 % interval is wider than ×/÷ 10 (SE of ln θ > ln 10 / 1.96).
+//  5. its 95 % interval is wider than ×/÷ 10 (SE of ln θ > ln 10 / 1.96), or reaches
+//     past a bound (the data then give only a one-sided limit).
 // Flagged parameters are held at their estimate and the covariance of the rest is
 // recomputed (conditional on them), so one undetermined constant does not blur the others.
 #include <vector>
