@@ -118,11 +118,18 @@ TEST(Calibrate, OnlyCompactTouchedLeavesTrabecularNotIdentifiable) {
   ReferenceSpec s;
   s.trabecular = false;
   s.multistart = 1;
-  const auto r = calibrate(make_reference_experiment(dir, s, cli()), dir / "out", "--no-cross-validation");
+  const auto r = calibrate(make_reference_experiment(dir, s, cli()), dir / "out",
+                           "--no-cross-validation --bootstrap 12 --bootstrap-block-s 0.25");
   ASSERT_EQ(r.code, 0) << r.err;
   const auto fit = ds::read_fit(dir / "out" / "fit.json");
   for (const char* n : {"alpha", "c1", "mu"}) {
+    // Block bootstrap interval reported beside the covariance one, around the estimate.
+    const auto& c = param(fit, 1, n);
+    EXPECT_LT(c.bootstrap_ci95_low, c.estimate * 1.001) << n;
+    EXPECT_GT(c.bootstrap_ci95_high, c.estimate * 0.999) << n;
+    EXPECT_LT(c.bootstrap_ci95_low, c.bootstrap_ci95_high) << n;
     const auto& t = param(fit, 2, n);
+    EXPECT_TRUE(std::isnan(t.bootstrap_ci95_low)) << n;
     EXPECT_FALSE(t.identifiable) << n;
     EXPECT_TRUE(std::isnan(t.estimate)) << n;
     EXPECT_NE(t.reason.find("never in contact"), std::string::npos) << t.reason;
