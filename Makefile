@@ -25,5 +25,9 @@ demo: build
 bench: build
 	@bench/run-all $(BUILD)
 
+# libFuzzer targets (clang, own build dir build-fuzz); FUZZ_SECONDS per target, default 60.
+fuzz: deps
+	@bench/fuzz.sh
+
 clean:
 	rm -rf $(BUILD)
