@@ -64,6 +64,9 @@ struct Row {
 };
 
 // Lens voxels of [x0, x1] of a row: accumulate moments, append to the lens buffer.
+// Instantiated for uniform rows (one label, per-class mass in a local) and mixed rows,
+// so the hot loop carries no label branch.
+template <bool kUniform>
 inline detail::LensVoxel* lens_segment(const Row& r, long x0, long x1, const LensTable& tab,
                                        double reach2, double inner2, Sums& S,
                                        detail::LensVoxel* out) {
@@ -71,15 +74,16 @@ inline detail::LensVoxel* lens_segment(const Row& r, long x0, long x1, const Len
   const double* const T = tab.data();
   const double t_lo = tab.d2_inner(), t_ih = tab.inv_step();
   const int t_last = tab.intervals() - 1;
+  const double dy = r.dy, dz = r.dz, s2 = r.s2, gx = r.gx, l = r.l;
   for (long x = x0; x <= x1; ++x) {
     const float cf = r.chi[x];
     if (cf <= 0.0f) continue;
-    const double dx = r.gx + r.l * double(x), d2 = dx * dx + r.s2;
+    const double dx = gx + l * double(x), d2 = dx * dx + s2;
     if (d2 >= reach2) continue;
-    const std::uint8_t k = r.uniform ? r.uniform : r.lab[x];
+    const std::uint8_t k = kUniform ? r.uniform : r.lab[x];
     if (d2 <= inner2) {  // rounding put an inside voxel here: count it as inside
       S.in_mass[k] += cf;
-      S.ix += cf * dx; S.iy += cf * r.dy; S.iz += cf * r.dz;
+      S.ix += cf * dx; S.iy += cf * dy; S.iz += cf * dz;
       continue;
     }
     const double u = (d2 - t_lo) * t_ih;
@@ -88,15 +92,27 @@ inline detail::LensVoxel* lens_segment(const Row& r, long x0, long x1, const Len
     const double* a = T + 4 * i;
     const double vol = a[0] + f * (a[4] - a[0]), rd = a[2] + f * (a[6] - a[2]);
     const double w = vol * double(cf);
-    if (r.uniform) mu += w;
+    if (kUniform) mu += w;
     else S.lens_mass[k] += w;
     const double wr = w * rd;
-    mx += wr * dx; my += wr * r.dy; mz += wr * r.dz;
-    *out++ = {dx, r.dy, r.dz, std::uint32_t(r.base + std::size_t(x)), k, {0, 0, 0}, cf};
+    mx += wr * dx; my += wr * dy; mz += wr * dz;
+    detail::LensVoxel& o = *out++;  // field by field: no padding to zero
+    o.vx = dx; o.vy = dy; o.vz = dz; o.d2 = d2; o.rd = rd;
+    o.index = std::uint32_t(r.base + std::size_t(x));
+    o.label = k;
+    o.chi = cf;
   }
-  if (r.uniform) S.lens_mass[r.uniform] += mu;
+  if (kUniform) S.lens_mass[r.uniform] += mu;
   S.mx += mx; S.my += my; S.mz += mz;
   return out;
+}
+
+inline detail::LensVoxel* lens_span(const Row& r, long x0, long x1, const LensTable& tab,
+                                    double reach2, double inner2, Sums& S,
+                                    detail::LensVoxel* out) {
+  if (x0 > x1) return out;
+  return r.uniform ? lens_segment<true>(r, x0, x1, tab, reach2, inner2, S, out)
+                   : lens_segment<false>(r, x0, x1, tab, reach2, inner2, S, out);
 }
 
 // First pass: moments of all voxels within reach, collecting lens voxels in scratch.
@@ -128,7 +144,6 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
     return long(u);  // floor (u ≥ 0)
   };
   const long z0 = lo_idx(p.z - reach, o.z, dims[2]), z1 = hi_idx(p.z + reach, o.z, dims[2]);
-  const long y0 = lo_idx(p.y - reach, o.y, ny), y1 = hi_idx(p.y + reach, o.y, ny);
 
   // Lens buffer: grown (rarely) so that a whole row always fits; it keeps its size
   // across calls, so steady-state evaluation does not allocate.
@@ -140,6 +155,13 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
   for (long z = z0; z <= z1; ++z) {
     const double dz = o.z + l * double(z) - p.z, dz2 = dz * dz;
     if (dz2 >= reach2) continue;
+    // Rows of this layer that hold bone and meet the reach disc (empty layers and space
+    // above a surface cost one comparison each).
+    const long ly0 = vol.layer_lo(std::size_t(z)), ly1 = vol.layer_hi(std::size_t(z));
+    if (ly0 > ly1) continue;
+    const double yh = std::sqrt(reach2 - dz2);
+    const long y0 = std::max(ly0, lo_idx(p.y - yh, o.y, ny));
+    const long y1 = std::min(ly1, hi_idx(p.y + yh, o.y, ny));
     for (long y = y0; y <= y1; ++y) {
       const std::size_t row = std::size_t(y) + ny * std::size_t(z);
       const long rlo = vol.row_lo(row), rhi = vol.row_hi(row);
@@ -166,7 +188,7 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
       }
       const std::size_t base = row * nx;
       const Row r{chi + base, lab + base, base, o.x - p.x, l, dy, dz, s2, vol.row_label(row)};
-      out = lens_segment(r, xa, ia - 1, tab, reach2, inner2, S, out);
+      out = lens_span(r, xa, ia - 1, tab, reach2, inner2, S, out);
       if (ia <= ib) {
         if (r.uniform != 0) {
           double s0, s1;
@@ -185,7 +207,7 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
           }
         }
       }
-      out = lens_segment(r, ib + 1, xb, tab, reach2, inner2, S, out);
+      out = lens_span(r, ib + 1, xb, tab, reach2, inner2, S, out);
     }
   }
   for (int k = 1; k < kMaxClasses; ++k) mo.mass[k] = S.lens_mass[k] + v_in * S.in_mass[k];
@@ -237,18 +259,21 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   // centre measured in the contact plane (MODEL.md step 4).
   const glm::dvec3 w = omega / wn;
   const double p0 = 3 * fe / (2 * kPi * a2), inv_a2 = 1.0 / a2;
-  // smallest r/d over the lens range (r/d falls with d): R/(R+η) at the outer edge, less
-  // a margin for the table's interpolation
-  const double rd_min = (tab.radius() / (tab.radius() + tab.eta())) * (1 - 1e-6);
-  const double rd_min2 = tab.radius() > tab.eta() ? rd_min * rd_min : 0.0;  // R < η: r/d ≶ 0
+  const double* const T = tab.data();
+  const double t_lo = tab.d2_inner(), t_ih = tab.inv_step();
+  const int t_last = tab.intervals() - 1;
   const double l3 = vol.voxel_mm() * vol.voxel_mm() * vol.voxel_mm();
   double G[kMaxClasses][3] = {};
   double rem[kMaxClasses] = {}, en[kMaxClasses] = {};
-  double wmu[kMaxClasses], kero[kMaxClasses];  // μ|ω| and dt/(α l³) per class
+  double wmu[kMaxClasses], kero[kMaxClasses] = {};  // μ|ω| and dt/(α l³) per class
   for (int k = 0; k < kMaxClasses; ++k) {
     const ClassConstants& cc = prm.by_label[k];
     wmu[k] = cc.mu * wn;
-    kero[k] = std::isfinite(cc.alpha_N_per_mm2) ? dt / (cc.alpha_N_per_mm2 * l3) : 0.0;
+    // Divisions only for classes in contact (they are a visible share of a small step).
+    // A lens voxel of another class has ΔV = 0, i.e. lies on the outer edge where Δσ = 0
+    // and W = 0, so it would lose nothing anyway.
+    if ((out.class_mask >> k) & 1u && std::isfinite(cc.alpha_N_per_mm2))
+      kero[k] = dt / (cc.alpha_N_per_mm2 * l3);
   }
   double power = 0;
   const bool do_erode = erode_vol != nullptr && dt > 0;
@@ -256,15 +281,19 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   for (std::size_t j = 0; j < mo.lens_count; ++j) {
     const detail::LensVoxel& v = lv[j];
     const double vn = n.x * v.vx + n.y * v.vy + n.z * v.vz;
-    const double d2 = v.vx * v.vx + v.vy * v.vy + v.vz * v.vz;
+    const double d2 = v.d2, rd = v.rd;
     const double t2 = d2 - vn * vn;  // squared distance of c from the normal axis
-    if (t2 * rd_min2 >= a2) continue;  // off the contact disc whatever r/d is
-    const LensTable::Entry e = tab.at(d2);
-    const double xi2 = e.lever_over_d * e.lever_over_d * t2;
-    if (xi2 >= a2) continue;
+    const double xi2 = rd * rd * t2;
+    if (xi2 >= a2) continue;  // off the contact disc
+    // Δσ and 1/d at d² (same node and weight as the first pass's lookup)
+    const double u = (d2 - t_lo) * t_ih;
+    const int ti = std::min(std::max(int(u), 0), t_last);
+    const double f = u - ti;
+    const double* ta = T + 4 * ti;
+    const double area = ta[1] + f * (ta[5] - ta[1]), inv_d = ta[3] + f * (ta[7] - ta[3]);
     const double P = p0 * std::sqrt(1.0 - xi2 * inv_a2);
     const double chi = v.chi;
-    const double s = chi * e.area * P * e.inv_d;
+    const double s = chi * area * P * inv_d;
     // Σ s (v × ω̂) = (Σ s v) × ω̂: accumulate Σ s v, cross once per class at the end
     const int k = v.label;
     double* g = G[k];
@@ -272,9 +301,9 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
     g[1] += s * v.vy;
     g[2] += s * v.vz;
     if (wmu[k] == 0) continue;
-    const double vw = (v.vx * w.x + v.vy * w.y + v.vz * w.z) * e.inv_d;
-    const double r = e.lever_over_d * d2 * e.inv_d;
-    const double W = wmu[k] * chi * P * r * (1.0 - vw * vw) * e.area;
+    const double vw = (v.vx * w.x + v.vy * w.y + v.vz * w.z) * inv_d;
+    const double r = rd * d2 * inv_d;
+    const double W = wmu[k] * chi * P * r * (1.0 - vw * vw) * area;
     power += W;
     if (!do_erode) continue;
     en[k] += W * dt;

@@ -9,16 +9,16 @@
 
 namespace burrbench::model::detail {
 
-// 32 bytes, so even the ~6000 lens voxels of a buried micro-CT burr stay in cache; the
-// table entry is looked up again in the second pass (cheaper than storing it).
+// 56 bytes. d² and r/d from the first pass are kept, so the friction/erosion pass needs
+// neither the distance nor a second lever lookup (only Δσ and 1/d, for voxels on the disc).
 struct LensVoxel {
   double vx, vy, vz;     // v = c − p
+  double d2, rd;         // |v|², r/d
   std::uint32_t index;   // linear voxel index (volumes are < 2³¹ voxels)
   std::uint8_t label;
-  std::uint8_t pad[3];
   float chi;
 };
-static_assert(sizeof(LensVoxel) == 40 || sizeof(LensVoxel) == 32);
+static_assert(sizeof(LensVoxel) == 56);
 
 struct Scratch {
   bool has_table = false;

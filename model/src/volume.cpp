@@ -34,7 +34,8 @@ Volume::Volume(Volume&&) noexcept = default;
 Volume& Volume::operator=(Volume&&) noexcept = default;
 Volume::Volume(const Volume& o)
     : dims_(o.dims_), l_(o.l_), origin_(o.origin_), labels_(o.labels_), chi_(o.chi_),
-      chi_lo_(o.chi_lo_), row_lo_(o.row_lo_), row_hi_(o.row_hi_), row_label_(o.row_label_),
+      chi_lo_(o.chi_lo_), row_lo_(o.row_lo_), row_hi_(o.row_hi_), layer_lo_(o.layer_lo_),
+      layer_hi_(o.layer_hi_), row_label_(o.row_label_),
       undo_(o.undo_), touched_(o.touched_), undo_on_(o.undo_on_), classes_(o.classes_),
       sources_(o.sources_), segmentation_json_(o.segmentation_json_),
       provenance_(o.provenance_), scratch_(std::make_unique<detail::Scratch>()) {}
@@ -160,6 +161,15 @@ void Volume::build_rows() {
     // Uniform: every labelled voxel shares one label (label-0 gaps have χ = 0).
     row_label_[r] = mixed ? 0 : uniform;
   }
+  const std::size_t ny = dims_[1], nz = dims_[2];
+  layer_lo_.assign(nz, std::numeric_limits<std::int32_t>::max());
+  layer_hi_.assign(nz, -1);
+  for (std::size_t z = 0; z < nz; ++z)
+    for (std::size_t y = 0; y < ny; ++y)
+      if (row_lo_[y + ny * z] <= row_hi_[y + ny * z]) {
+        layer_lo_[z] = std::min(layer_lo_[z], std::int32_t(y));
+        layer_hi_[z] = std::int32_t(y);
+      }
 }
 
 void Volume::begin_undo() {

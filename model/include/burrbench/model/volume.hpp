@@ -87,6 +87,10 @@ class Volume {
   std::int32_t row_hi(std::size_t row) const { return row_hi_[row]; }
   // Label of every occupied voxel of the row when they all share one, else 0.
   std::uint8_t row_label(std::size_t row) const { return row_label_[row]; }
+  // Occupied y-range [lo, hi] of layer z (rows holding any label); lo > hi when empty.
+  // Lets the kernel skip empty layers and rows above a surface without visiting them.
+  std::int32_t layer_lo(std::size_t z) const { return layer_lo_[z]; }
+  std::int32_t layer_hi(std::size_t z) const { return layer_hi_[z]; }
   detail::Scratch& scratch() const { return *scratch_; }
 
  private:
@@ -98,7 +102,7 @@ class Volume {
   glm::dvec3 origin_{0};
   std::vector<std::uint8_t> labels_;
   std::vector<float> chi_, chi_lo_;
-  std::vector<std::int32_t> row_lo_, row_hi_;
+  std::vector<std::int32_t> row_lo_, row_hi_, layer_lo_, layer_hi_;
   std::vector<std::uint8_t> row_label_;
   struct UndoEntry { std::size_t i; float hi, lo; };
   std::vector<UndoEntry> undo_;
