@@ -127,10 +127,18 @@ struct Session::Impl {
       const auto dt = r.t_send_ns - st.last_ok_send_ns;
       if (dt < 2 * st.period_ns) st.hist.add(static_cast<double>(dt - st.period_ns) * 1e-3);
     }
+    const std::int64_t since_last_ns = st.last_ok_send_ns >= 0 ? r.t_send_ns - st.last_ok_send_ns : 0;
     st.last_ok_send_ns = r.t_send_ns;
     if (d.mode == Mode::Latest) {
       std::int64_t counter = -1;
       if (d.counter) counter = decode_integer(regs.data() + (d.counter->address - d.start), d.counter->type, d.counter->order);
+      // Polls came late (slow replies, overrun) and the counter skipped: samples the
+      // schedule would have seen are gone — say so. (A regular schedule slower than the
+      // device skips counters by design; that is sampling, not loss.)
+      if (!st.pending_gap && counter >= 0 && st.last_counter >= 0 && counter - st.last_counter > 1 &&
+          since_last_ns > st.period_ns * 3 / 2)
+        event(st.index, "gap", fmt::format("late poll: {:.1f} ms since the previous one; counter {} → {}",
+                                           since_last_ns * 1e-6, st.last_counter, counter));
       if (st.pending_gap) {
         event(st.index, "gap", fmt::format("no data for {:.1f} ms; counter {} → {}",
                                            (r.t_send_ns - st.gap_since_ns) * 1e-6, st.last_counter, counter));
