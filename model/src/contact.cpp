@@ -4,6 +4,10 @@
 #include <cmath>
 #include <numbers>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "burrbench/data_schema/error.hpp"
 #include "kernel_scratch.hpp"
 
@@ -22,16 +26,38 @@ const LensTable& table_for(const Volume& vol, double R) {
   return s.table;
 }
 
-// Sums χ and x·χ over [xa, xb] of one row (float data, double sums in 4 lanes so the
-// compiler can keep them in registers; the order is fixed, so results are reproducible).
+// Sums χ and x·χ over [xa, xb] of one row (float data, double sums in 4 lanes; the order
+// is fixed, so results are reproducible). With SSE2 the lanes are two 2-double registers
+// and x is carried as doubles (exact integers), which gives the same bits as the scalar
+// lanes at a third of the instructions: this is the whole cost of a buried burr's inside.
 inline void sum_row(const float* chi, int xa, int xb, double& s0, double& s1) {
-  double a0 = 0, a1 = 0, a2 = 0, a3 = 0, b0 = 0, b1 = 0, b2 = 0, b3 = 0;
   int x = xa;
+#if defined(__SSE2__)
+  __m128d a01 = _mm_setzero_pd(), a23 = a01, b01 = a01, b23 = a01;
+  __m128d x01 = _mm_set_pd(x + 1, x), x23 = _mm_set_pd(x + 3, x + 2);
+  const __m128d four = _mm_set1_pd(4.0);
+  for (; x + 3 <= xb; x += 4) {
+    const __m128 c = _mm_loadu_ps(chi + x);
+    const __m128d c01 = _mm_cvtps_pd(c), c23 = _mm_cvtps_pd(_mm_movehl_ps(c, c));
+    a01 = _mm_add_pd(a01, c01);
+    a23 = _mm_add_pd(a23, c23);
+    b01 = _mm_add_pd(b01, _mm_mul_pd(c01, x01));
+    b23 = _mm_add_pd(b23, _mm_mul_pd(c23, x23));
+    x01 = _mm_add_pd(x01, four);
+    x23 = _mm_add_pd(x23, four);
+  }
+  double a0 = _mm_cvtsd_f64(a01), a1 = _mm_cvtsd_f64(_mm_unpackhi_pd(a01, a01));
+  double a2 = _mm_cvtsd_f64(a23), a3 = _mm_cvtsd_f64(_mm_unpackhi_pd(a23, a23));
+  double b0 = _mm_cvtsd_f64(b01), b1 = _mm_cvtsd_f64(_mm_unpackhi_pd(b01, b01));
+  double b2 = _mm_cvtsd_f64(b23), b3 = _mm_cvtsd_f64(_mm_unpackhi_pd(b23, b23));
+#else
+  double a0 = 0, a1 = 0, a2 = 0, a3 = 0, b0 = 0, b1 = 0, b2 = 0, b3 = 0;
   for (; x + 3 <= xb; x += 4) {
     const double c0 = chi[x], c1 = chi[x + 1], c2 = chi[x + 2], c3 = chi[x + 3];
     a0 += c0; a1 += c1; a2 += c2; a3 += c3;
     b0 += c0 * x; b1 += c1 * (x + 1); b2 += c2 * (x + 2); b3 += c3 * (x + 3);
   }
+#endif
   for (; x <= xb; ++x) {
     a0 += chi[x];
     b0 += double(chi[x]) * x;
