@@ -269,7 +269,9 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   const glm::dvec3 n = -mo.m1 / m1n;
   out.normal = n;
   const double g = R * R * (b / R) * std::sqrt(b / R);  // R²(b/R)^{3/2}
+  // Classes not in contact keep zero partials (skipping them saves divisions per step).
   for (int k = 1; k < kMaxClasses; ++k) {
+    if (!((out.class_mask >> k) & 1u)) continue;
     out.dF_dC1[k] = (mo.mass[k] / M) * g * n;
     out.elastic_N += prm.by_label[k].c1_N_per_mm2 * out.dF_dC1[k];
   }
@@ -342,6 +344,7 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
     }
   }
   for (int k = 1; k < kMaxClasses; ++k) {
+    if (!((out.class_mask >> k) & 1u)) continue;  // G_k = 0: no lens voxel of class k
     out.dFmu_dmu[k] = glm::cross(glm::dvec3(G[k][0], G[k][1], G[k][2]), w);
     out.friction_N += prm.by_label[k].mu * out.dFmu_dmu[k];
   }
