@@ -8,22 +8,10 @@
 
 #include "burrbench/data_schema/error.hpp"
 
-namespace burrbench::data_schema::detail {
+namespace burrbench::data_schema {
 
 namespace {
 constexpr std::uintmax_t kMaxTomlBytes = 16u << 20;
-
-std::string kind(const toml::node& n) {
-  switch (n.type()) {
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    case toml::node_type::string: return "a string";
-    case toml::node_type::integer: return "an integer";
-    case toml::node_type::floating_point: return "a float";
-    case toml::node_type::boolean: return "a boolean";
-    default: return "a date/time";
-  }
-}
 }
 
 toml::table parse_toml_file(const std::filesystem::path& path) {
@@ -50,6 +38,25 @@ toml::table parse_toml_text(std::string_view text, const std::string& file) {
     throw InputError(file, fmt::format("line {} column {}", b.line, b.column), "valid TOML",
                      std::string(e.description()));
   }
+}
+
+}  // namespace burrbench::data_schema
+
+namespace burrbench::data_schema::detail {
+
+namespace {
+
+std::string kind(const toml::node& n) {
+  switch (n.type()) {
+    case toml::node_type::table: return "a table";
+    case toml::node_type::array: return "an array";
+    case toml::node_type::string: return "a string";
+    case toml::node_type::integer: return "an integer";
+    case toml::node_type::floating_point: return "a float";
+    case toml::node_type::boolean: return "a boolean";
+    default: return "a date/time";
+  }
+}
 }
 
 std::vector<std::string> TomlView::keys() const {

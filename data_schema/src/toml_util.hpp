@@ -13,12 +13,12 @@
 #include <toml++/toml.h>
 
 #include "burrbench/data_schema/provenance.hpp"
+#include "burrbench/data_schema/toml_input.hpp"
 
 namespace burrbench::data_schema::detail {
 
-// Reads and parses a TOML file (at most 16 MiB); syntax errors name line and column.
-toml::table parse_toml_file(const std::filesystem::path& path);
-toml::table parse_toml_text(std::string_view text, const std::string& file_for_messages);
+using data_schema::parse_toml_file;
+using data_schema::parse_toml_text;
 
 class TomlView {
  public:

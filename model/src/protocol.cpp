@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/toml_input.hpp"
 
 namespace burrbench::model {
 namespace {
@@ -169,13 +170,7 @@ const char* to_string(MoveKind k) {
 }
 
 Protocol parse_protocol(std::string_view text, const std::string& file) {
-  toml::table root;
-  try {
-    root = toml::parse(text, file);
-  } catch (const toml::parse_error& e) {
-    throw InputError(file, fmt::format("line {}", e.source().begin.line), "valid TOML",
-                     std::string(e.description()));
-  }
+  const toml::table root = data_schema::parse_toml_text(text, file);
   const Reader r{file};
   r.only(root, "",
          {"format", "format_version", "name", "description", "sample_rate_hz", "spindle_rpm",

@@ -10,6 +10,7 @@
 #include <toml++/toml.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/toml_input.hpp"
 
 namespace burrbench::rig {
 
@@ -332,13 +333,7 @@ DeviceSpec parse_device(const Reader& r) {
 }  // namespace
 
 RigMap parse_rig_map(std::string_view text, const std::string& file) {
-  toml::table root;
-  try {
-    root = toml::parse(text, file);
-  } catch (const toml::parse_error& e) {
-    throw InputError(file, fmt::format("line {}", e.source().begin.line), "valid TOML",
-                     std::string(e.description()));
-  }
+  const toml::table root = data_schema::parse_toml_text(text, file);
   refuse_writes(root, "", file);
   Reader r(root, "", file);
   r.allow({"format", "format_version", "rig_id", "sensor_model", "sensor_serial",

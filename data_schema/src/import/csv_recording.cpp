@@ -82,13 +82,7 @@ struct CsvLayout {
 };
 
 CsvLayout parse_map(std::string_view text, const std::string& file) {
-  toml::table t;
-  try {
-    t = toml::parse(text, file);
-  } catch (const toml::parse_error& e) {
-    const auto& b = e.source().begin;
-    throw InputError(file, fmt::format("line {}, column {}", b.line, b.column), "valid TOML", std::string(e.description()));
-  }
+  const toml::table t = parse_toml_text(text, file);
   data_schema::detail::TomlView v(t, file, "");
   if (v.str("format") != kCsvMapFormat) throw InputError(file, "format", fmt::format("\"{}\"", kCsvMapFormat));
   const std::string ver = v.str("format_version");
