@@ -59,7 +59,7 @@ const ds::FitParameter& param(const ds::FitResult& f, int label, const char* nam
 
 }  // namespace
 
-TEST(Calibrate, RecoversTwoClassesFromPlungeSweepPolish) {
+TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   const fs::path dir = scratch("recovery");
   ReferenceSpec s;  // noise 0.02 N, bias, 4 ms lag, R/l = 5
   const fs::path manifest = make_reference_experiment(dir, s, cli());
@@ -113,7 +113,7 @@ TEST(Calibrate, RecoversTwoClassesFromPlungeSweepPolish) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
-TEST(Calibrate, OnlyCompactTouchedLeavesTrabecularNotIdentifiable) {
+TEST(CalibrateCli, OnlyCompactTouchedLeavesTrabecularNotIdentifiable) {
   const fs::path dir = scratch("compact_only");
   ReferenceSpec s;
   s.trabecular = false;
@@ -139,7 +139,7 @@ TEST(Calibrate, OnlyCompactTouchedLeavesTrabecularNotIdentifiable) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
-TEST(Calibrate, ErosionOffLeavesAlphaNotIdentifiable) {
+TEST(CalibrateCli, ErosionOffLeavesAlphaNotIdentifiable) {
   const fs::path dir = scratch("no_erosion");
   ReferenceSpec s;
   s.erosion = false;
@@ -157,7 +157,7 @@ TEST(Calibrate, ErosionOffLeavesAlphaNotIdentifiable) {
 }
 
 // Bad manifests: one small valid experiment, then one defect at a time → exit 2 + message.
-class BadManifest : public ::testing::Test {
+class CalibrateBadManifest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new fs::path(scratch("bad"));
@@ -195,28 +195,28 @@ class BadManifest : public ::testing::Test {
   static fs::path* good_;
   static std::string* text_;
 };
-fs::path* BadManifest::dir_ = nullptr;
-fs::path* BadManifest::good_ = nullptr;
-std::string* BadManifest::text_ = nullptr;
+fs::path* CalibrateBadManifest::dir_ = nullptr;
+fs::path* CalibrateBadManifest::good_ = nullptr;
+std::string* CalibrateBadManifest::text_ = nullptr;
 
-TEST_F(BadManifest, MissingRecordingFile) {
+TEST_F(CalibrateBadManifest, MissingRecordingFile) {
   expect_rejected("path = \"sweep.h5\"", "path = \"no_such_sweep.h5\"", "no_such_sweep.h5");
 }
-TEST_F(BadManifest, MissingSampleFile) {
+TEST_F(CalibrateBadManifest, MissingSampleFile) {
   expect_rejected("path = \"sample.h5\"", "path = \"absent.h5\"", "absent.h5");
 }
-TEST_F(BadManifest, UnknownClass) {
+TEST_F(CalibrateBadManifest, UnknownClass) {
   expect_rejected("[fit.classes.trabecular]", "[fit.classes.cortical_bone]", "cortical_bone");
 }
-TEST_F(BadManifest, EmptySegment) {
+TEST_F(CalibrateBadManifest, EmptySegment) {
   expect_rejected("lag_ms = 0.0\n", "lag_ms = 0.0\n  [[recordings.segments]]\n  start_s = 500.0\n  end_s = 600.0\n",
                   "segments[0]");
 }
-TEST_F(BadManifest, BoundsReversed) {
+TEST_F(CalibrateBadManifest, BoundsReversed) {
   expect_rejected("c1    = { initial = 10.0, lower = 0.1, upper = 200.0 }",
                   "c1    = { initial = 10.0, lower = 200.0, upper = 0.1 }", "c1");
 }
-TEST_F(BadManifest, NoCalibratingRecording) {
+TEST_F(CalibrateBadManifest, NoCalibratingRecording) {
   std::string t = *text_;
   for (std::size_t p; (p = t.find("role = \"calibrate\"")) != std::string::npos;)
     t.replace(p, 18, "role = \"validate\"");
