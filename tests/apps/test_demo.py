@@ -24,7 +24,8 @@ def test_demo_recovers_truth_and_writes_report(tmp_path):
     # every session was acquired over Modbus, not copied from the synthetic file
     for rec in ("plunge", "sweep", "polish"):
         log = (out / f"acquire-{rec}.log").read_text()
-        assert "wrote" in log and (out / "acquired" / f"{rec}.h5").stat().st_size > 0
+        assert "acquiring 3 device(s)" in log, log
+        assert (out / "acquired" / f"{rec}.h5").stat().st_size > 0
 
     fit = json.loads((out / "fit" / "fit.json").read_text())
     truth = tomllib.loads(
