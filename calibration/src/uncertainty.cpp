@@ -26,6 +26,21 @@ double removed(const Evaluation& ev, std::uint8_t label) {
   return s;
 }
 
+// Profile check at the far end of α: moving α alone to its upper bound (next to "no
+// erosion") must worsen the fit by more than the 95 % χ²(1) quantile, else the data only
+// bound α from below. The local covariance cannot see this: far out, the cost is flat but
+// the curvature at the estimate can still look finite.
+bool alpha_bound_not_excluded(const Objective& obj, const std::vector<double>& x,
+                              const SampleWeights& w, const Evaluation& at_x, std::size_t i) {
+  const double dof = double(at_x.residuals_used) - double(x.size());
+  if (dof <= 0) return false;
+  const double s2 = std::max(2.0 * at_x.cost / dof, 1e-12);  // residual variance
+  std::vector<double> far = x;
+  far[i] = obj.layout().upper(i);
+  const Evaluation ev = obj.evaluate(far, w);
+  return 2.0 * (ev.cost - at_x.cost) / s2 < 3.841458820694124;
+}
+
 }  // namespace
 
 UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
@@ -48,6 +63,10 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     else if (p.kind == PhysKind::kAlpha && !(removed(at_x, p.label) > 0))
       flag(p.index, fmt::format("no '{}' bone is removed in the replay: alpha has no effect on "
                                 "the predicted force", p.class_name));
+    else if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i))
+      flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g} {}, "
+                                "next to no erosion): they give only a lower limit",
+                                std::exp(L.upper(i)), unit_of(p.kind)));
     else if (x[i] - L.lower(i) < 0.01 || L.upper(i) - x[i] < 0.01)
       flag(p.index, fmt::format("estimate at its {} bound ({:.4g} {})",
                                 x[i] - L.lower(i) < 0.01 ? "lower" : "upper", std::exp(x[i]),
