@@ -58,12 +58,17 @@ class Playback:
         src = self.source
         counter = k - self.counter_base[device]
         if device == "ft":
-            fifo = [src.value("ft", i) if i >= 0 and i - self.counter_base[device] >= 0 else None
-                    for i in range(k - R.FIFO_DEPTH + 1, k + 1)]
-            return R.ft_image(counter, src.value("ft", k), fifo)
+            return R.ft_image(counter, src.value("ft", k), self._fifo(device, k, R.FIFO_DEPTH))
         if device == "stage":
-            return R.stage_image(counter, src.value("stage", k))
+            return R.stage_image(counter, src.value("stage", k), self._fifo(device, k, R.STAGE_FIFO_DEPTH))
         return R.spindle_image(counter, src.value("spindle", k))
+
+
+    def _fifo(self, device, k, depth):
+        """Samples k-depth+1..k, oldest first; None before sample 0 or the last reset."""
+        base = self.counter_base[device]
+        return [self.source.value(device, i) if i >= 0 and i - base >= 0 else None
+                for i in range(k - depth + 1, k + 1)]
 
 
 class DeviceContext(IModbusSlaveContext):

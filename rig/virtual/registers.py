@@ -14,7 +14,7 @@ STAGE_UNIT = 1    # feed stage (Oriental Motor AZ style)
 SPINDLE_UNIT = 2  # spindle
 
 FT_SIZE = 420     # addresses 0..419 exist on unit 9
-STAGE_SIZE = 8
+STAGE_SIZE = 198  # 0..7 current sample, 100..197 FIFO
 SPINDLE_SIZE = 4
 
 FT_INT16 = 180    # Fx,Fy,Fz N*100 ; Mx,My,Mz N*m*1000 (= N*mm)
@@ -23,6 +23,9 @@ FT_COUNTER = 220  # uint32 ABCD
 FIFO_COUNTER = 300
 FIFO_DATA = 302
 FIFO_DEPTH = 8
+STAGE_FIFO_COUNTER = 100
+STAGE_FIFO_DATA = 102
+STAGE_FIFO_DEPTH = 16  # 16 x 6 registers: one request covers 16 samples
 CONST_FLOAT = 400  # 123456.0 in ABCD, CDAB, BADC, DCBA
 CONST_INT = 410    # 123456 in ABCD, CDAB, BADC, DCBA
 CONST_VALUE = 123456
@@ -109,12 +112,27 @@ def ft_image(counter, wrench, fifo):
     return regs
 
 
-def stage_image(counter, position_mm):
-    """Unit 1: position x,y,z int32 micrometres ABCD, counter uint32 ABCD."""
+def _position_words(position_mm):
     regs = []
     for p in position_mm:
         regs += i32_words(0 if math.isnan(p) else p * 1000.0)
-    return regs + u32_words(counter)
+    return regs
+
+
+def stage_image(counter, position_mm, fifo):
+    """Unit 1: position x,y,z int32 micrometres ABCD, counter uint32 ABCD; FIFO block.
+
+    fifo: the newest STAGE_FIFO_DEPTH positions, oldest first (None = not yet sampled).
+    """
+    regs = [0] * STAGE_SIZE
+    regs[0:8] = _position_words(position_mm) + u32_words(counter)
+    regs[STAGE_FIFO_COUNTER:STAGE_FIFO_COUNTER + 2] = u32_words(counter)
+    at = STAGE_FIFO_DATA
+    for p in fifo:
+        if p is not None:
+            regs[at:at + 6] = _position_words(p)
+        at += 6
+    return regs
 
 
 def spindle_image(counter, rpm):

@@ -142,6 +142,26 @@ def assert_losses_recorded(rec, stream_name):
     return missing.size
 
 
+def assert_every_served_reply_recorded(rec, served_rows, streams):
+    """Every read reply the rig wrote (its --served-log rows) is one row of the recording.
+
+    streams: {stream name: (unit, start address)}. With a device counter, the counters
+    served and recorded must be the same multiset (a repeated sample is a stale row, not
+    a dropped one); without one, the numbers of replies must match.
+    """
+    for name, (unit, address) in streams.items():
+        served = np.sort([r[4] for r in served_rows if r[1] == unit and r[2] == address])
+        assert served.size > 0, (name, "the rig served nothing")
+        if "device_counter" in rec[name]:
+            got = np.sort(rec[name]["device_counter"])
+            missing = np.setdiff1d(served, got)
+            assert served.size == got.size and np.array_equal(served, got), (
+                f"{name}: {served.size} replies served, {got.size} recorded; "
+                f"served counters not recorded: {missing[:10]}")
+        else:
+            assert served.size == rec[name]["t_ns"].size, (name, served.size, rec[name]["t_ns"].size)
+
+
 def assert_ramp_exact(stream):
     """Every sample decodes to exactly what the rig served for its counter."""
     k = stream["device_counter"]

@@ -3,22 +3,26 @@ decoding of every value served, and no late reply ever taken as fresh data."""
 import numpy as np
 
 import rig_helpers as rh
-from virtual_helpers import playback_start_ns, start_virtual_rig_rtu
+from virtual_helpers import playback_start_ns, read_served_log, start_virtual_rig_rtu
 
 
 def test_rtu_every_served_value_is_recorded_exactly(tmp_path):
     # One bus, two slaves, one poller thread. 42 registers take 8.4 ms on the wire at
     # 115200 baud; polls at 25 Hz per device leave room on a loaded machine.
+    # The 500 ms timeout outlasts any stall of the shared host: no reply is given up on.
+    served_log = tmp_path / "served.csv"
     with start_virtual_rig_rtu(["--pattern", "ramp", "--rate-hz", "5", "--stage-rate-hz", "5",
-                                "--baud", "115200"]) as (proc, pty):
-        body = (rh.rtu_device("ft_sensor", pty, 9, 180, 42, 25, rh.FT_CHANNELS, counter=220)
-                + rh.rtu_device("constants", pty, 9, 400, 18, 5, rh.CONST_CHANNELS)
-                + rh.rtu_device("stage", pty, 1, 0, 8, 25, rh.STAGE_CHANNELS, counter=6))
+                                "--baud", "115200", "--served-log", str(served_log)]) as (proc, pty):
+        body = (rh.rtu_device("ft_sensor", pty, 9, 180, 42, 25, rh.FT_CHANNELS, counter=220, timeout_ms=500)
+                + rh.rtu_device("constants", pty, 9, 400, 18, 5, rh.CONST_CHANNELS, timeout_ms=500)
+                + rh.rtu_device("stage", pty, 1, 0, 8, 25, rh.STAGE_CHANNELS, counter=6, timeout_ms=500))
         out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), 3.0)
         start = playback_start_ns(proc)
     rec = rh.read_recording(out)
     ft, stage, const = rec["ft_sensor"], rec["stage"], rec["constants"]
     assert ft["t_ns"].size > 40 and np.ptp(ft["device_counter"]) >= 12
+    rh.assert_every_served_reply_recorded(rec, read_served_log(served_log), {
+        "ft_sensor": (9, 180), "stage": (1, 0), "constants": (9, 400)})
     for name in ("ft_sensor", "stage"):  # every sample, or its loss is a gap event
         lost = rh.assert_losses_recorded(rec, name)
         assert lost <= 0.1 * np.ptp(rec[name]["device_counter"]), (name, lost)

@@ -6,23 +6,29 @@ import h5py
 import numpy as np
 
 import rig_helpers as rh
-from virtual_helpers import playback_start_ns, start_virtual_rig
+from virtual_helpers import playback_start_ns, read_served_log, start_virtual_rig
 
 
 def test_every_served_value_is_recorded_exactly(tmp_path):
-    # Device 50 Hz, polled at 500 Hz: every device sample is read at least once.
-    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "50", "--spindle-rate-hz", "20"]) as (proc, host, port):
-        body = (rh.tcp_device("ft_sensor", port, 9, 180, 42, 500, rh.FT_CHANNELS, counter=220)
-                + rh.tcp_device("stage", port, 1, 0, 8, 500, rh.STAGE_CHANNELS, counter=6)
-                + rh.tcp_device("spindle", port, 2, 0, 4, 100, rh.SPINDLE_CHANNELS, counter=2)
-                + rh.tcp_device("constants", port, 9, 400, 18, 20, rh.CONST_CHANNELS))
+    # Device 50 Hz, polled at 500 Hz: every device sample is read at least once. The 1 s
+    # timeout outlasts any stall of the shared host, so no reply is given up on.
+    served_log = tmp_path / "served.csv"
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "50", "--spindle-rate-hz", "20",
+                            "--served-log", str(served_log)]) as (proc, host, port):
+        body = (rh.tcp_device("ft_sensor", port, 9, 180, 42, 500, rh.FT_CHANNELS, counter=220, timeout_ms=1000)
+                + rh.tcp_device("stage", port, 1, 0, 8, 500, rh.STAGE_CHANNELS, counter=6, timeout_ms=1000)
+                + rh.tcp_device("spindle", port, 2, 0, 4, 100, rh.SPINDLE_CHANNELS, counter=2, timeout_ms=1000)
+                + rh.tcp_device("constants", port, 9, 400, 18, 20, rh.CONST_CHANNELS, timeout_ms=1000))
         out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), 2.0, extra=["--sample-id", "S1", "--notes", "tcp e2e"])
         start = playback_start_ns(proc)
     rec = rh.read_recording(out)
     ft, stage, spindle = rec["ft_sensor"], rec["stage"], rec["spindle"]
     assert ft["device_counter"].size > 300 and np.ptp(ft["device_counter"]) > 80
-    # Every device sample is in the recording, unless the (Python, shared-machine) rig
-    # stalled longer than a device period: then the loss is a recorded gap event.
+    # Every reply the rig wrote is in the recording: nothing acquired is lost.
+    rh.assert_every_served_reply_recorded(rec, read_served_log(served_log), {
+        "ft_sensor": (9, 180), "stage": (1, 0), "spindle": (2, 0), "constants": (9, 400)})
+    # Every device sample was read, unless the host stalled both processes for longer
+    # than a device period (bench/rig.sh measures such stalls): that loss is a gap event.
     for name in ("ft_sensor", "stage", "spindle"):
         lost = rh.assert_losses_recorded(rec, name)
         assert lost <= 0.05 * np.ptp(rec[name]["device_counter"]), (name, lost)
@@ -59,17 +65,21 @@ def test_every_served_value_is_recorded_exactly(tmp_path):
 
 
 def test_fifo_mode_is_lossless_at_device_rate(tmp_path):
-    # 250 Hz device drained through its 8-deep FIFO at 100 polls/s: a poll may stall up to
-    # 32 ms (the shared test machine) without losing a sample. (bench/rig.sh: 1 kHz.)
+    # 250 Hz devices drained through their 8- and 16-deep FIFOs at 100 polls/s: a poll may
+    # stall up to 32 ms (the shared test machine) without losing a sample. (bench/rig.sh: 1 kHz.)
     with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "250"]) as (proc, host, port):
         rig_map = rh.preset("virtual-fifo", port, rate_hz=100).replace("device_rate_hz = 1000", "device_rate_hz = 250")
         out = rh.acquire(tmp_path, rh.write_map(tmp_path, rig_map), 2.0)
         start = playback_start_ns(proc)
-    ft = rh.read_recording(out)["ft_sensor"]
+    rec = rh.read_recording(out)
+    ft, stage = rec["ft_sensor"], rec["stage"]
     k = ft["device_counter"]
     assert k.size > 400
     assert np.all(np.diff(k) == 1), "each device sample exactly once, in order"
     rh.assert_ramp_exact(ft)
+    assert stage["device_counter"].size > 400 and np.all(np.diff(stage["device_counter"]) == 1)
+    np.testing.assert_array_equal(np.rint(stage["channels"]["position_mm"] * 1000).astype(np.int64),
+                                  rh.ramp_position_um(stage["device_counter"]))
     # Device time = counter × period fitted to host time: close to when the rig took it.
     err_ms = (ft["t_ns"] - (start + k * 4e6)) / 1e6
     assert np.median(np.abs(err_ms)) < 1.0, (np.median(np.abs(err_ms)), err_ms.min(), err_ms.max())

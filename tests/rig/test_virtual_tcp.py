@@ -149,6 +149,13 @@ def test_ramp_one_consistent_sample_per_read(client_of):
             stage = read(c, 0, 8, 1)
             ks = u32(stage[6:8])
             assert tuple(i32(stage[i:i + 2]) for i in (0, 2, 4)) == ramp_stage_um(ks)
+            sfifo = read(c, 100, 98, 1)  # stage FIFO: 16 positions of 6 registers
+            newest = u32(sfifo[0:2])
+            assert newest >= ks
+            for s in range(16):
+                k_s = newest - 15 + s
+                got = tuple(i32(sfifo[2 + 6 * s + i:4 + 6 * s + i]) for i in (0, 2, 4))
+                assert got == (ramp_stage_um(k_s) if k_s >= 0 else (0, 0, 0))
             sp = read(c, 0, 4, 2)
             assert tuple(sp[:2]) == ramp_spindle(u32(sp[2:4]))
             seen.add(k)
@@ -184,7 +191,7 @@ def test_writes_refused_and_bad_reads(client_of):
         assert read(c, 180, 6, 9) == before
         r = c.read_holding_registers(415, 10, slave=9)  # past the end of unit 9
         assert r.isError() and r.exception_code == 2  # ILLEGAL_DATA_ADDRESS
-        r = c.read_holding_registers(7, 2, slave=1)
+        r = c.read_holding_registers(197, 2, slave=1)
         assert r.isError() and r.exception_code == 2
 
 
