@@ -1,6 +1,7 @@
 // `burrbench inspect`: which format a file is, and a short human summary of it.
 #include "burrbench/data_schema/inspect.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -12,6 +13,7 @@
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/manifest.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/data_schema/prediction.hpp"
 #include "burrbench/data_schema/recording.hpp"
 #include "burrbench/data_schema/sample_volume.hpp"
 #include "hdf5/h5.hpp"
@@ -23,10 +25,10 @@ namespace {
 
 FileFormat from_name(const std::string& file, const std::string& field, const std::string& name) {
   for (FileFormat f : {FileFormat::kRecording, FileFormat::kSample, FileFormat::kParams, FileFormat::kManifest,
-                       FileFormat::kFit})
+                       FileFormat::kFit, FileFormat::kPrediction})
     if (name == format_name(f)) return f;
   throw InputError(file, field,
-                   "a burrbench format (burrbench.recording | sample | params | experiment | fit)",
+                   "a burrbench format (burrbench.recording | sample | params | experiment | fit | prediction)",
                    "\"" + name + "\"");
 }
 
@@ -144,6 +146,32 @@ std::string describe_fit(const std::filesystem::path& path) {
   return s + prov_lines(f.provenance);
 }
 
+std::string describe_prediction(const std::filesystem::path& path) {
+  const Prediction p = read_prediction(path);
+  std::string s = fmt::format("prediction (burrbench.prediction), {} recordings\n", p.recordings.size());
+  for (const auto& r : p.recordings) {
+    const std::size_t n = r.samples();
+    std::size_t used = 0, buried = 0;
+    double max_pred = 0, sq = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      used += r.use[k];
+      buried += r.buried[k];
+      max_pred = std::max(max_pred, glm::length(r.force_sensor_pred_N[k]));
+      const glm::dvec3 d = r.force_sensor_meas_N[k] - r.force_sensor_pred_N[k];
+      sq += glm::dot(d, d);
+    }
+    s += fmt::format("recording {}: {} samples, {} s, {} used, {} buried, {} replay steps\n", r.recording_id, n,
+                     n ? num(r.t_s.back() - r.t_s.front()) : "0", used, buried, r.steps);
+    s += fmt::format("  max |F_sensor_pred| {} N, rms |F_meas − F_pred| {} N (bias not removed)\n", num(max_pred),
+                     n ? num(std::sqrt(sq / double(n))) : "—");
+    std::string removed;
+    for (std::size_t c = 0; c < r.removed_mm3.size(); ++c)
+      if (r.removed_mm3[c] > 0) removed += fmt::format(" class {} {}", c, num(r.removed_mm3[c]));
+    s += "  removed mm³:" + (removed.empty() ? std::string(" none") : removed) + "\n";
+  }
+  return s + prov_lines(p.provenance);
+}
+
 }  // namespace
 
 const char* format_name(FileFormat f) {
@@ -153,6 +181,7 @@ const char* format_name(FileFormat f) {
     case FileFormat::kParams: return kParamsFormat;
     case FileFormat::kManifest: return kManifestFormat;
     case FileFormat::kFit: return kFitFormat;
+    case FileFormat::kPrediction: return kPredictionFormat;
   }
   return "?";
 }
@@ -196,6 +225,7 @@ std::string describe_file(const std::filesystem::path& path) {
     case FileFormat::kParams: return describe_params(path);
     case FileFormat::kManifest: return describe_manifest(path);
     case FileFormat::kFit: return describe_fit(path);
+    case FileFormat::kPrediction: return describe_prediction(path);
   }
   return {};
 }

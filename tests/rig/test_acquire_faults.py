@@ -5,13 +5,15 @@ import numpy as np
 
 import rig_helpers as rh
 from virtual_helpers import events as rig_events
-from virtual_helpers import playback_start_ns, start_virtual_rig
+from virtual_helpers import playback_start_ns, read_served_log, start_virtual_rig
 
 RATE = 50  # device samples/s; polled at 250/s so a short outage loses no sample
 
 
 def run_faulty(tmp_path, rig_args, seconds, timeout_ms=50, rate=RATE):
-    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", str(rate), *rig_args]) as (proc, host, port):
+    served_log = tmp_path / "served.csv"
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", str(rate), "--served-log", str(served_log),
+                            *rig_args]) as (proc, host, port):
         body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 250, rh.FT_CHANNELS, counter=220, timeout_ms=timeout_ms)
         out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), seconds)
         start = playback_start_ns(proc)
@@ -20,6 +22,10 @@ def run_faulty(tmp_path, rig_args, seconds, timeout_ms=50, rate=RATE):
     ft = rec["ft_sensor"]
     rh.assert_ramp_exact(ft)
     rh.assert_timestamps_honest(ft, start, rate)
+    # Nothing acquired is lost: every reply the rig wrote is recorded, bar replies the
+    # acquisition had already given up on (each one a recorded timeout or drop).
+    rh.assert_every_served_reply_recorded(rec, read_served_log(served_log), {"ft_sensor": (9, 180)},
+                                          given_up_ok=True)
     return rec, ft, rig_ev
 
 

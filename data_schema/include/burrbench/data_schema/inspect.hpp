@@ -5,7 +5,7 @@
 
 namespace burrbench::data_schema {
 
-enum class FileFormat { kRecording, kSample, kParams, kManifest, kFit };
+enum class FileFormat { kRecording, kSample, kParams, kManifest, kFit, kPrediction };
 const char* format_name(FileFormat f);  // "burrbench.recording", ...
 
 // From the HDF5 root attribute `format`, or the `format` key of a TOML or JSON file.
@@ -13,7 +13,8 @@ const char* format_name(FileFormat f);  // "burrbench.recording", ...
 FileFormat detect_format(const std::filesystem::path& path);
 
 // Reads the file with its full validation and returns a multi-line summary (dims,
-// classes and voxel counts; streams, rates, durations, events; parameters ...).
+// classes and voxel counts; streams, rates, durations, events; parameters; predicted
+// recordings ...).
 // InputError (naming file, field, expectation) when the file is invalid.
 std::string describe_file(const std::filesystem::path& path);
 

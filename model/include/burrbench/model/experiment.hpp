@@ -11,7 +11,6 @@
 //                   measures the force on the sample (= −F_on_burr), +1 if on the burr.
 // Lag: the force recorded at t is caused by the burr position at t − lag; positions and
 // rpm are interpolated linearly at t − lag (clamped to the first/last stage sample).
-#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <glm/glm.hpp>
@@ -21,6 +20,7 @@
 #include <vector>
 
 #include "burrbench/data_schema/manifest.hpp"
+#include "burrbench/data_schema/prediction.hpp"
 #include "burrbench/data_schema/recording.hpp"
 #include "burrbench/data_schema/sample_volume.hpp"
 #include "burrbench/model/registration.hpp"
@@ -96,17 +96,9 @@ Experiment load_experiment(const std::filesystem::path& manifest_path);
 
 // ---- replay of an experiment and its prediction file (format "burrbench.prediction") ----
 
-struct RecordingPrediction {
-  std::string recording_id;
-  std::vector<double> t_s;
-  std::vector<glm::dvec3> force_burr_vol_N;     // predicted force on the burr, volume frame
-  std::vector<glm::dvec3> force_sensor_pred_N;  // predicted sensor reading (no bias)
-  std::vector<glm::dvec3> force_sensor_meas_N;  // measured
-  std::vector<glm::dvec3> centre_vol_mm, normal_vol;
-  std::vector<double> depth_b_mm;
-  std::vector<std::uint8_t> class_mask, buried, use;
-  std::array<double, kMaxClasses> removed_mm3{};
-  std::size_t steps = 0;
+// The replay's result for one recording: the prediction file's record (data_schema owns
+// the format) plus the replay's wall time, which is not stored (not reproducible).
+struct RecordingPrediction : data_schema::PredictedRecording {
   double wall_s = 0;
 };
 
@@ -114,8 +106,7 @@ struct RecordingPrediction {
 RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const ModelParams& params,
                             const ReplayOptions& options = {}, Progress* progress = nullptr);
 
-inline constexpr const char* kPredictionFormat = "burrbench.prediction";
-inline constexpr const char* kPredictionVersion = "1.0";
+// Writes the data_schema prediction file (format "burrbench.prediction").
 void write_prediction(const std::filesystem::path& path, const std::vector<RecordingPrediction>& p,
                       const Provenance& provenance);
 void write_prediction_csv(const std::filesystem::path& path,
