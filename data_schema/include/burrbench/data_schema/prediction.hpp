@@ -1,0 +1,57 @@
+#pragma once
+// What `burrbench replay` predicts for every recording of an experiment, beside what was
+// measured. Stored as HDF5 (format "burrbench.prediction"); docs/formats.md lists every
+// field with unit and frame.
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "burrbench/data_schema/provenance.hpp"
+
+namespace burrbench::data_schema {
+
+inline constexpr const char* kPredictionFormat = "burrbench.prediction";
+// 2.0: provenance in the /provenance group and fixed-length strings, as the other HDF5
+// formats (1.0 kept provenance as a JSON attribute; such files are refused by version).
+inline constexpr int kPredictionVersionMajor = 2;
+inline constexpr int kPredictionVersionMinor = 0;
+// Class labels 0..7 whose removed volume is recorded (the model's label range).
+inline constexpr std::size_t kPredictionClasses = 8;
+
+// One replayed recording, n = number of force samples; every per-sample vector has n
+// entries. Index k is the force sample at t_s[k].
+struct PredictedRecording {
+  std::string recording_id;                     // the manifest's id (no '/')
+  std::vector<double> t_s;                      // s from the first force sample, increasing
+  std::vector<glm::dvec3> force_burr_vol_N;     // predicted force on the burr, volume frame
+  std::vector<glm::dvec3> force_sensor_pred_N;  // what the sensor should read (no bias), sensor frame
+  std::vector<glm::dvec3> force_sensor_meas_N;  // what it read, sensor frame
+  std::vector<glm::dvec3> centre_vol_mm;        // burr centre used (after lag, registration, offset)
+  std::vector<glm::dvec3> normal_vol;           // contact normal (unit, or 0 without contact)
+  std::vector<double> depth_b_mm;               // immersion depth b
+  std::vector<std::uint8_t> class_mask;         // bit k: class label k in contact
+  std::vector<std::uint8_t> buried;             // 1: contact normal ill-defined (MODEL.md)
+  std::vector<std::uint8_t> use;                // 1: inside a used segment
+  std::array<double, kPredictionClasses> removed_mm3{};  // eroded bone by class label
+  std::int64_t steps = 0;                       // internal replay steps
+  std::size_t samples() const { return t_s.size(); }
+};
+
+struct Prediction {
+  std::vector<PredictedRecording> recordings;  // replay order (kept in the file)
+  Provenance provenance;
+};
+
+// Throws InputError naming file and field on any defect: lengths, non-finite values,
+// flags other than 0/1, t_s not increasing, duplicate or invalid recording ids.
+void validate(const Prediction& p, const std::string& file_for_messages);
+void write_prediction(const std::filesystem::path& path, const Prediction& p);
+// Validates format name, major version, layout, units and values; all datasets together
+// ≤ 4 GiB, checked from the headers before reading.
+Prediction read_prediction(const std::filesystem::path& path);
+
+}  // namespace burrbench::data_schema
