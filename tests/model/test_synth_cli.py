@@ -51,9 +51,10 @@ def test_replay_with_true_params_and_lag_leaves_bias_plus_noise(exp):
             "--out", exp / "pred.h5", "--csv", exp / "pred.csv")
     assert "samples" in p.stdout and "buried" in p.stdout and "removed" in p.stdout and "wall" in p.stdout
     with h5py.File(exp / "pred.h5", "r") as f:
-        assert f.attrs["format"] == "burrbench.prediction"
-        prov = json.loads(f.attrs["provenance"])
-        assert any(i["path"].endswith("sweep.h5") and len(i["sha256"]) == 64 for i in prov["inputs"])
+        # fixed-length UTF-8 strings: h5py gives bytes
+        assert f.attrs["format"].decode() == "burrbench.prediction"
+        inputs = zip(f["provenance/inputs/path"].asstr()[()], f["provenance/inputs/sha256"].asstr()[()])
+        assert any(path.endswith("sweep.h5") and len(sha) == 64 for path, sha in inputs)
         total = 0
         for rid in ("plunge", "sweep", "polish"):
             g = f["recordings"][rid]
