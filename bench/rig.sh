@@ -2,7 +2,10 @@
 # Acquisition speed against the virtual rig (issue 4): prints figure | measured | target | ok.
 #   1. two TCP devices polled at 1 kHz each for 60 s on loopback: achieved rate, period
 #      jitter p99, device samples lost (counter-verified; devices sample at 500 Hz so a
-#      poll on time sees every sample at least once)
+#      poll on time sees every sample at least once). Meanwhile bench_host_wakeup
+#      measures how late this host wakes a real-time thread, and every poll gap is
+#      checked against the host's stalls.
+#   1b. the same two devices drained through their FIFO blocks at 1 kHz for 60 s
 #   2. maximum request rate of `burrbench acquire` vs pymodbus' sync client and mbpoll
 #      (rig/virtual/measure_rate.py) on the same rig
 #   3. RTU through the paced relay at 115200 baud vs the wire-time limit
@@ -14,7 +17,9 @@ seconds=${2:-60}
 here=$(cd "$(dirname "$0")" && pwd)
 src=$(dirname "$here")
 export BURRBENCH="$build/apps/burrbench" BURRBENCH_SOURCE_DIR="$src"
+export PROBE="$build/bench/bench_host_wakeup"
 [[ -x "$BURRBENCH" ]] || cmake --build "$build" --target burrbench -j 2 >/dev/null
+[[ -x "$PROBE" ]] || cmake --build "$build" --target bench_host_wakeup -j 2 >/dev/null
 exec /usr/bin/python3 - "$seconds" <<'PY'
 import json, os, subprocess, sys, tempfile
 import numpy as np
@@ -57,13 +62,31 @@ rows = []
 def row(fig, measured, target, ok):
     rows.append((fig, measured, target, "yes" if ok else "NO"))
 
-# 1. two devices at 1 kHz for `seconds`
+def host_stalls(text):
+    """bench_host_wakeup output -> ([(cpu, deadline_ns, late_ns)], {cpu: (wakeups, worst_ns, policy)})"""
+    late, done = [], {}
+    for line in text.splitlines():
+        f = line.split()
+        if f and f[0] == "late":
+            late.append((int(f[1]), int(f[2]), int(f[3])))
+        elif f and f[0] == "done":
+            done[int(f[1])] = (int(f[2]), int(f[3]), f[4])
+    return late, done
+
+# 1. two devices at 1 kHz for `seconds`, the host probe alongside
 with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "500"]) as (proc, host, port):
     realtime(proc.pid)
     body = (rh.tcp_device("ft_sensor", port, 9, 180, 42, 1000, rh.FT_CHANNELS, counter=220)
             + rh.tcp_device("stage", port, 1, 0, 8, 1000, rh.STAGE_CHANNELS, counter=6))
+    probe = subprocess.Popen([os.environ["PROBE"], str(seconds + 2)], stdout=subprocess.PIPE, text=True)
     out = rh.acquire(tmp, rh.write_map(tmp, body, "two.toml"), seconds, out="two.h5", timeout=seconds + 120)
+    late, done = host_stalls(probe.communicate(timeout=60)[0])
 rec = rh.read_recording(out)
+cpus = sorted(done)
+row("host: wakeups > 1 ms late per CPU (probe at SCHED_FIFO)",
+    " / ".join(f"{sum(1 for c, _, _ in late if c == cpu)} of {done[cpu][0]}" for cpu in cpus), "-", True)
+row("host: latest wakeup per CPU", " / ".join(f"{done[cpu][1] / 1e6:.1f} ms" for cpu in cpus)
+    + ("" if all(done[c][2] == "fifo" for c in cpus) else " (probe not real-time)"), "-", True)
 for name in ("ft_sensor", "stage"):
     s = rec[name]
     n = s["t_ns"].size
@@ -77,30 +100,70 @@ for name in ("ft_sensor", "stage"):
     row(f"{name}: period jitter p99", f"{jit:.0f} us", "<= 200 us", jit <= 200)
     row(f"{name}: device samples lost (counter)", f"{lost}", "0", lost == 0)
     rtt_row(name, s)
+    # A poll gap the host explains: some CPU woke a real-time thread > 1 ms late while the
+    # poll was due or its reply was on its way.
+    t = s["t_send_ns"]
+    gaps = np.nonzero(np.diff(t) > 1_500_000)[0]
+    explained = sum(1 for i in gaps if any(d - 1_000_000 < t[i + 1] and d + l > t[i] for _, d, l in late))
+    row(f"{name}: poll gaps > 1.5 ms / during a host stall", f"{gaps.size} / {explained}", "-", True)
+
+# 1b. the same devices drained through their FIFO blocks (8 and 16 deep) at 1 kHz
+with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "500"]) as (proc, host, port):
+    realtime(proc.pid)
+    fifo_map = rh.preset("virtual-fifo", port, rate_hz=1000).replace("device_rate_hz = 1000", "device_rate_hz = 500")
+    out = rh.acquire(tmp, rh.write_map(tmp, fifo_map, "fifo.toml"), seconds, out="fifo.h5", timeout=seconds + 120)
+rec = rh.read_recording(out)
+for name, depth in (("ft_sensor", 8), ("stage", 16)):
+    s = rec[name]
+    k = s["device_counter"]
+    lost = int(k[-1] - k[0] + 1 - np.unique(k).size)
+    polls = np.unique(s["t_send_ns"])
+    row(f"FIFO {name} ({depth} deep, 500 Hz device, 1 kHz polls): samples lost", f"{lost} of {k[-1] - k[0] + 1}", "0", lost == 0)
+    row(f"FIFO {name}: longest gap between polls with data / FIFO span",
+        f"{np.diff(polls).max() / 1e6:.1f} ms / {depth * 2} ms", "-", True)
 
 # 2. maximum request rate (42 registers, one device, back to back)
 def burrbench_max(port, secs=3.0):
-    body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 10000, rh.FT_CHANNELS[:1], counter=220)
+    body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 100000, rh.FT_CHANNELS[:1], counter=220)
     out = rh.acquire(tmp, rh.write_map(tmp, body, "max.toml"), secs, out="max.h5")
     s = rh.read_recording(out)["ft_sensor"]
     os.remove(out)
     return (s["t_ns"].size - 1) / ((s["t_send_ns"][-1] - s["t_send_ns"][0]) / 1e9)
 
+def reference_rates(port, seconds, mbpoll_procs):
+    ref = json.loads(subprocess.run(["/usr/bin/python3", os.path.join(src, "rig", "virtual", "measure_rate.py"),
+                                     "--port", str(port), "--seconds", str(seconds), "--mbpoll-procs", mbpoll_procs,
+                                     "--json"], capture_output=True, text=True, check=True).stdout)
+    return {r["client"]: r["rate"] for r in ref}
+
+def pin(pid, cpus):
+    for t in os.listdir(f"/proc/{pid}/task"):
+        os.sched_setaffinity(int(t), cpus)
+
+# Interleaved rounds, best of each client: the machine's load drifts between runs. The
+# rig and every client share CPU 0: on this VM a wakeup across CPUs adds ~65 us to each
+# round trip, which would measure the hypervisor rather than the client's own cost.
 with start_virtual_rig(["--pattern", "ramp"]) as (proc, host, port):
     realtime(proc.pid)
-    ours = burrbench_max(port)
-    ref = json.loads(subprocess.run(["/usr/bin/python3", os.path.join(src, "rig", "virtual", "measure_rate.py"),
-                                     "--port", str(port), "--seconds", "3", "--mbpoll-procs", "1", "--json"],
-                                    capture_output=True, text=True, check=True).stdout)
-rates = {r["client"]: r["rate"] for r in ref}
-row("max request rate, burrbench acquire", f"{ours:.0f} req/s", "-", True)
-row("  vs pymodbus sync client", f"{ours / rates['pymodbus']:.2f}x ({rates['pymodbus']:.0f} req/s)", ">= 1", ours >= rates["pymodbus"])
-row("  vs mbpoll (1 process)", f"{ours / rates['mbpoll x1']:.1f}x ({rates['mbpoll x1']:.0f} req/s)", ">= 1", ours >= rates["mbpoll x1"])
+    all_cpus = os.sched_getaffinity(0)
+    pin(proc.pid, {0})
+    os.sched_setaffinity(0, {0})  # inherited by burrbench and measure_rate.py
+    best = {}
+    for _ in range(3):
+        rates = {"burrbench": burrbench_max(port, 2.0), **reference_rates(port, 2, "")}
+        best = {k: max(v, best.get(k, 0.0)) for k, v in rates.items()}
+    best.update({k: v for k, v in reference_rates(port, 3, "1").items() if k.startswith("mbpoll")})
+    os.sched_setaffinity(0, all_cpus)
+ours = best["burrbench"]
+row("max request rate, burrbench acquire (best of 3, one CPU)", f"{ours:.0f} req/s", "-", True)
+row("  vs pymodbus sync client", f"{ours / best['pymodbus']:.2f}x ({best['pymodbus']:.0f} req/s)", ">= 1", ours >= best["pymodbus"])
+row("  vs mbpoll (1 process)", f"{ours / best['mbpoll x1']:.1f}x ({best['mbpoll x1']:.0f} req/s)", ">= 1", ours >= best["mbpoll x1"])
+row("  the rig's capacity: a bare-socket Python client", f"{best['raw']:.0f} req/s ({ours / best['raw']:.2f}x)", "-", True)
 
 # 3. RTU at 115200 baud through the paced relay
 with start_virtual_rig_rtu(["--pattern", "ramp", "--baud", "115200"]) as (proc, pty):
     realtime(proc.pid)
-    body = rh.rtu_device("ft_sensor", pty, 9, 180, 42, 10000, rh.FT_CHANNELS[:1], counter=220, timeout_ms=200)
+    body = rh.rtu_device("ft_sensor", pty, 9, 180, 42, 100000, rh.FT_CHANNELS[:1], counter=220, timeout_ms=200)
     out = rh.acquire(tmp, rh.write_map(tmp, body, "rtu.toml"), 5.0, out="rtu.h5")
 s = rh.read_recording(out)["ft_sensor"]
 rate = (s["t_ns"].size - 1) / ((s["t_send_ns"][-1] - s["t_send_ns"][0]) / 1e9)
