@@ -4,11 +4,11 @@
 //   class_mask, buried, use} (each with @unit), /recordings/<id>/@removed_mm3, @steps.
 #include "burrbench/data_schema/prediction.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <set>
-
-#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "hdf5/h5.hpp"
@@ -45,9 +45,10 @@ constexpr Vec3Field kVec3[] = {{"force_burr_vol_N", "N", &PR::force_burr_vol_N},
                                {"centre_vol_mm", "mm", &PR::centre_vol_mm},
                                {"normal_vol", "1", &PR::normal_vol}};
 constexpr ScalarField kDepth{"depth_b_mm", "mm", &PR::depth_b_mm};
-constexpr FlagField kFlags[] = {{"class_mask", "bit k = class label k in contact", &PR::class_mask, 255},
-                                {"buried", "1 = contact normal ill-defined", &PR::buried, 1},
-                                {"use", "1 = inside a used segment", &PR::use, 1}};
+constexpr FlagField kFlags[] = {
+    {"class_mask", "bit k = class label k in contact", &PR::class_mask, 255},
+    {"buried", "1 = contact normal ill-defined", &PR::buried, 1},
+    {"use", "1 = inside a used segment", &PR::use, 1}};
 
 // t_s + 5 vectors + depth (float64) + 3 flags (uint8) per sample.
 constexpr std::uint64_t kBytesPerSample = 8 + 5 * 24 + 8 + 3;
@@ -66,12 +67,14 @@ void validate_recording(const PR& r, const std::string& file) {
   const std::size_t n = r.samples();
   auto same_len = [&](std::size_t len, const char* name) {
     if (len != n)
-      throw InputError(file, b + "/" + name, fmt::format("{} values (one per t_s sample)", n), std::to_string(len));
+      throw InputError(file, b + "/" + name, fmt::format("{} values (one per t_s sample)", n),
+                       std::to_string(len));
   };
   for (std::size_t k = 0; k < n; ++k)
     if (!std::isfinite(r.t_s[k]) || (k > 0 && !(r.t_s[k] > r.t_s[k - 1])))
-      throw InputError(file, fmt::format("{}/t_s[{}]", b, k), "finite, strictly increasing times",
-                       k > 0 ? fmt::format("{} after {}", r.t_s[k], r.t_s[k - 1]) : fmt::format("{}", r.t_s[k]));
+      throw InputError(
+          file, fmt::format("{}/t_s[{}]", b, k), "finite, strictly increasing times",
+          k > 0 ? fmt::format("{} after {}", r.t_s[k], r.t_s[k - 1]) : fmt::format("{}", r.t_s[k]));
   for (const auto& f : kVec3) {
     const auto& v = r.*f.member;
     same_len(v.size(), f.name);
@@ -91,13 +94,15 @@ void validate_recording(const PR& r, const std::string& file) {
     same_len(v.size(), f.name);
     for (std::size_t k = 0; k < n; ++k)
       if (v[k] > f.max)
-        throw InputError(file, fmt::format("{}/{}[{}]", b, f.name, k), "0 or 1", std::to_string(v[k]));
+        throw InputError(file, fmt::format("{}/{}[{}]", b, f.name, k), "0 or 1",
+                         std::to_string(v[k]));
   }
   for (std::size_t c = 0; c < r.removed_mm3.size(); ++c)
     if (!std::isfinite(r.removed_mm3[c]) || r.removed_mm3[c] < 0)
       throw InputError(file, fmt::format("{}/@removed_mm3[{}]", b, c), "a finite volume >= 0 mm³",
                        fmt::format("{}", r.removed_mm3[c]));
-  if (r.steps < 0) throw InputError(file, b + "/@steps", "a step count >= 0", std::to_string(r.steps));
+  if (r.steps < 0)
+    throw InputError(file, b + "/@steps", "a step count >= 0", std::to_string(r.steps));
 }
 
 }  // namespace
@@ -114,7 +119,8 @@ void validate(const Prediction& p, const std::string& file) {
 void write_prediction(const std::filesystem::path& path, const Prediction& p) {
   validate(p, path.string());
   h5::Writer w(path);
-  h5::write_header(w, kPredictionFormat, kPredictionVersionMajor, kPredictionVersionMinor, p.provenance);
+  h5::write_header(w, kPredictionFormat, kPredictionVersionMajor, kPredictionVersionMinor,
+                   p.provenance);
   w.group("/recordings");
   for (const auto& r : p.recordings) {
     const std::string b = base(r.recording_id);
@@ -147,7 +153,8 @@ namespace {
 
 void check_unit(const h5::Reader& r, const std::string& ds, const char* unit) {
   const std::string got = r.attr_string(ds, "unit");
-  if (got != unit) throw InputError(r.file(), ds + "/@unit", fmt::format("\"{}\"", unit), "\"" + got + "\"");
+  if (got != unit)
+    throw InputError(r.file(), ds + "/@unit", fmt::format("\"{}\"", unit), "\"" + got + "\"");
 }
 
 template <class T>
@@ -155,11 +162,13 @@ std::vector<T> read_column(const h5::Reader& r, const std::string& ds, h5::Elem 
                            std::size_t width, const char* unit) {
   std::vector<hsize_t> shape;
   auto v = r.read<T>(ds, e, &shape, kMaxElements);
-  const std::vector<hsize_t> want = width == 1 ? std::vector<hsize_t>{n} : std::vector<hsize_t>{n, width};
+  const std::vector<hsize_t> want =
+      width == 1 ? std::vector<hsize_t>{n} : std::vector<hsize_t>{n, width};
   if (shape != want)
     throw InputError(r.file(), ds,
-                     width == 1 ? fmt::format("a 1-D {} dataset of length {}", h5::elem_name(e), n)
-                                : fmt::format("a {} dataset of shape [{}×{}]", h5::elem_name(e), n, width),
+                     width == 1
+                         ? fmt::format("a 1-D {} dataset of length {}", h5::elem_name(e), n)
+                         : fmt::format("a {} dataset of shape [{}×{}]", h5::elem_name(e), n, width),
                      fmt::format("rank {}, {} elements", shape.size(), v.size()));
   check_unit(r, ds, unit);
   return v;
@@ -175,7 +184,8 @@ PR read_recording(const h5::Reader& r, const std::string& id) {
   r.expect_only(b, names);
   const auto t_shape = r.shape(b + "/t_s", h5::Elem::kFloat64);
   if (t_shape.size() != 1)
-    throw InputError(r.file(), b + "/t_s", "a 1-D float64 dataset", fmt::format("rank {}", t_shape.size()));
+    throw InputError(r.file(), b + "/t_s", "a 1-D float64 dataset",
+                     fmt::format("rank {}", t_shape.size()));
   const std::size_t n = t_shape[0];
   out.t_s = read_column<double>(r, b + "/t_s", h5::Elem::kFloat64, n, 1, kTime.unit);
   for (const auto& f : kVec3) {
@@ -184,7 +194,8 @@ PR read_recording(const h5::Reader& r, const std::string& id) {
     v.resize(n);
     for (std::size_t k = 0; k < n; ++k) v[k] = {flat[3 * k], flat[3 * k + 1], flat[3 * k + 2]};
   }
-  out.depth_b_mm = read_column<double>(r, b + "/" + kDepth.name, h5::Elem::kFloat64, n, 1, kDepth.unit);
+  out.depth_b_mm =
+      read_column<double>(r, b + "/" + kDepth.name, h5::Elem::kFloat64, n, 1, kDepth.unit);
   for (const auto& f : kFlags)
     out.*f.member = read_column<std::uint8_t>(r, b + "/" + f.name, h5::Elem::kUInt8, n, 1, f.unit);
   const auto removed = r.attr_doubles(b, "removed_mm3", kPredictionClasses);
@@ -208,10 +219,12 @@ Prediction read_prediction(const std::filesystem::path& path) {
   for (const auto& id : ids) {
     const std::string t = base(id) + "/t_s";
     const auto shape = r.shape(t, h5::Elem::kFloat64);
-    if (shape.size() != 1) throw InputError(file, t, "a 1-D float64 dataset", fmt::format("rank {}", shape.size()));
+    if (shape.size() != 1)
+      throw InputError(file, t, "a 1-D float64 dataset", fmt::format("rank {}", shape.size()));
     total += std::min<std::uint64_t>(shape[0], kMaxElements) * kBytesPerSample;
     if (total > kMaxPredictionBytes)
-      throw InputError(file, t, "a prediction within the 4 GiB memory budget", fmt::format("{} samples", shape[0]));
+      throw InputError(file, t, "a prediction within the 4 GiB memory budget",
+                       fmt::format("{} samples", shape[0]));
   }
   for (const auto& id : ids) p.recordings.push_back(read_recording(r, id));
   validate(p, file);

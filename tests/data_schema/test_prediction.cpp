@@ -50,14 +50,16 @@ bb::Prediction make_prediction(const std::filesystem::path& input) {
   // Not alphabetical: the file keeps replay order. One recording is empty.
   p.recordings = {make_recording("sweep", 40, 0.5), make_recording("plunge-ß", 25, 1.25),
                   make_recording("polish", 0, 0)};
-  p.provenance = input.empty() ? burrbench::make_provenance({}) : burrbench::make_provenance({input});
+  p.provenance =
+      input.empty() ? burrbench::make_provenance({}) : burrbench::make_provenance({input});
   p.provenance.command_line = "burrbench replay --out 'p.h5'";
   return p;
 }
 
 template <class T>
 bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
 }
 
 // ---- direct edits of a written file through the HDF5 C API (to build broken inputs)
@@ -71,7 +73,8 @@ struct File {
   }
 };
 
-void set_string_attr(const std::filesystem::path& p, const char* obj, const char* name, const std::string& value) {
+void set_string_attr(const std::filesystem::path& p, const char* obj, const char* name,
+                     const std::string& value) {
   File f(p);
   ASSERT_GE(f.id, 0);
   if (H5Aexists_by_name(f.id, obj, name, H5P_DEFAULT) > 0) {
@@ -110,7 +113,8 @@ void replace_dataset(const std::filesystem::path& p, const char* path, std::vect
       ASSERT_GE(H5Ldelete(f.id, path, H5P_DEFAULT), 0);
     }
     const hid_t s = H5Screate_simple(int(dims.size()), dims.data(), nullptr);
-    const hid_t d = H5Dcreate2(f.id, path, H5T_IEEE_F64LE, s, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    const hid_t d =
+        H5Dcreate2(f.id, path, H5T_IEEE_F64LE, s, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
     ASSERT_GE(d, 0);
     std::size_t n = 1;
     for (hsize_t x : dims) n *= x;
@@ -131,7 +135,8 @@ herr_t scan_attr(hid_t obj, const char* name, const H5A_info_t*, void* data) {
   auto* scan = static_cast<StringScan*>(data);
   const hid_t a = H5Aopen(obj, name, H5P_DEFAULT);
   const hid_t t = H5Aget_type(a);
-  if (H5Tget_class(t) == H5T_STRING) scan->strings.emplace_back(std::string("@") + name, H5Tis_variable_str(t) > 0);
+  if (H5Tget_class(t) == H5T_STRING)
+    scan->strings.emplace_back(std::string("@") + name, H5Tis_variable_str(t) > 0);
   H5Tclose(t);
   H5Aclose(a);
   return 0;
@@ -206,7 +211,8 @@ TEST(FormatsPrediction, FileUsesFixedLengthStringsAndTheChecksummedFormat) {
   // format, format_version, 3 provenance attributes, 2 provenance string datasets and a
   // unit on each of the 10 datasets of the 3 recordings.
   EXPECT_EQ(scan.strings.size(), 2u + 3u + 2u + 3u * 10u);
-  for (const auto& [name, variable] : scan.strings) EXPECT_FALSE(variable) << name << " is a variable-length string";
+  for (const auto& [name, variable] : scan.strings)
+    EXPECT_FALSE(variable) << name << " is a variable-length string";
 }
 
 TEST(FormatsPrediction, ValidatorNamesFieldAndWritesNothing) {
@@ -224,10 +230,14 @@ TEST(FormatsPrediction, ValidatorNamesFieldAndWritesNothing) {
         {"/recordings/plunge-ß/force_burr_vol_N[3][1]", "finite"});
   check([](bb::Prediction& p) { p.recordings[0].t_s[7] = p.recordings[0].t_s[6]; },
         {"/recordings/sweep/t_s[7]", "strictly increasing"});
-  check([](bb::Prediction& p) { p.recordings[0].buried[2] = 2; }, {"/recordings/sweep/buried[2]", "0 or 1"});
-  check([](bb::Prediction& p) { p.recordings[0].depth_b_mm[1] = INFINITY; }, {"/recordings/sweep/depth_b_mm[1]"});
-  check([](bb::Prediction& p) { p.recordings[1].removed_mm3[2] = -1; }, {"/recordings/plunge-ß/@removed_mm3[2]"});
-  check([](bb::Prediction& p) { p.recordings[2].recording_id = "sweep"; }, {"/recordings/sweep", "unique"});
+  check([](bb::Prediction& p) { p.recordings[0].buried[2] = 2; },
+        {"/recordings/sweep/buried[2]", "0 or 1"});
+  check([](bb::Prediction& p) { p.recordings[0].depth_b_mm[1] = INFINITY; },
+        {"/recordings/sweep/depth_b_mm[1]"});
+  check([](bb::Prediction& p) { p.recordings[1].removed_mm3[2] = -1; },
+        {"/recordings/plunge-ß/@removed_mm3[2]"});
+  check([](bb::Prediction& p) { p.recordings[2].recording_id = "sweep"; },
+        {"/recordings/sweep", "unique"});
   check([](bb::Prediction& p) { p.recordings[2].recording_id = "a/b"; }, {"without '/'"});
 }
 
@@ -236,15 +246,18 @@ TEST(FormatsPrediction, WrongFormatNameIsRejected) {
   bb::write_prediction(dir / "p.h5", make_prediction({}));
   set_string_attr(dir / "p.h5", "/", "format", "burrbench.recording");
   const std::string p = (dir / "p.h5").string();
-  expect_rejected_unchanged(dir / "p.h5", [&] { bb::read_prediction(p); },
-                            {p + ": /@format: expected \"burrbench.prediction\", got \"burrbench.recording\""});
+  expect_rejected_unchanged(
+      dir / "p.h5", [&] { bb::read_prediction(p); },
+      {p + ": /@format: expected \"burrbench.prediction\", got \"burrbench.recording\""});
   // A real file of another format, and the other way round.
   bb::Recording rec;
   bb::write_recording(dir / "r.h5", rec);
-  expect_input_error([&] { bb::read_prediction(dir / "r.h5"); },
-                     {"r.h5: /@format: expected \"burrbench.prediction\", got \"burrbench.recording\""});
+  expect_input_error(
+      [&] { bb::read_prediction(dir / "r.h5"); },
+      {"r.h5: /@format: expected \"burrbench.prediction\", got \"burrbench.recording\""});
   bb::write_prediction(dir / "q.h5", make_prediction({}));
-  expect_input_error([&] { bb::read_recording(dir / "q.h5"); }, {"q.h5: /@format", "got \"burrbench.prediction\""});
+  expect_input_error([&] { bb::read_recording(dir / "q.h5"); },
+                     {"q.h5: /@format", "got \"burrbench.prediction\""});
 }
 
 TEST(FormatsPrediction, OtherMajorVersionsAreRejectedNewerMinorRead) {
@@ -253,7 +266,8 @@ TEST(FormatsPrediction, OtherMajorVersionsAreRejectedNewerMinorRead) {
     bb::write_prediction(dir / "p.h5", make_prediction({}));
     set_string_attr(dir / "p.h5", "/", "format_version", v);
     expect_rejected_unchanged(dir / "p.h5", [&] { bb::read_prediction(dir / "p.h5"); },
-                              {"p.h5: /@format_version", "\"2.x\"", std::string("\"") + v + "\" (unknown major version)"});
+                              {"p.h5: /@format_version", "\"2.x\"",
+                               std::string("\"") + v + "\" (unknown major version)"});
   }
   set_string_attr(dir / "p.h5", "/", "format_version", "2.9");
   EXPECT_EQ(bb::read_prediction(dir / "p.h5").recordings.size(), 3u);
@@ -266,7 +280,8 @@ TEST(FormatsPrediction, MissingOrMalformedFieldsAreNamed) {
     return dir / "p.h5";
   };
   auto rejected = [&](std::initializer_list<std::string> frags) {
-    expect_rejected_unchanged(dir / "p.h5", [&] { bb::read_prediction(dir / "p.h5"); }, frags);
+    expect_rejected_unchanged(
+        dir / "p.h5", [&] { bb::read_prediction(dir / "p.h5"); }, frags);
   };
   delete_link(fresh(), "/recordings/sweep/force_sensor_meas_N");
   rejected({"p.h5: /recordings/sweep/force_sensor_meas_N: expected a dataset, got missing"});
@@ -305,7 +320,9 @@ TEST(FormatsPrediction, CorruptedFilesOnlyEverRaiseInputError) {
   bb::write_prediction(dir / "p.h5", make_prediction({}));
   const std::string base = burrbench::test::file_bytes(dir / "p.h5");
   std::uint64_t state = 4242;
-  auto next = [&] { return state = state * 6364136223846793005ull + 1442695040888963407ull, state >> 33; };
+  auto next = [&] {
+    return state = state * 6364136223846793005ull + 1442695040888963407ull, state >> 33;
+  };
   int rejected = 0;
   for (int i = 0; i < 200; ++i) {
     std::string t = base;
@@ -330,8 +347,10 @@ TEST(FormatsPrediction, InspectRecognisesAndSummarisesIt) {
   EXPECT_NE(s.find("prediction (burrbench.prediction), 3 recordings"), std::string::npos) << s;
   EXPECT_NE(s.find("recording sweep: 40 samples"), std::string::npos) << s;
   EXPECT_NE(s.find("recording polish: 0 samples"), std::string::npos) << s;
-  EXPECT_NE(s.find("removed mm³: class 1 0.0625 class 2 0.333333 class 7 7e-09"), std::string::npos) << s;
+  EXPECT_NE(s.find("removed mm³: class 1 0.0625 class 2 0.333333 class 7 7e-09"), std::string::npos)
+      << s;
   // A broken one is refused by inspect with the field, as the reader does.
   set_string_attr(dir / "p.h5", "/recordings/sweep/t_s", "unit", "ms");
-  expect_input_error([&] { bb::describe_file(dir / "p.h5"); }, {"/recordings/sweep/t_s/@unit", "\"s\""});
+  expect_input_error([&] { bb::describe_file(dir / "p.h5"); },
+                     {"/recordings/sweep/t_s/@unit", "\"s\""});
 }

@@ -5,10 +5,9 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <glm/glm.hpp>
 #include <string>
 #include <vector>
-
-#include <glm/glm.hpp>
 
 #include "burrbench/data_schema/provenance.hpp"
 
@@ -28,16 +27,16 @@ struct PredictedRecording {
   std::string recording_id;                     // the manifest's id (no '/')
   std::vector<double> t_s;                      // s from the first force sample, increasing
   std::vector<glm::dvec3> force_burr_vol_N;     // predicted force on the burr, volume frame
-  std::vector<glm::dvec3> force_sensor_pred_N;  // what the sensor should read (no bias), sensor frame
+  std::vector<glm::dvec3> force_sensor_pred_N;  // sensor should read (no bias), sensor frame
   std::vector<glm::dvec3> force_sensor_meas_N;  // what it read, sensor frame
-  std::vector<glm::dvec3> centre_vol_mm;        // burr centre used (after lag, registration, offset)
-  std::vector<glm::dvec3> normal_vol;           // contact normal (unit, or 0 without contact)
-  std::vector<double> depth_b_mm;               // immersion depth b
-  std::vector<std::uint8_t> class_mask;         // bit k: class label k in contact
-  std::vector<std::uint8_t> buried;             // 1: contact normal ill-defined (MODEL.md)
-  std::vector<std::uint8_t> use;                // 1: inside a used segment
+  std::vector<glm::dvec3> centre_vol_mm;  // burr centre used (after lag, registration, offset)
+  std::vector<glm::dvec3> normal_vol;     // contact normal (unit, or 0 without contact)
+  std::vector<double> depth_b_mm;         // immersion depth b
+  std::vector<std::uint8_t> class_mask;   // bit k: class label k in contact
+  std::vector<std::uint8_t> buried;       // 1: contact normal ill-defined (MODEL.md)
+  std::vector<std::uint8_t> use;          // 1: inside a used segment
   std::array<double, kPredictionClasses> removed_mm3{};  // eroded bone by class label
-  std::int64_t steps = 0;                       // internal replay steps
+  std::int64_t steps = 0;                                // internal replay steps
   std::size_t samples() const { return t_s.size(); }
 };
 
