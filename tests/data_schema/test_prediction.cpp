@@ -4,13 +4,7 @@
 #include <cmath>
 #include <cstring>
 
-// The test target does not get HDF5's include directory (data_schema links it privately);
-// Debian installs the serial header under hdf5/serial/.
-#if __has_include(<hdf5.h>)
 #include <hdf5.h>
-#else
-#include <hdf5/serial/hdf5.h>
-#endif
 
 #include "burrbench/data_schema/inspect.hpp"
 #include "burrbench/data_schema/prediction.hpp"
