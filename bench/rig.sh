@@ -111,6 +111,7 @@ for name in ("ft_sensor", "stage"):
 with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "500"]) as (proc, host, port):
     realtime(proc.pid)
     fifo_map = rh.preset("virtual-fifo", port, rate_hz=1000).replace("device_rate_hz = 1000", "device_rate_hz = 500")
+    fifo_map = fifo_map[:fifo_map.index('[[devices]]\nname = "spindle"')]  # the two FIFO devices only
     out = rh.acquire(tmp, rh.write_map(tmp, fifo_map, "fifo.toml"), seconds, out="fifo.h5", timeout=seconds + 120)
 rec = rh.read_recording(out)
 for name, depth in (("ft_sensor", 8), ("stage", 16)):

@@ -81,7 +81,7 @@ TEST(RegisterMap, FifoPresetParses) {
   ASSERT_TRUE(m.devices[0].fifo);
   EXPECT_EQ(m.devices[0].fifo->depth, 8);
   EXPECT_EQ(m.devices[0].sample_registers(), 12);
-  ASSERT_EQ(m.devices.size(), 2u);
+  ASSERT_EQ(m.devices.size(), 3u);  // force and stage through FIFOs, spindle latest
   ASSERT_TRUE(m.devices[1].fifo);
   EXPECT_EQ(m.devices[1].fifo->depth, 16);
   EXPECT_EQ(m.devices[1].sample_registers(), 6);
