@@ -119,20 +119,7 @@ TEST(FormatsFit, CorruptedFilesOnlyEverRaiseInputError) {
   TempDir dir;
   bb::write_fit(dir / "f.json", make_fit());
   const std::string base = burrbench::test::file_bytes(dir / "f.json");
-  std::uint64_t state = 777;
-  auto next = [&] { return state = state * 6364136223846793005ull + 1442695040888963407ull, state >> 33; };
-  int rejected = 0;
-  for (int i = 0; i < 300; ++i) {
-    std::string t = base;
-    if (i % 2) t.resize(next() % t.size());
-    else for (int k = 0; k < 3; ++k) t[next() % t.size()] = char(next() % 256);
-    burrbench::test::write_text(dir / "c.json", t);
-    try {
-      bb::read_fit(dir / "c.json");
-    } catch (const burrbench::InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("c.json: "), std::string::npos);
-      ++rejected;
-    }
-  }
+  const int rejected = burrbench::test::count_rejected_corruptions(
+      base, dir / "c.json", 300, 777, 3, true, [](const auto& p) { bb::read_fit(p); });
   EXPECT_GT(rejected, 150);
 }

@@ -89,20 +89,7 @@ TEST(FormatsParams, BadValuesAndKeysAreRejected) {
 TEST(FormatsParams, CorruptedFilesOnlyEverRaiseInputError) {
   TempDir dir;
   const std::string base = kParams;
-  std::uint64_t state = 99;
-  auto next = [&] { return state = state * 6364136223846793005ull + 1442695040888963407ull, state >> 33; };
-  int rejected = 0;
-  for (int i = 0; i < 300; ++i) {
-    std::string t = base;
-    if (i % 2) t.resize(next() % t.size());
-    else for (int k = 0; k < 3; ++k) t[next() % t.size()] = char(next() % 256);
-    burrbench::test::write_text(dir / "c.toml", t);
-    try {
-      bb::read_params(dir / "c.toml");
-    } catch (const burrbench::InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("c.toml: "), std::string::npos);
-      ++rejected;
-    }
-  }
+  const int rejected = burrbench::test::count_rejected_corruptions(
+      base, dir / "c.toml", 300, 99, 3, true, [](const auto& p) { bb::read_params(p); });
   EXPECT_GT(rejected, 150);
 }

@@ -230,19 +230,7 @@ TEST(FormatsRecording, CorruptedFilesOnlyEverRaiseInputError) {
   TempDir dir;
   bb::write_recording(dir / "r.h5", make_recording({}));
   const std::string base = burrbench::test::file_bytes(dir / "r.h5");
-  std::uint64_t state = 31337;
-  auto next = [&] { return state = state * 6364136223846793005ull + 1442695040888963407ull, state >> 33; };
-  int rejected = 0;
-  for (int i = 0; i < 300; ++i) {
-    std::string t = base;
-    for (int k = 0; k < 4; ++k) t[next() % t.size()] = char(next() % 256);
-    burrbench::test::write_text(dir / "c.h5", t);
-    try {
-      bb::read_recording(dir / "c.h5");
-    } catch (const burrbench::InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("c.h5: "), std::string::npos);
-      ++rejected;
-    }
-  }
+  const int rejected = burrbench::test::count_rejected_corruptions(
+      base, dir / "c.h5", 300, 31337, 4, false, [](const auto& p) { bb::read_recording(p); });
   EXPECT_GT(rejected, 100);
 }

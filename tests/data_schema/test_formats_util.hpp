@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -41,6 +42,31 @@ inline std::string file_bytes(const std::filesystem::path& p) {
 
 inline void write_text(const std::filesystem::path& p, const std::string& text) {
   std::ofstream(p, std::ios::binary) << text;
+}
+
+// Deterministic corruptions of a file's bytes, each written to `corrupt` and handed to
+// `read`: `bytes` bytes overwritten, or (with truncate_odd) every other one truncated.
+// Only an InputError naming the corrupt file may come out; returns how many were rejected.
+inline int count_rejected_corruptions(const std::string& base, const std::filesystem::path& corrupt, int n,
+                                      std::uint64_t seed, int bytes, bool truncate_odd,
+                                      const std::function<void(const std::filesystem::path&)>& read) {
+  std::uint64_t state = seed;
+  auto next = [&] { return state = state * 6364136223846793005ull + 1442695040888963407ull, state >> 33; };
+  const std::string name = corrupt.filename().string() + ": ";
+  int rejected = 0;
+  for (int i = 0; i < n; ++i) {
+    std::string t = base;
+    if (truncate_odd && i % 2) t.resize(next() % t.size());
+    else for (int k = 0; k < bytes; ++k) t[next() % t.size()] = char(next() % 256);
+    write_text(corrupt, t);
+    try {
+      read(corrupt);
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+      ++rejected;
+    }
+  }
+  return rejected;
 }
 
 // Runs f; expects an InputError whose message contains every fragment.

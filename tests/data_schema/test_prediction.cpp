@@ -313,22 +313,8 @@ TEST(FormatsPrediction, CorruptedFilesOnlyEverRaiseInputError) {
   TempDir dir;
   bb::write_prediction(dir / "p.h5", make_prediction({}));
   const std::string base = burrbench::test::file_bytes(dir / "p.h5");
-  std::uint64_t state = 4242;
-  auto next = [&] {
-    return state = state * 6364136223846793005ull + 1442695040888963407ull, state >> 33;
-  };
-  int rejected = 0;
-  for (int i = 0; i < 200; ++i) {
-    std::string t = base;
-    for (int k = 0; k < 4; ++k) t[next() % t.size()] = char(next() % 256);
-    burrbench::test::write_text(dir / "c.h5", t);
-    try {
-      bb::read_prediction(dir / "c.h5");
-    } catch (const burrbench::InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("c.h5: "), std::string::npos);
-      ++rejected;
-    }
-  }
+  const int rejected = burrbench::test::count_rejected_corruptions(
+      base, dir / "c.h5", 200, 4242, 4, false, [](const auto& p) { bb::read_prediction(p); });
   EXPECT_GT(rejected, 60);
 }
 
