@@ -172,18 +172,7 @@ ImageVolume parse_metaimage(std::string_view bytes, const std::string& file, con
 }
 
 ImageVolume read_metaimage(const std::filesystem::path& path, const ImportLimits& lim) {
-  const std::string bytes = read_file_limited(path, lim.max_bytes + (1u << 20));
-  const auto dir = path.parent_path();
-  std::vector<std::filesystem::path> files{path};
-  DataFileReader reader = [&](const std::string& name) {
-    std::filesystem::path p(name);
-    if (p.is_relative()) p = dir / p;
-    files.push_back(p);
-    return read_file_limited(p, lim.max_bytes + (1u << 20));
-  };
-  ImageVolume v = parse_metaimage(bytes, path.string(), reader, lim);
-  v.files = std::move(files);
-  return v;
+  return detail::read_header_and_data(path, lim, parse_metaimage);
 }
 
 }  // namespace burrbench::data_schema::import

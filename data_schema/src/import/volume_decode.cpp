@@ -82,6 +82,23 @@ std::string read_file_limited(const std::filesystem::path& p, std::size_t max_by
   return s;
 }
 
+ImageVolume read_header_and_data(const std::filesystem::path& path, const ImportLimits& lim, HeaderParser parse) {
+  // The attached data may reach the budget; allow header slack.
+  const std::size_t max_bytes = lim.max_bytes + (1u << 20);
+  const std::string bytes = read_file_limited(path, max_bytes);
+  const auto dir = path.parent_path();
+  std::vector<std::filesystem::path> files{path};
+  const DataFileReader reader = [&](const std::string& name) {
+    std::filesystem::path p(name);
+    if (p.is_relative()) p = dir / p;
+    files.push_back(p);
+    return read_file_limited(p, max_bytes);
+  };
+  ImageVolume v = parse(bytes, path.string(), reader, lim);
+  v.files = std::move(files);
+  return v;
+}
+
 std::string inflate_exact(std::string_view compressed, std::size_t expected, const std::string& file) {
   std::string out(expected, '\0');
   z_stream zs{};

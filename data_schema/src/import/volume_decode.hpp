@@ -21,6 +21,13 @@ std::size_t checked_voxel_count(const std::array<std::size_t, 3>& dims, VoxelTyp
 // Whole file, refused when larger than max_bytes (InputError naming the file).
 std::string read_file_limited(const std::filesystem::path& p, std::size_t max_bytes);
 
+// Reads a header file (within the budget plus 1 MiB of header slack) and parses it with
+// a reader for the detached data files it names (relative to the header's folder, same
+// budget); the volume lists every file read. The NRRD and MetaImage `read_*` entry points.
+using HeaderParser = ImageVolume (*)(std::string_view bytes, const std::string& file_for_messages,
+                                     const DataFileReader& data_file, const ImportLimits& lim);
+ImageVolume read_header_and_data(const std::filesystem::path& path, const ImportLimits& lim, HeaderParser parse);
+
 // Inflates a gzip or zlib stream (auto-detected) into exactly `expected` bytes; a stream
 // that ends early or is corrupt → InputError naming the file.
 std::string inflate_exact(std::string_view compressed, std::size_t expected,
