@@ -90,6 +90,9 @@ void run(const Options& o) {
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  // A file-size limit (ulimit -f) must surface as a failed journal write, which stops the
+  // acquisition loudly and keeps the journal, not as a signal that kills the process.
+  signal(SIGXFSZ, SIG_IGN);
 
   rig::Session session(map, journal, rig::to_json(h).dump());
   std::cerr << fmt::format("acquiring {} device(s) into journal {} (Ctrl-C stops)\n", map.devices.size(), journal.string());

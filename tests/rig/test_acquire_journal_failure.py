@@ -1,0 +1,42 @@
+"""A journal that cannot be written stops the acquisition loudly (never retried, never
+silent), keeps the journal, and `recover` rebuilds everything synced before the failure.
+The failure is real: the file-size limit (RLIMIT_FSIZE) makes the kernel refuse the write."""
+import os
+import resource
+import subprocess
+
+import numpy as np
+
+import rig_helpers as rh
+from virtual_helpers import start_virtual_rig
+
+LIMIT_BYTES = 150_000  # a few seconds of journal at 500 polls/s
+
+
+def limit_file_size():
+    resource.setrlimit(resource.RLIMIT_FSIZE, (LIMIT_BYTES, LIMIT_BYTES))
+
+
+def test_write_failure_stops_loudly_and_the_journal_recovers(tmp_path):
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "100"]) as (proc, host, port):
+        body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 500, rh.FT_CHANNELS, counter=220, timeout_ms=1000)
+        rig_map = rh.write_map(tmp_path, body)
+        out = os.path.join(str(tmp_path), "r.h5")
+        journal = out + ".journal"
+        p = subprocess.run([rh.BURRBENCH, "acquire", "--rig", rig_map, "--out", out, "--duration", "60"],
+                           capture_output=True, text=True, timeout=50, preexec_fn=limit_file_size)
+    # Stopped at the failure, not at the end of the 60 s, with the reason and what to do.
+    assert p.returncode == 3, (p.returncode, p.stderr)
+    assert "ACQUISITION STOPPED" in p.stderr and "write failed" in p.stderr, p.stderr
+    assert "File too large" in p.stderr and journal in p.stderr and "recover" in p.stderr, p.stderr
+    assert not os.path.exists(out)
+    assert 0 < os.path.getsize(journal) <= LIMIT_BYTES
+    rec_path = os.path.join(str(tmp_path), "recovered.h5")
+    r = rh.run(["recover", journal, "--out", rec_path])
+    assert r.returncode == 0, r.stdout + r.stderr
+    rec = rh.read_recording(rec_path)
+    ft = rec["ft_sensor"]
+    assert ft["t_ns"].size > 300  # about a second of polls or more reached the disk
+    rh.assert_ramp_exact(ft)
+    assert np.all(np.diff(ft["t_ns"]) > 0)
+    rh.assert_losses_recorded(rec, "ft_sensor")  # up to the failure, nothing missing silently
