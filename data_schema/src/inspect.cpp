@@ -209,7 +209,7 @@ FileFormat detect_format(const std::filesystem::path& path) {
   }
   toml::table t;
   try {
-    t = detail::parse_toml_file(path);
+    t = parse_toml_file(path);
   } catch (const InputError& e) {
     throw InputError(file, "<file>", "an HDF5, TOML or JSON burrbench file", e.what());
   }

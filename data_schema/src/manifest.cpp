@@ -201,7 +201,7 @@ void validate(const ExperimentManifest& m, const std::string& file) {
 
 namespace {
 
-ParamSpec read_param(detail::TomlView& cls, const std::string& key, bool allow_inf) {
+ParamSpec read_param(TomlView& cls, const std::string& key, bool allow_inf) {
   auto t = cls.table(key);
   ParamSpec p;
   p.initial = allow_inf ? t.num_or_inf("initial") : t.num("initial");
@@ -218,7 +218,7 @@ ParamSpec read_param(detail::TomlView& cls, const std::string& key, bool allow_i
 }
 
 template <class E>
-E choice(detail::TomlView& v, const std::string& key, std::initializer_list<std::pair<const char*, E>> opts, E dflt) {
+E choice(TomlView& v, const std::string& key, std::initializer_list<std::pair<const char*, E>> opts, E dflt) {
   const auto s = v.opt_str(key);
   if (!s) return dflt;
   std::string list;
@@ -259,17 +259,17 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
 }  // namespace
 
 ExperimentManifest read_manifest(const std::filesystem::path& path) {
-  return parse_manifest_table(detail::parse_toml_file(path), path);
+  return parse_manifest_table(parse_toml_file(path), path);
 }
 
 ExperimentManifest parse_manifest(std::string_view toml_text, const std::filesystem::path& as_path) {
-  return parse_manifest_table(detail::parse_toml_text(toml_text, as_path.string()), as_path);
+  return parse_manifest_table(parse_toml_text(toml_text, as_path.string()), as_path);
 }
 
 namespace {
 ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesystem::path& path) {
   const std::string file = path.string();
-  detail::TomlView root(t, file, "");
+  TomlView root(t, file, "");
   detail::check_format(file, "format", root.str("format"), kManifestFormat);
   detail::check_version(file, "format_version", root.str("format_version"), kManifestVersionMajor);
   ExperimentManifest m;

@@ -65,8 +65,8 @@ void write_params(const std::filesystem::path& path, const ParameterSet& p) {
 
 ParameterSet read_params(const std::filesystem::path& path) {
   const std::string file = path.string();
-  const toml::table t = detail::parse_toml_file(path);
-  detail::TomlView root(t, file, "");
+  const toml::table t = parse_toml_file(path);
+  TomlView root(t, file, "");
   detail::check_format(file, "format", root.str("format"), kParamsFormat);
   detail::check_version(file, "format_version", root.str("format_version"), kParamsVersionMajor);
   ParameterSet p;

@@ -1,7 +1,7 @@
 #include "burrbench/rig/register_map.hpp"
 
 #include <cctype>
-#include <cmath>
+#include <algorithm>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -11,6 +11,7 @@
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/toml_input.hpp"
+#include "burrbench/data_schema/toml_view.hpp"
 
 namespace burrbench::rig {
 
@@ -39,83 +40,9 @@ const char* to_string(WordOrder o) {
 
 namespace {
 
+using data_schema::TomlView;
+
 constexpr int kMaxReadRegisters = 125;  // Modbus limit for one read request
-
-// Reads one table with a known key set; every error names file and dotted field.
-class Reader {
- public:
-  Reader(const toml::table& t, std::string path, const std::string& file)
-      : t_(t), path_(std::move(path)), file_(file) {}
-
-  std::string field(std::string_view key) const {
-    return path_.empty() ? std::string(key) : fmt::format("{}.{}", path_, key);
-  }
-  [[noreturn]] void fail(std::string_view key, const std::string& expected,
-                         const std::string& got = {}) const {
-    throw InputError(file_, field(key), expected, got);
-  }
-  void allow(std::initializer_list<std::string_view> keys) const {
-    const std::set<std::string_view> ok(keys);
-    for (const auto& [k, v] : t_) {
-      if (!ok.count(k.str())) fail(k.str(), "a known key (see docs/rig.md)", "unknown key");
-    }
-  }
-  bool has(std::string_view key) const { return t_.contains(key); }
-  const toml::node* node(std::string_view key) const { return t_.get(key); }
-
-  std::string str(std::string_view key, std::optional<std::string> def = {}) const {
-    const auto* n = t_.get(key);
-    if (!n) {
-      if (def) return *def;
-      fail(key, "a string", "missing");
-    }
-    if (auto s = n->value<std::string>(); s && n->is_string()) return *s;
-    fail(key, "a string", std::string(toml::impl::node_type_friendly_names[static_cast<int>(n->type())]));
-  }
-  double num(std::string_view key, std::optional<double> def = {}) const {
-    const auto* n = t_.get(key);
-    if (!n) {
-      if (def) return *def;
-      fail(key, "a number", "missing");
-    }
-    if (n->is_integer()) return static_cast<double>(*n->value<std::int64_t>());
-    if (n->is_floating_point()) {
-      const double v = *n->value<double>();
-      if (!std::isfinite(v)) fail(key, "a finite number", fmt::format("{}", v));
-      return v;
-    }
-    fail(key, "a number");
-  }
-  int integer(std::string_view key, std::int64_t lo, std::int64_t hi,
-              std::optional<int> def = {}) const {
-    const auto* n = t_.get(key);
-    if (!n) {
-      if (def) return *def;
-      fail(key, fmt::format("an integer in [{}, {}]", lo, hi), "missing");
-    }
-    if (!n->is_integer()) fail(key, fmt::format("an integer in [{}, {}]", lo, hi));
-    const auto v = *n->value<std::int64_t>();
-    if (v < lo || v > hi) fail(key, fmt::format("an integer in [{}, {}]", lo, hi), std::to_string(v));
-    return static_cast<int>(v);
-  }
-  const toml::table& table(std::string_view key) const {
-    const auto* n = t_.get(key);
-    if (!n || !n->is_table()) fail(key, "a table", n ? "another type" : "missing");
-    return *n->as_table();
-  }
-  const toml::array& array(std::string_view key) const {
-    const auto* n = t_.get(key);
-    if (!n || !n->is_array()) fail(key, "an array", n ? "another type" : "missing");
-    return *n->as_array();
-  }
-  const std::string& path() const { return path_; }
-  const std::string& file() const { return file_; }
-
- private:
-  const toml::table& t_;
-  std::string path_;
-  const std::string& file_;
-};
 
 // Safety: refuse any key or value that mentions writing, anywhere in the document.
 void refuse_writes(const toml::node& n, const std::string& path, const std::string& file) {
@@ -138,8 +65,8 @@ void refuse_writes(const toml::node& n, const std::string& path, const std::stri
   }
 }
 
-ValueType parse_type(const Reader& r, std::string_view key, std::optional<std::string> def = {}) {
-  const auto s = r.str(key, def);
+ValueType parse_type(const TomlView& r, std::string_view key, std::optional<std::string> def = {}) {
+  const auto s = def ? r.str_or(key, *def) : r.str(key);
   if (s == "int16") return ValueType::Int16;
   if (s == "uint16") return ValueType::UInt16;
   if (s == "int32") return ValueType::Int32;
@@ -148,8 +75,8 @@ ValueType parse_type(const Reader& r, std::string_view key, std::optional<std::s
   r.fail(key, "int16, uint16, int32, uint32 or float32", "\"" + s + "\"");
 }
 
-WordOrder parse_order(const Reader& r, std::string_view key) {
-  const auto s = r.str(key, std::string("ABCD"));
+WordOrder parse_order(const TomlView& r, std::string_view key) {
+  const auto s = r.str_or(key, "ABCD");
   if (s == "ABCD") return WordOrder::ABCD;
   if (s == "CDAB") return WordOrder::CDAB;
   if (s == "BADC") return WordOrder::BADC;
@@ -157,17 +84,17 @@ WordOrder parse_order(const Reader& r, std::string_view key) {
   r.fail(key, "ABCD, CDAB, BADC or DCBA", "\"" + s + "\"");
 }
 
-Field parse_field(const Reader& r, bool integer_only) {
+Field parse_field(const TomlView& r, bool integer_only) {
   r.allow({"register", "type", "word_order"});
   Field f;
-  f.address = r.integer("register", 0, 65535);
+  f.address = static_cast<int>(r.integer("register", 0, 65535));
   f.type = parse_type(r, "type", std::string("uint32"));
   if (integer_only && f.type == ValueType::Float32) r.fail("type", "an integer type for a counter", "float32");
   f.order = parse_order(r, "word_order");
   return f;
 }
 
-ChannelSpec parse_channel(const Reader& r) {
+ChannelSpec parse_channel(const TomlView& r) {
   r.allow({"name", "unit", "type", "word_order", "registers", "scale", "offset", "min", "max",
            "negate_if_register"});
   ChannelSpec c;
@@ -177,31 +104,24 @@ ChannelSpec parse_channel(const Reader& r) {
   if (c.unit.empty()) r.fail("unit", "a unit (\"N\", \"N*mm\", \"mm\", \"rpm\", \"1\" for none, ...)", "\"\"");
   c.type = parse_type(r, "type");
   c.order = parse_order(r, "word_order");
-  const auto& regs = r.array("registers");
-  if (regs.empty() || regs.size() > 64) r.fail("registers", "1 to 64 register addresses", std::to_string(regs.size()));
-  for (std::size_t i = 0; i < regs.size(); ++i) {
-    const auto* n = regs.get(i);
-    if (!n->is_integer() || *n->value<std::int64_t>() < 0 || *n->value<std::int64_t>() > 65535)
-      r.fail(fmt::format("registers[{}]", i), "an integer address in [0, 65535]");
-    c.registers.push_back(static_cast<int>(*n->value<std::int64_t>()));
-  }
-  c.scale = r.num("scale", 1.0);
+  for (const auto a : r.integers("registers", 0, 65535, 64)) c.registers.push_back(static_cast<int>(a));
+  c.scale = r.num_or("scale", 1.0);
   if (c.scale == 0.0) r.fail("scale", "a non-zero number", "0");
-  c.offset = r.num("offset", 0.0);
+  c.offset = r.num_or("offset", 0.0);
   if (r.has("min")) c.min = r.num("min");
   if (r.has("max")) c.max = r.num("max");
   if (c.min && c.max && *c.min > *c.max) r.fail("max", fmt::format("≥ min ({})", *c.min), fmt::format("{}", *c.max));
-  if (r.has("negate_if_register")) c.negate_if_register = r.integer("negate_if_register", 0, 65535);
+  if (r.has("negate_if_register")) c.negate_if_register = static_cast<int>(r.integer("negate_if_register", 0, 65535));
   return c;
 }
 
-void check_inside(const Reader& r, const std::string& what, int addr, int n, int lo, int count) {
+void check_inside(const TomlView& r, const std::string& what, int addr, int n, int lo, int count) {
   if (addr < lo || addr + n > lo + count)
     r.fail(what, fmt::format("registers inside [{}, {})", lo, lo + count),
            fmt::format("[{}, {})", addr, addr + n));
 }
 
-DeviceSpec parse_device(const Reader& r) {
+DeviceSpec parse_device(const TomlView& r) {
   r.allow({"name", "transport", "host", "port", "serial", "baud", "parity", "data_bits", "stop_bits",
            "slave", "rate_hz", "timeout_ms", "late_reply_ms", "mode", "function", "start", "count", "counter", "fifo",
            "calibration", "channels"});
@@ -213,20 +133,20 @@ DeviceSpec parse_device(const Reader& r) {
   if (transport == "tcp") {
     d.transport = Transport::Tcp;
     d.host = r.str("host");
-    d.port = r.integer("port", 1, 65535, 502);
-    d.slave = r.integer("slave", 0, 255, 1);
+    d.port = static_cast<int>(r.integer_or("port", 1, 65535, 502));
+    d.slave = static_cast<int>(r.integer_or("slave", 0, 255, 1));
     for (auto k : {"serial", "baud", "parity", "data_bits", "stop_bits"})
       if (r.has(k)) r.fail(k, "no serial settings on a tcp device", "present");
   } else if (transport == "rtu") {
     d.transport = Transport::Rtu;
     d.serial = r.str("serial");
-    d.baud = r.integer("baud", 300, 4000000, 19200);
-    const auto parity = r.str("parity", std::string("N"));
+    d.baud = static_cast<int>(r.integer_or("baud", 300, 4000000, 19200));
+    const auto parity = r.str_or("parity", "N");
     if (parity != "N" && parity != "E" && parity != "O") r.fail("parity", "N, E or O", "\"" + parity + "\"");
     d.parity = parity[0];
-    d.data_bits = r.integer("data_bits", 7, 8, 8);
-    d.stop_bits = r.integer("stop_bits", 1, 2, 1);
-    d.slave = r.integer("slave", 1, 247);
+    d.data_bits = static_cast<int>(r.integer_or("data_bits", 7, 8, 8));
+    d.stop_bits = static_cast<int>(r.integer_or("stop_bits", 1, 2, 1));
+    d.slave = static_cast<int>(r.integer("slave", 1, 247));
     for (auto k : {"host", "port"})
       if (r.has(k)) r.fail(k, "no network settings on an rtu device", "present");
   } else {
@@ -234,43 +154,43 @@ DeviceSpec parse_device(const Reader& r) {
   }
   d.rate_hz = r.num("rate_hz");
   if (!(d.rate_hz > 0 && d.rate_hz <= 100000)) r.fail("rate_hz", "a rate in (0, 100000] Hz", fmt::format("{}", d.rate_hz));
-  d.timeout_ms = r.num("timeout_ms", 100.0);
+  d.timeout_ms = r.num_or("timeout_ms", 100.0);
   if (!(d.timeout_ms >= 1 && d.timeout_ms <= 10000)) r.fail("timeout_ms", "a timeout in [1, 10000] ms", fmt::format("{}", d.timeout_ms));
   // RTU has no transaction id: a reply that comes after we gave up would pass for the
   // answer to the next request, so after a timeout the bus is left quiet until then.
-  d.late_reply_ms = r.num("late_reply_ms", 3 * d.timeout_ms);
+  d.late_reply_ms = r.num_or("late_reply_ms", 3 * d.timeout_ms);
   if (d.transport != Transport::Rtu && r.has("late_reply_ms")) r.fail("late_reply_ms", "no late_reply_ms on a tcp device", "present");
   if (!(d.late_reply_ms >= d.timeout_ms && d.late_reply_ms <= 60000))
     r.fail("late_reply_ms", fmt::format("a time in [timeout_ms = {}, 60000] ms", d.timeout_ms), fmt::format("{}", d.late_reply_ms));
-  const auto function = r.str("function", std::string("holding"));
+  const auto function = r.str_or("function", "holding");
   if (function == "holding") d.function = 3;
   else if (function == "input") d.function = 4;
   else r.fail("function", "\"holding\" or \"input\" (reads only)", "\"" + function + "\"");
-  d.start = r.integer("start", 0, 65535);
-  d.count = r.integer("count", 1, kMaxReadRegisters);
+  d.start = static_cast<int>(r.integer("start", 0, 65535));
+  d.count = static_cast<int>(r.integer("count", 1, kMaxReadRegisters));
   if (d.start + d.count > 65536) r.fail("count", "a block ending at or before address 65535");
-  const auto mode = r.str("mode", std::string("latest"));
+  const auto mode = r.str_or("mode", "latest");
   if (mode == "latest") d.mode = Mode::Latest;
   else if (mode == "fifo") d.mode = Mode::Fifo;
   else r.fail("mode", "\"latest\" or \"fifo\"", "\"" + mode + "\"");
 
   if (r.has("counter")) {
-    Reader cr(r.table("counter"), r.field("counter"), r.file());
+    const TomlView cr = r.table("counter");
     d.counter = parse_field(cr, true);
     check_inside(cr, "register", d.counter->address, register_count(d.counter->type), d.start, d.count);
   }
   if (d.mode == Mode::Fifo) {
     if (!r.has("fifo")) r.fail("fifo", "a fifo table for mode = \"fifo\"", "missing");
     if (d.counter) r.fail("counter", "no separate counter in fifo mode (fifo.counter is used)", "present");
-    Reader fr(r.table("fifo"), r.field("fifo"), r.file());
+    const TomlView fr = r.table("fifo");
     fr.allow({"counter", "first_register", "depth", "record_registers", "device_rate_hz"});
     FifoSpec f;
-    Reader fcr(fr.table("counter"), fr.field("counter"), r.file());
+    const TomlView fcr = fr.table("counter");
     f.counter = parse_field(fcr, true);
     check_inside(fcr, "register", f.counter.address, register_count(f.counter.type), d.start, d.count);
-    f.first_register = fr.integer("first_register", 0, 65535);
-    f.depth = fr.integer("depth", 1, kMaxReadRegisters);
-    f.record_registers = fr.integer("record_registers", 1, kMaxReadRegisters);
+    f.first_register = static_cast<int>(fr.integer("first_register", 0, 65535));
+    f.depth = static_cast<int>(fr.integer("depth", 1, kMaxReadRegisters));
+    f.record_registers = static_cast<int>(fr.integer("record_registers", 1, kMaxReadRegisters));
     f.device_rate_hz = fr.num("device_rate_hz");
     if (!(f.device_rate_hz > 0 && f.device_rate_hz <= 100000))
       fr.fail("device_rate_hz", "a rate in (0, 100000] Hz", fmt::format("{}", f.device_rate_hz));
@@ -284,16 +204,12 @@ DeviceSpec parse_device(const Reader& r) {
     r.fail("fifo", "no fifo table unless mode = \"fifo\"", "present");
   }
 
-  const auto& chans = r.array("channels");
+  const auto chans = r.tables("channels");
   if (chans.empty()) r.fail("channels", "at least one channel", "none");
   std::set<std::string> names;
   const int base = d.mode == Mode::Fifo ? 0 : d.start;
   const int span = d.mode == Mode::Fifo ? d.fifo->record_registers : d.count;
-  for (std::size_t i = 0; i < chans.size(); ++i) {
-    const auto* t = chans.get(i)->as_table();
-    const std::string path = fmt::format("{}[{}]", r.field("channels"), i);
-    if (!t) throw InputError(r.file(), path, "a table");
-    Reader cr(*t, path, r.file());
+  for (const auto& cr : chans) {
     auto c = parse_channel(cr);
     if (!names.insert(c.name).second) cr.fail("name", "a name unique within the device", "\"" + c.name + "\"");
     for (std::size_t k = 0; k < c.registers.size(); ++k)
@@ -302,7 +218,7 @@ DeviceSpec parse_device(const Reader& r) {
     d.channels.push_back(std::move(c));
   }
   if (r.has("calibration")) {
-    Reader cr(r.table("calibration"), r.field("calibration"), r.file());
+    const TomlView cr = r.table("calibration");
     cr.allow({"input", "matrix"});
     CalibrationSpec cal;
     cal.input = cr.str("input");
@@ -312,19 +228,8 @@ DeviceSpec parse_device(const Reader& r) {
     if (!in || in->registers.size() != 6) cr.fail("input", "the name of a 6-column channel of this device", "\"" + cal.input + "\"");
     for (const char* out : {"force_N", "torque_Nmm"})
       if (names.count(out)) cr.fail("input", fmt::format("no channel named {} beside a calibration (it is computed)", out), "present");
-    const auto& rows = cr.array("matrix");
-    if (rows.size() != 6) cr.fail("matrix", "6 rows of 6 numbers", fmt::format("{} rows", rows.size()));
-    for (std::size_t i = 0; i < 6; ++i) {
-      const auto* row = rows.get(i)->as_array();
-      if (!row || row->size() != 6) cr.fail(fmt::format("matrix[{}]", i), "6 numbers");
-      for (std::size_t j = 0; j < 6; ++j) {
-        const auto* v = row->get(j);
-        if (!v->is_number()) cr.fail(fmt::format("matrix[{}][{}]", i, j), "a number");
-        const double x = v->is_integer() ? static_cast<double>(*v->value<std::int64_t>()) : *v->value<double>();
-        if (!std::isfinite(x)) cr.fail(fmt::format("matrix[{}][{}]", i, j), "a finite number");
-        cal.matrix[i * 6 + j] = x;
-      }
-    }
+    const auto rows = cr.number_rows("matrix", 6, 6);
+    std::copy(rows.begin(), rows.end(), cal.matrix.begin());
     d.calibration = cal;
   }
   return d;
@@ -335,7 +240,7 @@ DeviceSpec parse_device(const Reader& r) {
 RigMap parse_rig_map(std::string_view text, const std::string& file) {
   const toml::table root = data_schema::parse_toml_text(text, file);
   refuse_writes(root, "", file);
-  Reader r(root, "", file);
+  const TomlView r(root, file, "", "docs/rig.md");
   r.allow({"format", "format_version", "rig_id", "sensor_model", "sensor_serial",
            "sensor_calibration_date", "devices"});
   if (r.str("format") != "burrbench.rig") r.fail("format", "\"burrbench.rig\"", "\"" + r.str("format") + "\"");
@@ -344,18 +249,16 @@ RigMap parse_rig_map(std::string_view text, const std::string& file) {
   RigMap m;
   m.file = file;
   m.source_toml = std::string(text);
-  m.rig_id = r.str("rig_id", std::string());
-  m.sensor_model = r.str("sensor_model", std::string());
-  m.sensor_serial = r.str("sensor_serial", std::string());
-  m.sensor_calibration_date = r.str("sensor_calibration_date", std::string());
-  const auto& devs = r.array("devices");
+  m.rig_id = r.str_or("rig_id", "");
+  m.sensor_model = r.str_or("sensor_model", "");
+  m.sensor_serial = r.str_or("sensor_serial", "");
+  m.sensor_calibration_date = r.str_or("sensor_calibration_date", "");
+  const auto devs = r.tables("devices");
   if (devs.empty() || devs.size() > 64) r.fail("devices", "1 to 64 devices", std::to_string(devs.size()));
   std::set<std::string> names;
   for (std::size_t i = 0; i < devs.size(); ++i) {
-    const auto* t = devs.get(i)->as_table();
-    const std::string path = fmt::format("devices[{}]", i);
-    if (!t) throw InputError(file, path, "a table");
-    auto d = parse_device(Reader(*t, path, file));
+    const std::string& path = devs[i].path();
+    auto d = parse_device(devs[i]);
     if (!names.insert(d.name).second) throw InputError(file, path + ".name", "a unique device name", "\"" + d.name + "\"");
     // Devices on one RS-485 bus share its line settings.
     for (const auto& o : m.devices) {

@@ -83,7 +83,7 @@ struct CsvLayout {
 
 CsvLayout parse_map(std::string_view text, const std::string& file) {
   const toml::table t = parse_toml_text(text, file);
-  data_schema::detail::TomlView v(t, file, "");
+  TomlView v(t, file, "");
   if (v.str("format") != kCsvMapFormat) throw InputError(file, "format", fmt::format("\"{}\"", kCsvMapFormat));
   const std::string ver = v.str("format_version");
   if (ver.rfind("1.", 0) != 0) throw InputError(file, "format_version", "1.x", "\"" + ver + "\"");
