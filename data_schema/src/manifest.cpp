@@ -201,7 +201,7 @@ void validate(const ExperimentManifest& m, const std::string& file) {
 
 namespace {
 
-ParamSpec read_param(TomlView& cls, const std::string& key, bool allow_inf) {
+ParamSpec read_param(const TomlView& cls, const std::string& key, bool allow_inf) {
   auto t = cls.table(key);
   ParamSpec p;
   p.initial = allow_inf ? t.num_or_inf("initial") : t.num("initial");
@@ -218,7 +218,7 @@ ParamSpec read_param(TomlView& cls, const std::string& key, bool allow_inf) {
 }
 
 template <class E>
-E choice(TomlView& v, const std::string& key, std::initializer_list<std::pair<const char*, E>> opts, E dflt) {
+E choice(const TomlView& v, const std::string& key, std::initializer_list<std::pair<const char*, E>> opts, E dflt) {
   const auto s = v.opt_str(key);
   if (!s) return dflt;
   std::string list;
