@@ -138,13 +138,19 @@ std::optional<bool> TomlView::opt_boolean(std::string_view key) const {
   return boolean(key);
 }
 
-glm::dvec3 TomlView::vec3(std::string_view key) const {
-  const toml::node* n = get(key, "an array of 3 numbers");
+std::vector<double> TomlView::numbers(std::string_view key, std::size_t count) const {
+  const std::string expected = fmt::format("an array of {} numbers", count);
+  const toml::node* n = get(key, expected);
   const toml::array* a = n->as_array();
-  if (!a || a->size() != 3) fail(key, "an array of 3 numbers", a ? fmt::format("{} elements", a->size()) : kind(*n));
-  glm::dvec3 v;
-  for (int i = 0; i < 3; ++i) v[i] = number_node(*a->get(std::size_t(i)), fmt::format("{}[{}]", field(key), i), false);
+  if (!a || a->size() != count) fail(key, expected, a ? fmt::format("{} elements", a->size()) : kind(*n));
+  std::vector<double> v;
+  for (std::size_t i = 0; i < count; ++i) v.push_back(number_node(*a->get(i), fmt::format("{}[{}]", field(key), i), false));
   return v;
+}
+
+glm::dvec3 TomlView::vec3(std::string_view key) const {
+  const auto v = numbers(key, 3);
+  return {v[0], v[1], v[2]};
 }
 
 std::vector<double> TomlView::number_rows(std::string_view key, std::size_t rows, std::size_t cols) const {

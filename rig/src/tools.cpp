@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -13,6 +14,8 @@
 #include <toml++/toml.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/toml_input.hpp"
+#include "burrbench/data_schema/toml_view.hpp"
 #include "burrbench/rig/decode.hpp"
 #include "burrbench/rig/modbus_link.hpp"
 
@@ -166,28 +169,20 @@ void write_tare(const std::filesystem::path& path, const Tare& t) {
 
 Tare read_tare(const std::filesystem::path& path) {
   const std::string file = path.string();
-  toml::table root;
-  try {
-    root = toml::parse_file(file);
-  } catch (const toml::parse_error& e) {
-    throw InputError(file, "(file)", "a TOML tare file", std::string(e.description()));
-  }
-  if (root["format"].value_or(std::string()) != "burrbench.tare") throw InputError(file, "format", "\"burrbench.tare\"");
+  const toml::table root = data_schema::parse_toml_file(path);
+  const data_schema::TomlView v(root, file, "", "docs/rig.md");
+  if (v.str("format") != "burrbench.tare") v.fail("format", "\"burrbench.tare\"", "\"" + v.str("format") + "\"");
+  const auto version = v.str_or("format_version", "1.0");
+  if (version.rfind("1.", 0) != 0) v.fail("format_version", "1.x", "\"" + version + "\"");
   Tare t;
-  t.device = root["device"].value_or(std::string());
-  const auto* bias = root["bias"].as_array();
-  if (!bias || bias->size() != 6) throw InputError(file, "bias", "6 numbers");
-  for (const auto& v : *bias) {
-    const auto x = v.value<double>();
-    if (!x || !std::isfinite(*x)) throw InputError(file, "bias", "finite numbers");
-    t.bias.push_back(*x);
-  }
-  const auto tn = root["t_monotonic_ns"].value<std::int64_t>();
-  if (!tn) throw InputError(file, "t_monotonic_ns", "an integer");
-  t.t_ns = *tn;
-  t.wall_ns = root["t_wall_ns"].value_or(std::int64_t{0});
-  t.samples = static_cast<std::size_t>(root["samples"].value_or(std::int64_t{0}));
-  t.rig_sha256 = root["rig_sha256"].value_or(std::string());
+  t.device = v.str_or("device", "");
+  t.bias = v.numbers("bias", 6);
+  if (v.has("stddev")) t.stddev = v.numbers("stddev", 6);
+  t.t_ns = v.integer("t_monotonic_ns");
+  t.wall_ns = v.has("t_wall_ns") ? v.integer("t_wall_ns") : 0;
+  t.samples = static_cast<std::size_t>(v.integer_or("samples", 0, std::numeric_limits<std::int64_t>::max(), 0));
+  t.rig_sha256 = v.str_or("rig_sha256", "");
+  v.done();
   return t;
 }
 

@@ -56,6 +56,7 @@ class TomlView {
   bool boolean(std::string_view key) const;
   std::optional<bool> opt_boolean(std::string_view key) const;
 
+  std::vector<double> numbers(std::string_view key, std::size_t count) const;  // exactly `count`, finite
   glm::dvec3 vec3(std::string_view key) const;
   glm::dmat3 mat3_rows(std::string_view key) const;  // [[r0],[r1],[r2]] → glm (column-major)
   std::vector<double> number_rows(std::string_view key, std::size_t rows, std::size_t cols) const;  // row-major
