@@ -1,8 +1,8 @@
 #include "burrbench/data_schema/toml_view.hpp"
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <cmath>
 
 #include "burrbench/data_schema/error.hpp"
 
@@ -12,17 +12,26 @@ namespace {
 
 std::string kind(const toml::node& n) {
   switch (n.type()) {
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    case toml::node_type::string: return "a string";
-    case toml::node_type::integer: return "an integer";
-    case toml::node_type::floating_point: return "a float";
-    case toml::node_type::boolean: return "a boolean";
-    default: return "a date/time";
+    case toml::node_type::table:
+      return "a table";
+    case toml::node_type::array:
+      return "an array";
+    case toml::node_type::string:
+      return "a string";
+    case toml::node_type::integer:
+      return "an integer";
+    case toml::node_type::floating_point:
+      return "a float";
+    case toml::node_type::boolean:
+      return "a boolean";
+    default:
+      return "a date/time";
   }
 }
 
-std::string range(std::int64_t lo, std::int64_t hi) { return fmt::format("an integer in [{}, {}]", lo, hi); }
+std::string range(std::int64_t lo, std::int64_t hi) {
+  return fmt::format("an integer in [{}, {}]", lo, hi);
+}
 
 }  // namespace
 
@@ -39,7 +48,8 @@ std::vector<std::string> TomlView::keys() const {
   return k;
 }
 
-void TomlView::fail(std::string_view key, const std::string& expected, const std::string& got) const {
+void TomlView::fail(std::string_view key, const std::string& expected,
+                    const std::string& got) const {
   throw InputError(file_, field(key), expected, got);
 }
 
@@ -52,12 +62,17 @@ const toml::node* TomlView::get(std::string_view key, const std::string& expecte
 
 double TomlView::number_node(const toml::node& n, const std::string& f, bool allow_inf) const {
   double v = 0;
-  if (auto i = n.as_integer()) v = double(i->get());
-  else if (auto d = n.as_floating_point()) v = d->get();
-  else if (auto s = n.as_string(); s && allow_inf && s->get() == "inf") v = INFINITY;
-  else throw InputError(file_, f, allow_inf ? "a number or \"inf\"" : "a number", kind(n));
+  if (auto i = n.as_integer())
+    v = double(i->get());
+  else if (auto d = n.as_floating_point())
+    v = d->get();
+  else if (auto s = n.as_string(); s && allow_inf && s->get() == "inf")
+    v = INFINITY;
+  else
+    throw InputError(file_, f, allow_inf ? "a number or \"inf\"" : "a number", kind(n));
   if (std::isnan(v) || (std::isinf(v) && !(allow_inf && v > 0)))
-    throw InputError(file_, f, allow_inf ? "a finite number or +inf" : "a finite number", fmt::format("{}", v));
+    throw InputError(file_, f, allow_inf ? "a finite number or +inf" : "a finite number",
+                     fmt::format("{}", v));
   return v;
 }
 
@@ -78,7 +93,9 @@ std::optional<std::string> TomlView::opt_str(std::string_view key) const {
   return str(key);
 }
 
-double TomlView::num(std::string_view key) const { return number_node(*get(key, "a number"), field(key), false); }
+double TomlView::num(std::string_view key) const {
+  return number_node(*get(key, "a number"), field(key), false);
+}
 
 double TomlView::num_or(std::string_view key, double def) const {
   used_.emplace(key);
@@ -121,7 +138,8 @@ std::int64_t TomlView::integer(std::string_view key, std::int64_t lo, std::int64
   return i->get();
 }
 
-std::int64_t TomlView::integer_or(std::string_view key, std::int64_t lo, std::int64_t hi, std::int64_t def) const {
+std::int64_t TomlView::integer_or(std::string_view key, std::int64_t lo, std::int64_t hi,
+                                  std::int64_t def) const {
   used_.emplace(key);
   return has(key) ? integer(key, lo, hi) : def;
 }
@@ -142,9 +160,11 @@ std::vector<double> TomlView::numbers(std::string_view key, std::size_t count) c
   const std::string expected = fmt::format("an array of {} numbers", count);
   const toml::node* n = get(key, expected);
   const toml::array* a = n->as_array();
-  if (!a || a->size() != count) fail(key, expected, a ? fmt::format("{} elements", a->size()) : kind(*n));
+  if (!a || a->size() != count)
+    fail(key, expected, a ? fmt::format("{} elements", a->size()) : kind(*n));
   std::vector<double> v;
-  for (std::size_t i = 0; i < count; ++i) v.push_back(number_node(*a->get(i), fmt::format("{}[{}]", field(key), i), false));
+  for (std::size_t i = 0; i < count; ++i)
+    v.push_back(number_node(*a->get(i), fmt::format("{}[{}]", field(key), i), false));
   return v;
 }
 
@@ -153,11 +173,13 @@ glm::dvec3 TomlView::vec3(std::string_view key) const {
   return {v[0], v[1], v[2]};
 }
 
-std::vector<double> TomlView::number_rows(std::string_view key, std::size_t rows, std::size_t cols) const {
+std::vector<double> TomlView::number_rows(std::string_view key, std::size_t rows,
+                                          std::size_t cols) const {
   const std::string expected = fmt::format("a {}×{} array of rows", rows, cols);
   const toml::node* n = get(key, expected);
   const toml::array* a = n->as_array();
-  if (!a || a->size() != rows) fail(key, expected, a ? fmt::format("{} rows", a->size()) : kind(*n));
+  if (!a || a->size() != rows)
+    fail(key, expected, a ? fmt::format("{} rows", a->size()) : kind(*n));
   std::vector<double> m;
   m.reserve(rows * cols);
   for (std::size_t r = 0; r < rows; ++r) {
@@ -166,7 +188,8 @@ std::vector<double> TomlView::number_rows(std::string_view key, std::size_t rows
     if (!row || row->size() != cols)
       throw InputError(file_, rf, fmt::format("a row of {} numbers", cols),
                        row ? fmt::format("{} elements", row->size()) : kind(*a->get(r)));
-    for (std::size_t c = 0; c < cols; ++c) m.push_back(number_node(*row->get(c), fmt::format("{}[{}]", rf, c), false));
+    for (std::size_t c = 0; c < cols; ++c)
+      m.push_back(number_node(*row->get(c), fmt::format("{}[{}]", rf, c), false));
   }
   return m;
 }
@@ -190,7 +213,8 @@ std::vector<glm::dvec3> TomlView::points(std::string_view key) const {
     const std::string pf = fmt::format("{}[{}]", field(key), i);
     if (!p || p->size() != 3) throw InputError(file_, pf, "a point [x, y, z]");
     glm::dvec3 v;
-    for (std::size_t c = 0; c < 3; ++c) v[int(c)] = number_node(*p->get(c), fmt::format("{}[{}]", pf, c), false);
+    for (std::size_t c = 0; c < 3; ++c)
+      v[int(c)] = number_node(*p->get(c), fmt::format("{}[{}]", pf, c), false);
     pts.push_back(v);
   }
   return pts;
@@ -203,7 +227,8 @@ std::vector<std::string> TomlView::strings(std::string_view key) const {
   std::vector<std::string> out;
   for (std::size_t i = 0; i < a->size(); ++i) {
     const auto* s = a->get(i)->as_string();
-    if (!s) throw InputError(file_, fmt::format("{}[{}]", field(key), i), "a string", kind(*a->get(i)));
+    if (!s)
+      throw InputError(file_, fmt::format("{}[{}]", field(key), i), "a string", kind(*a->get(i)));
     out.push_back(s->get());
   }
   return out;
@@ -215,13 +240,15 @@ std::vector<std::int64_t> TomlView::integers(std::string_view key, std::int64_t 
   const toml::node* n = get(key, expected);
   const toml::array* a = n->as_array();
   if (!a) fail(key, expected, kind(*n));
-  if (a->empty() || a->size() > max_count) fail(key, expected, fmt::format("{} elements", a->size()));
+  if (a->empty() || a->size() > max_count)
+    fail(key, expected, fmt::format("{} elements", a->size()));
   std::vector<std::int64_t> out;
   for (std::size_t i = 0; i < a->size(); ++i) {
     const std::string f = fmt::format("{}[{}]", field(key), i);
     const auto* v = a->get(i)->as_integer();
     if (!v) throw InputError(file_, f, range(lo, hi), kind(*a->get(i)));
-    if (v->get() < lo || v->get() > hi) throw InputError(file_, f, range(lo, hi), std::to_string(v->get()));
+    if (v->get() < lo || v->get() > hi)
+      throw InputError(file_, f, range(lo, hi), std::to_string(v->get()));
     out.push_back(v->get());
   }
   return out;

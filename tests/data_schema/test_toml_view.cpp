@@ -46,7 +46,8 @@ TEST(TomlView, UnknownKeyIsNamedWithItsPath) {
     root.table("burr").allow({"radius_mm"});
     FAIL() << "colour accepted";
   } catch (const InputError& e) {
-    EXPECT_STREQ(e.what(), "T.toml: burr.colour: expected a known key (see docs/rig.md), got unknown key");
+    EXPECT_STREQ(e.what(),
+                 "T.toml: burr.colour: expected a known key (see docs/rig.md), got unknown key");
   }
   EXPECT_NO_THROW(root.table("burr").allow({"radius_mm", "colour"}));
   // Every key consumed: done() accepts.
@@ -64,29 +65,38 @@ TEST(TomlView, UnknownKeyIsNamedWithItsPath) {
 
 TEST(TomlView, WrongTypeNamesExpectedAndGot) {
   const std::string doc = "a = \"1.5\"\nb = 2.5\nc = [1, 2]\nd = nan\ne = 300\nf = [1, \"x\"]\n";
-  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.num("a"); }), "T.toml: a: expected a number, got a string");
-  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.str("b"); }), "T.toml: b: expected a string, got a float");
-  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.integer("b"); }), "T.toml: b: expected an integer, got a float");
-  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.table("b"); }), "T.toml: b: expected a table, got a float");
+  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.num("a"); }),
+            "T.toml: a: expected a number, got a string");
+  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.str("b"); }),
+            "T.toml: b: expected a string, got a float");
+  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.integer("b"); }),
+            "T.toml: b: expected an integer, got a float");
+  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.table("b"); }),
+            "T.toml: b: expected a table, got a float");
   EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.vec3("c"); }),
             "T.toml: c: expected an array of 3 numbers, got 2 elements");
-  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.num("d"); }), "T.toml: d: expected a finite number, got nan");
+  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.num("d"); }),
+            "T.toml: d: expected a finite number, got nan");
   EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.integer("e", 0, 255); }),
             "T.toml: e: expected an integer in [0, 255], got 300");
-  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.positive("a"); }), "T.toml: a: expected a number, got a string");
+  EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.positive("a"); }),
+            "T.toml: a: expected a number, got a string");
   EXPECT_EQ(error_of("g = -1\n", [](const ds::TomlView& v) { v.positive("g"); }),
             "T.toml: g: expected a number > 0, got -1");
   EXPECT_EQ(error_of(doc, [](const ds::TomlView& v) { v.integers("f", 0, 9, 4); }),
             "T.toml: f[1]: expected an integer in [0, 9], got a string");
-  EXPECT_EQ(error_of("m = [[1, 0, 0], [0, 1, 0]]\n", [](const ds::TomlView& v) { v.mat3_rows("m"); }),
-            "T.toml: m: expected a 3×3 array of rows, got 2 rows");
+  EXPECT_EQ(
+      error_of("m = [[1, 0, 0], [0, 1, 0]]\n", [](const ds::TomlView& v) { v.mat3_rows("m"); }),
+      "T.toml: m: expected a 3×3 array of rows, got 2 rows");
   // fail(): the caller's own check, in the same shape.
-  EXPECT_EQ(error_of("[x]\ny = 1\n", [](const ds::TomlView& v) { v.table("x").fail("y", "a thing", "another"); }),
+  EXPECT_EQ(error_of("[x]\ny = 1\n",
+                     [](const ds::TomlView& v) { v.table("x").fail("y", "a thing", "another"); }),
             "T.toml: x.y: expected a thing, got another");
 }
 
 TEST(TomlView, MissingKeysAndDefaults) {
-  EXPECT_EQ(error_of("", [](const ds::TomlView& v) { v.str("format"); }), "T.toml: format: expected a string, got missing");
+  EXPECT_EQ(error_of("", [](const ds::TomlView& v) { v.str("format"); }),
+            "T.toml: format: expected a string, got missing");
   EXPECT_EQ(error_of("", [](const ds::TomlView& v) { v.positive("rate_hz"); }),
             "T.toml: rate_hz: expected a number > 0, got missing");
   EXPECT_EQ(error_of("", [](const ds::TomlView& v) { v.integer("slave", 1, 247); }),
@@ -106,7 +116,8 @@ TEST(TomlView, MissingKeysAndDefaults) {
   EXPECT_TRUE(v.tables("channels").empty());
   EXPECT_NO_THROW(v.done());
   // A default never hides a present value of the wrong kind.
-  EXPECT_EQ(error_of("port = \"502\"\n", [](const ds::TomlView& w) { w.integer_or("port", 1, 65535, 502); }),
+  EXPECT_EQ(error_of("port = \"502\"\n",
+                     [](const ds::TomlView& w) { w.integer_or("port", 1, 65535, 502); }),
             "T.toml: port: expected an integer in [1, 65535], got a string");
 }
 
@@ -133,7 +144,8 @@ TEST(TomlView, ArraysOfTablesGiveIndexedPaths) {
                        EXPECT_EQ(devs[1].path(), "devices[1]");
                        devs[1].tables("channels")[0].done();
                      }),
-            "T.toml: devices[1].channels[0].registers: expected a known key (see docs/formats.md), got unknown key");
+            "T.toml: devices[1].channels[0].registers: expected a known key (see docs/formats.md), "
+            "got unknown key");
   EXPECT_EQ(error_of("devices = [1, 2]\n", [](const ds::TomlView& v) { v.tables("devices"); }),
             "T.toml: devices[0]: expected a table, got an integer");
   EXPECT_EQ(error_of("devices = 3\n", [](const ds::TomlView& v) { v.tables("devices"); }),

@@ -1,12 +1,11 @@
 // Tare files: what `rig tare` writes reads back exactly; a damaged one is refused with
 // the file and the key, never read as a silent zero.
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/rig/tools.hpp"
@@ -64,13 +63,19 @@ TEST(TareFile, DefectsNameFileAndKey) {
     std::ifstream in(p);
     text.assign(std::istreambuf_iterator<char>(in), {});
   }
-  struct Case { std::string from, to, message; };
+  struct Case {
+    std::string from, to, message;
+  };
   const Case cases[] = {
       {"bias = [", "bias = [ 9, ", "bias: expected an array of 6 numbers, got 7 elements"},
-      {"t_monotonic_ns = ", "t_monotonic_ns = 1.5\nx_ns = ", "t_monotonic_ns: expected an integer, got a float"},
-      {"t_wall_ns = ", "t_wall_ns = \"later\"\nx_ns = ", "t_wall_ns: expected an integer, got a string"},
-      {"device = ", "colour = \"red\"\ndevice = ", "colour: expected a known key (see docs/rig.md), got unknown key"},
-      {"burrbench.tare", "burrbench.rig", "format: expected \"burrbench.tare\", got \"burrbench.rig\""},
+      {"t_monotonic_ns = ", "t_monotonic_ns = 1.5\nx_ns = ",
+       "t_monotonic_ns: expected an integer, got a float"},
+      {"t_wall_ns = ", "t_wall_ns = \"later\"\nx_ns = ",
+       "t_wall_ns: expected an integer, got a string"},
+      {"device = ", "colour = \"red\"\ndevice = ",
+       "colour: expected a known key (see docs/rig.md), got unknown key"},
+      {"burrbench.tare", "burrbench.rig",
+       "format: expected \"burrbench.tare\", got \"burrbench.rig\""},
   };
   for (const auto& c : cases) {
     std::string bad = text;

@@ -10,16 +10,16 @@
 //   const double r = root.positive("radius_mm");
 //   for (auto& m : root.tables("moves")) { ...; m.done(); }   // moves[0].x, moves[1].x ...
 //   root.done();
+#include <toml++/toml.h>
+
 #include <cstdint>
+#include <glm/glm.hpp>
 #include <initializer_list>
 #include <optional>
 #include <set>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <glm/glm.hpp>
-#include <toml++/toml.h>
 
 namespace burrbench::data_schema {
 
@@ -37,7 +37,8 @@ class TomlView {
   std::vector<std::string> keys() const;
 
   // InputError(file, field(key), expected, got): for checks the getters cannot express.
-  [[noreturn]] void fail(std::string_view key, const std::string& expected, const std::string& got = {}) const;
+  [[noreturn]] void fail(std::string_view key, const std::string& expected,
+                         const std::string& got = {}) const;
 
   // Required getters: a missing key gives "expected X, got missing", a wrong type
   // "expected X, got a string" (the TOML kind), a NaN/inf "expected a finite number, got inf".
@@ -47,27 +48,33 @@ class TomlView {
   double num(std::string_view key) const;  // integer or float, finite
   double num_or(std::string_view key, double def) const;
   std::optional<double> opt_num(std::string_view key) const;
-  double num_or_inf(std::string_view key) const;  // also +inf (TOML inf or the string "inf")
+  double num_or_inf(std::string_view key) const;    // also +inf (TOML inf or the string "inf")
   double positive(std::string_view key) const;      // finite, > 0
   double non_negative(std::string_view key) const;  // finite, ≥ 0
   std::int64_t integer(std::string_view key) const;
-  std::int64_t integer(std::string_view key, std::int64_t lo, std::int64_t hi) const;  // in [lo, hi]
-  std::int64_t integer_or(std::string_view key, std::int64_t lo, std::int64_t hi, std::int64_t def) const;
+  // In [lo, hi]; the message names the range.
+  std::int64_t integer(std::string_view key, std::int64_t lo, std::int64_t hi) const;
+  std::int64_t integer_or(std::string_view key, std::int64_t lo, std::int64_t hi,
+                          std::int64_t def) const;
   bool boolean(std::string_view key) const;
   std::optional<bool> opt_boolean(std::string_view key) const;
 
-  std::vector<double> numbers(std::string_view key, std::size_t count) const;  // exactly `count`, finite
+  // Arrays: exactly `count` finite numbers; rows × cols numbers (row-major); at most 10000
+  // [x, y, z] points; strings; 1 to max_count integers in [lo, hi]. Elements are named
+  // key[i] (and key[i][j]) in messages.
+  std::vector<double> numbers(std::string_view key, std::size_t count) const;
   glm::dvec3 vec3(std::string_view key) const;
   glm::dmat3 mat3_rows(std::string_view key) const;  // [[r0],[r1],[r2]] → glm (column-major)
-  std::vector<double> number_rows(std::string_view key, std::size_t rows, std::size_t cols) const;  // row-major
-  std::vector<glm::dvec3> points(std::string_view key) const;  // at most 10000
-  std::vector<std::string> strings(std::string_view key) const;  // an array of strings
+  std::vector<double> number_rows(std::string_view key, std::size_t rows, std::size_t cols) const;
+  std::vector<glm::dvec3> points(std::string_view key) const;
+  std::vector<std::string> strings(std::string_view key) const;
   std::vector<std::int64_t> integers(std::string_view key, std::int64_t lo, std::int64_t hi,
-                                     std::size_t max_count) const;  // 1..max_count, each in [lo, hi]
+                                     std::size_t max_count) const;
 
   TomlView table(std::string_view key) const;
   std::optional<TomlView> opt_table(std::string_view key) const;
-  std::vector<TomlView> tables(std::string_view key) const;  // array of tables key[0], key[1] ...; absent → empty
+  // An array of tables, viewed as key[0], key[1] ...; absent → empty.
+  std::vector<TomlView> tables(std::string_view key) const;
 
   // The raw node (nullptr when absent), consumed: for values of more than one shape.
   const toml::node* node(std::string_view key) const;
