@@ -19,6 +19,7 @@
 #include "burrbench/rig/modbus_link.hpp"
 #include "burrbench/rig/session.hpp"
 #include "burrbench/rig/tools.hpp"
+#include "output_paths.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -57,6 +58,9 @@ void run(const Options& o) {
   const auto map = rig::load_rig_map(o.rig);
   const std::filesystem::path out(o.out);
   const std::filesystem::path journal = o.journal.empty() ? std::filesystem::path(o.out + ".journal") : std::filesystem::path(o.journal);
+  // Refused before the session, not after it: neither output may replace the map or tare.
+  apps::refuse_output_over_inputs(o.out, "--out", {o.rig, o.tare});
+  apps::refuse_output_over_inputs(journal.string(), "--journal", {o.rig, o.tare, o.out});
   if (std::filesystem::exists(journal))
     throw InputError(journal.string(), "(journal)", "no journal left from an earlier session (run `burrbench recover` on it, or remove it)", "exists");
   if (o.duration_s < 0) throw InputError("--duration", "value", "seconds ≥ 0");
@@ -104,8 +108,8 @@ void run(const Options& o) {
     progress.update(o.duration_s > 0 ? std::min(1.0, el / o.duration_s) : -1.0, live_line(session.status()));
     if (o.duration_s > 0 && el >= o.duration_s) break;
   }
-  const auto status = session.status();
   session.stop();
+  const auto status = session.status();  // after stop: includes the last polls
   progress.finish(live_line(status));
   if (const auto f = session.fatal())
     throw std::runtime_error(fmt::format("ACQUISITION STOPPED: {}. The journal {} holds what was synced; "

@@ -9,6 +9,7 @@
 #include "burrbench/data_schema/import/csv_recording.hpp"
 #include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/data_schema/recording.hpp"
+#include "output_paths.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -34,11 +35,7 @@ void setup(CLI::App& root) {
   imp->add_option("--operator", a->operator_name, "operator stored in the metadata");
   imp->add_option("--burr-radius-mm", a->burr_radius_mm, "burr radius stored in the metadata (0 = unknown)");
   imp->callback([a] {
-    std::error_code ec;
-    const auto out = fs::weakly_canonical(a->out, ec);
-    for (const auto& in : {a->csv, a->map}) {
-      if (!in.empty() && fs::weakly_canonical(in, ec) == out) throw InputError(a->out, "--out", "a path different from the inputs", in);
-    }
+    burrbench::apps::refuse_output_over_inputs(a->out, "--out", {a->csv, a->map});
     std::optional<fs::path> map;
     if (!a->map.empty()) map = a->map;
     Recording r = import::read_csv_recording(a->csv, map);

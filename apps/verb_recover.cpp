@@ -8,6 +8,7 @@
 #include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/rig/finalise.hpp"
 #include "burrbench/rig/journal.hpp"
+#include "output_paths.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -20,6 +21,7 @@ void setup(CLI::App& root) {
   cmd->add_option("--out", *out, "recording to write (HDF5)")->required();
   cmd->callback([journal, out] {
     using namespace burrbench;
+    apps::refuse_output_over_inputs(*out, "--out", {*journal});  // the journal is never modified
     const auto contents = rig::read_journal(*journal);
     rig::FinaliseReport rep;
     auto rec = rig::recording_from_journal(contents, *journal, &rep);

@@ -11,6 +11,7 @@
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/model/experiment.hpp"
+#include "output_paths.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -34,11 +35,10 @@ void run(const Args& a) {
   std::vector<fs::path> inputs{a.experiment, a.params};
   for (const auto& s : e.manifest.samples) inputs.push_back(s.path);
   for (const auto& r : e.manifest.recordings) inputs.push_back(r.path);
-  for (const auto& in : inputs) {
-    std::error_code ec;
-    for (const std::string* out : {&a.out, &a.csv})
-      if (!out->empty() && fs::exists(*out) && fs::equivalent(*out, in, ec))
-        throw InputError(*out, "<file>", "an output path that is not one of the inputs");
+  {
+    const std::vector<std::string> ins(inputs.begin(), inputs.end());
+    apps::refuse_output_over_inputs(a.out, "--out", ins);
+    apps::refuse_output_over_inputs(a.csv, "--csv", ins);
   }
   const Provenance prov = make_provenance(inputs);
   model::ReplayOptions opt;

@@ -6,6 +6,7 @@
 
 #include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/rig/tools.hpp"
+#include "output_paths.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -44,6 +45,7 @@ void setup(CLI::App& root) {
   tare->add_option("--samples", *n, "samples to average")->capture_default_str()->check(CLI::Range(1, 1000000));
   tare->callback([tare_map, out, n] {
     using namespace burrbench;
+    apps::refuse_output_over_inputs(*out, "--out", {*tare_map});
     const auto map = rig::load_rig_map(*tare_map);
     auto t = rig::measure_tare(map, *n);
     t.rig_sha256 = sha256_file(*tare_map);

@@ -13,6 +13,7 @@
 #include "burrbench/data_schema/import/volume.hpp"
 #include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/data_schema/sample_volume.hpp"
+#include "output_paths.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -31,14 +32,8 @@ struct ImportArgs {
   SegmentationSettings seg;
 };
 
-// Inputs are never written: refuse an --out that names one of them.
 void check_out_not_input(const std::string& out, const std::vector<std::string>& inputs) {
-  std::error_code ec;
-  const auto o = fs::weakly_canonical(out, ec);
-  for (const auto& in : inputs) {
-    if (in.empty()) continue;
-    if (fs::weakly_canonical(in, ec) == o) throw InputError(out, "--out", "a path different from the input files", in);
-  }
+  burrbench::apps::refuse_output_over_inputs(out, "--out", inputs);
 }
 
 ImageVolume load(const std::string& path, const ImportArgs& a, Interpolation interp, const ImportLimits& lim,

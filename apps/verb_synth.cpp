@@ -12,6 +12,7 @@
 #include "burrbench/data_schema/recording.hpp"
 #include "burrbench/data_schema/sample_volume.hpp"
 #include "burrbench/model/synth.hpp"
+#include "output_paths.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -27,12 +28,8 @@ struct Args {
 };
 
 void refuse_overwriting_inputs(const Args& a) {
-  for (const std::string* out : {&a.out, &a.truth})
-    for (const std::string* in : {&a.sample, &a.protocol, &a.params}) {
-      std::error_code ec;
-      if (fs::exists(*out) && fs::equivalent(*out, *in, ec))
-        throw InputError(*out, "<file>", "an output path that is not one of the inputs");
-    }
+  apps::refuse_output_over_inputs(a.out, "--out", {a.sample, a.protocol, a.params});
+  apps::refuse_output_over_inputs(a.truth, "--truth", {a.sample, a.protocol, a.params, a.out});
 }
 
 void run(const Args& a) {

@@ -11,6 +11,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -19,13 +20,9 @@
 #include <thread>
 #include <vector>
 
-namespace {
+#include "burrbench/rig/modbus_link.hpp"
 
-std::int64_t now_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+namespace {
 
 std::mutex out_mutex;
 
@@ -39,14 +36,14 @@ void probe(int cpu, double seconds, std::int64_t threshold_ns) {
   const bool rt = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp) == 0;
   constexpr std::int64_t period_ns = 1'000'000;
   const auto n = static_cast<std::int64_t>(seconds * 1000.0);
-  std::int64_t next = now_ns(), worst = 0;
+  std::int64_t next = burrbench::rig::monotonic_ns(), worst = 0;
   std::vector<std::pair<std::int64_t, std::int64_t>> late;  // printed at the end: no I/O while probing
   for (std::int64_t i = 0; i < n; ++i) {
     next += period_ns;
     const timespec ts{static_cast<time_t>(next / 1'000'000'000), static_cast<long>(next % 1'000'000'000)};
-    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) != 0) {
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
     }
-    const auto l = now_ns() - next;
+    const auto l = burrbench::rig::monotonic_ns() - next;
     worst = std::max(worst, l);
     if (l > threshold_ns) late.emplace_back(next, l);
   }

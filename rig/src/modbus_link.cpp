@@ -3,6 +3,7 @@
 #include <sys/select.h>
 #include <time.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <thread>
@@ -123,12 +124,15 @@ ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& reg
   return r;
 }
 
-void ModbusLink::drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns) {
+void ModbusLink::drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns, const std::atomic<bool>* stop) {
   if (settings_.transport != Transport::Rtu || !ctx_) return;
-  // The latest reply ends late_reply_ms after the request plus its own wire time.
+  // The latest reply ends late_reply_ms after the request plus its own wire time. Waited
+  // in slices of at most 50 ms so a stop request is seen promptly.
   const auto until = t_send_ns + static_cast<std::int64_t>((d.late_reply_ms * 1e-3 + wire_time_s(d)) * 1e9);
-  const auto now = monotonic_ns();
-  if (until > now) std::this_thread::sleep_for(std::chrono::nanoseconds(until - now));
+  for (auto now = monotonic_ns(); now < until; now = monotonic_ns()) {
+    if (stop && stop->load()) return;
+    std::this_thread::sleep_for(std::chrono::nanoseconds(std::min<std::int64_t>(until - now, 50'000'000)));
+  }
   modbus_flush(ctx_);
 }
 

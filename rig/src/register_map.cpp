@@ -153,7 +153,7 @@ DeviceSpec parse_device(const TomlView& r) {
     r.fail("transport", "\"tcp\" or \"rtu\"", "\"" + transport + "\"");
   }
   d.rate_hz = r.num("rate_hz");
-  if (!(d.rate_hz > 0 && d.rate_hz <= 100000)) r.fail("rate_hz", "a rate in (0, 100000] Hz", fmt::format("{}", d.rate_hz));
+  if (!(d.rate_hz >= 0.001 && d.rate_hz <= 100000)) r.fail("rate_hz", "a rate in [0.001, 100000] Hz", fmt::format("{}", d.rate_hz));
   d.timeout_ms = r.num_or("timeout_ms", 100.0);
   if (!(d.timeout_ms >= 1 && d.timeout_ms <= 10000)) r.fail("timeout_ms", "a timeout in [1, 10000] ms", fmt::format("{}", d.timeout_ms));
   // RTU has no transaction id: a reply that comes after we gave up would pass for the

@@ -207,7 +207,8 @@ struct Session::Impl {
       event(st.index, std::string(to_string(r.status)), r.detail);
     const auto& d = *st.spec;
     if (d.transport == Transport::Rtu) {
-      link.drain_late_reply(d, r.t_send_ns);
+      // An exception reply answered this request: nothing late can follow it.
+      if (r.status != ReadStatus::Exception) link.drain_late_reply(d, r.t_send_ns, &stopping);
     } else if (r.status != ReadStatus::Exception && link.connected()) {
       link.close();  // timeout or bad data: the stream may be out of step — start afresh
       st.reconnect_at_ns = monotonic_ns();

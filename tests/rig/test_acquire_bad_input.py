@@ -80,3 +80,23 @@ def test_nan_and_out_of_range_values_are_flagged(tmp_path):
     # Positions stay finite (the stage's int32 saturates): stage samples are valid.
     stage = rec["stage"]
     assert np.all(np.isfinite(stage["channels"]["position_mm"]))
+
+
+def test_outputs_never_replace_inputs(tmp_path):
+    # Refused up front (before a session), exit 2, the input byte for byte unchanged.
+    rig_map = rh.write_map(tmp_path, GOOD)
+    journal = os.path.join(str(tmp_path), "old.journal")
+    with open(journal, "wb") as f:
+        f.write(b"not really a journal, but an input all the same")
+    cases = [
+        (["acquire", "--rig", rig_map, "--out", rig_map, "--duration", "1"], rig_map),
+        (["acquire", "--rig", rig_map, "--out", os.path.join(str(tmp_path), "r.h5"), "--journal", rig_map], rig_map),
+        (["rig", "tare", "--rig", rig_map, "--out", rig_map], rig_map),
+        (["recover", journal, "--out", journal], journal),
+    ]
+    for args, victim in cases:
+        before = open(victim, "rb").read()
+        p = rh.run(args, timeout=20)
+        assert p.returncode == 2, (args, p.stdout + p.stderr)
+        assert "different from the inputs" in p.stderr and victim in p.stderr, p.stderr
+        assert open(victim, "rb").read() == before, args

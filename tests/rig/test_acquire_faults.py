@@ -40,7 +40,8 @@ def test_delayed_replies_are_timestamped_at_the_midpoint(tmp_path):
 
 def test_late_replies_and_exceptions_cost_only_their_polls(tmp_path):
     # A 50 ms timeout plus a reconnect outlasts a 20 ms device period, so this device
-    # samples at 10 Hz: one failed poll must then cost no device sample.
+    # samples at 10 Hz: one failed poll then costs no device sample by itself; a stall of
+    # the shared host still may, and each such loss must be a recorded gap (at most 5 %).
     rec, ft, _ = run_faulty(tmp_path, ["--late-reply-every", "50", "--late-ms", "120",
                                        "--exception-every", "37"], 2.5, rate=10)
     assert len(rh.events(rec, "timeout", "ft_sensor")) >= 2, rec["_events"]
@@ -51,7 +52,7 @@ def test_late_replies_and_exceptions_cost_only_their_polls(tmp_path):
     assert lost <= 0.05 * np.ptp(ft["device_counter"])
 
 
-def test_dropped_connections_reconnect_without_loss(tmp_path):
+def test_dropped_connections_reconnect_and_keep_every_reply(tmp_path):
     rec, ft, rig_ev = run_faulty(tmp_path, ["--drop-every-s", "0.7"], 2.5)
     drops = [e for e in rig_ev if e["kind"] == "drop" and ft["t_ns"][0] < e["t_mono_ns"] < ft["t_ns"][-1]]
     assert len(drops) >= 2

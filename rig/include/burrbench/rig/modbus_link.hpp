@@ -1,4 +1,5 @@
 #pragma once
+#include <atomic>
 // One libmodbus connection (a TCP device or an RS-485 bus) with our own error recovery:
 // libmodbus runs with MODBUS_ERROR_RECOVERY_NONE and the poller decides what to do.
 #include <cstdint>
@@ -37,7 +38,9 @@ class ModbusLink {
   ReadResult read(const DeviceSpec& d, std::vector<std::uint16_t>& regs);
   // RTU after a failed request: wait out the latest possible reply, then drop any bytes,
   // so a late reply is never taken as the answer to the next request.
-  void drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns);
+  // Returns early (without flushing) once *stop is set, so a long late_reply_ms cannot
+  // hold up the end of an acquisition.
+  void drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns, const std::atomic<bool>* stop = nullptr);
   // Shortest possible request+reply time on the wire (RTU), 0 for TCP.
   double wire_time_s(const DeviceSpec& d) const;
   std::string describe() const;

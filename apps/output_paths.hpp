@@ -1,0 +1,27 @@
+#pragma once
+// Inputs are never written: every verb refuses an output path that names one of its
+// inputs (the same file through another spelling, a symlink or a hard link included).
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "burrbench/data_schema/error.hpp"
+
+namespace burrbench::apps {
+
+inline bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
+  std::error_code ec;
+  if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) return std::filesystem::equivalent(a, b, ec);
+  return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
+}
+
+// InputError(out, option, ...) when `out` is one of `inputs` (empty paths are skipped).
+inline void refuse_output_over_inputs(const std::string& out, const std::string& option,
+                                      const std::vector<std::string>& inputs) {
+  if (out.empty()) return;
+  for (const auto& in : inputs)
+    if (!in.empty() && same_file(out, in))
+      throw InputError(out, option, "a path different from the inputs (inputs are never written)", in);
+}
+
+}  // namespace burrbench::apps
