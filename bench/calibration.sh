@@ -37,7 +37,7 @@ rps=$($PY -c "print(f'{$replays/$wall:.1f}')")
 hits=0; total=0; lag_hits=0; lag_total=0
 for seed in $(seq 1 "$reps"); do
   m=$("$G" "$work/cov$seed" "$B" "$seed" "${COVERAGE_TIME_SCALE:-0.5}")
-  "$B" calibrate --experiment "$m" --out "$work/cov$seed/out" --no-cross-validation > /dev/null 2>&1 || { total=$((total+6)); continue; }
+  "$B" calibrate --experiment "$m" --out "$work/cov$seed/out" --no-cross-validation > /dev/null 2>&1 || { total=$((total+6)); lag_total=$((lag_total+5)); continue; }  # a failed fit covers nothing
   read -r h t lh lt <<<"$($PY - "$work/cov$seed/out/fit.json" "$work/cov$seed/truth.toml" <<'PY'
 import json, sys, tomllib
 f = json.load(open(sys.argv[1]))

@@ -5,7 +5,7 @@
 set -euo pipefail
 build=${1:-build}
 exe="$build/bench/bench_model_kernel"
-[[ -x "$exe" ]] || cmake --build "$build" --target bench_model_kernel -j 2 >/dev/null
+cmake --build "$build" --target bench_model_kernel -j 2 >/dev/null  # never time a stale kernel
 out=$(mktemp)
 trap 'rm -f "$out"' EXIT
 "$exe" --benchmark_format=json --benchmark_out="$out" --benchmark_out_format=json >/dev/null

@@ -36,8 +36,9 @@ bm::ModelParams params() {
   return p;
 }
 
-// One force + erosion step at 1 kHz while sliding slowly over the surface at depth
-// `depth` (depth < 0: that far below the surface, i.e. buried). The undo log is rolled
+// One force + erosion step at 1 kHz while sliding slowly over the surface with the burr's
+// lowest point `depth` below it (depth > 2R: the whole burr is buried, its centre
+// depth − R below the surface). The undo log is rolled
 // back every 4096 steps so the surface stays intact over any number of iterations.
 void run_steps(benchmark::State& st, double R, double l, double depth) {
   // Room for the burr buried a full diameter below the surface, inside the volume.

@@ -26,10 +26,11 @@ double removed(const Evaluation& ev, std::uint8_t label) {
   return s;
 }
 
-// Profile check at the far end of α: moving α alone to its upper bound (next to "no
+// Slice check at the far end of α: moving α alone to its upper bound (next to "no
 // erosion") must worsen the fit by more than the 95 % χ²(1) quantile, else the data only
 // bound α from below. The local covariance cannot see this: far out, the cost is flat but
-// the curvature at the estimate can still look finite.
+// the curvature at the estimate can still look finite. A slice, not a profile (C1 and μ
+// are not re-fitted), so it can miss a bound that a re-fit would reach (docs/calibration.md).
 bool alpha_bound_not_excluded(const Objective& obj, const std::vector<double>& x,
                               const SampleWeights& w, const Evaluation& at_x, std::size_t i) {
   const double dof = double(at_x.residuals_used) - double(x.size());

@@ -197,7 +197,8 @@ nlohmann::json truth_json(const SynthResult& r, const data_schema::SampleVolume&
          {{"rotation", rot}, {"translation_mm", {reg.t.x, reg.t.y, reg.t.z}}}},
         {"tool_offset_mm", {0.0, 0.0, 0.0}},
         {"torque", "torque_Nmm is written as zero (not modelled)"}}},
-      {"replay_step_s", o.replay.step_s},
+      // the step actually used: the default (0) is half the sample period (replay.hpp)
+      {"replay_step_s", o.replay.step_s > 0 ? o.replay.step_s : 0.5 / p.sample_rate_hz},
       {"provenance",
        {{"software_version", prov.software_version},
         {"command_line", prov.command_line},

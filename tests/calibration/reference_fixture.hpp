@@ -95,7 +95,9 @@ spin_sign = 1
   const double sweep_x0 = s.trabecular ? 2.0 : 1.0, sweep_len = s.trabecular ? 4.0 : 4.0 - 1.5 * R - 1.0;
   // Polishing strokes over each class separately: erosion is what determines α.
   const double pol_x0 = 1.0, pol_len = 4.0 - 1.5 * R - 1.0;
-  protocol("plunge", s.trabecular ? 2.0 : 1.5, fmt::format(R"([[moves]]
+  // Plunge to a depth, dwell, retract.
+  auto plunge_moves = [&](double depth_mm) {
+    return fmt::format(R"([[moves]]
 type = "plunge"
 depth_mm = {}
 feed_mm_s = {}
@@ -105,19 +107,11 @@ duration_s = {}
 [[moves]]
 type = "retract"
 speed_mm_s = 2.0
-)", 0.3 * R, 1.0 / k, 0.2 * k));
+)", depth_mm, 1.0 / k, 0.2 * k);
+  };
+  protocol("plunge", s.trabecular ? 2.0 : 1.5, plunge_moves(0.3 * R));
   if (s.trabecular)  // a second plunge into trabecular bone, as its own recording
-    protocol("plunge2", 6.0, fmt::format(R"([[moves]]
-type = "plunge"
-depth_mm = {}
-feed_mm_s = {}
-[[moves]]
-type = "dwell"
-duration_s = {}
-[[moves]]
-type = "retract"
-speed_mm_s = 2.0
-)", 0.4 * R, 1.0 / k, 0.2 * k));
+    protocol("plunge2", 6.0, plunge_moves(0.4 * R));
   protocol("sweep", sweep_x0, fmt::format(R"([[moves]]
 type = "plunge"
 depth_mm = {}

@@ -61,7 +61,7 @@ const ds::FitParameter& param(const ds::FitResult& f, int label, const char* nam
 
 TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   const fs::path dir = scratch("recovery");
-  ReferenceSpec s;  // noise 0.02 N, bias, 4 ms lag, R/l = 5
+  ReferenceSpec s;  // noise 0.02 N, bias, 4 ms lag, R/l = 10
   const fs::path manifest = make_reference_experiment(dir, s, cli());
   const auto r = calibrate(manifest, dir / "out");
   ASSERT_EQ(r.code, 0) << r.err;
