@@ -94,7 +94,7 @@ void validate_recording(const PR& r, const std::string& file) {
     same_len(v.size(), f.name);
     for (std::size_t k = 0; k < n; ++k)
       if (v[k] > f.max)
-        throw InputError(file, fmt::format("{}/{}[{}]", b, f.name, k), "0 or 1",
+        throw InputError(file, fmt::format("{}/{}[{}]", b, f.name, k), f.max == 1 ? "0 or 1" : fmt::format("0..{}", f.max),
                          std::to_string(v[k]));
   }
   for (std::size_t c = 0; c < r.removed_mm3.size(); ++c)
@@ -160,10 +160,11 @@ void check_unit(const h5::Reader& r, const std::string& ds, const char* unit) {
 template <class T>
 std::vector<T> read_column(const h5::Reader& r, const std::string& ds, h5::Elem e, std::size_t n,
                            std::size_t width, const char* unit) {
-  std::vector<hsize_t> shape;
-  auto v = r.read<T>(ds, e, &shape, kMaxElements);
   const std::vector<hsize_t> want =
       width == 1 ? std::vector<hsize_t>{n} : std::vector<hsize_t>{n, width};
+  std::vector<hsize_t> shape;
+  // At most what the shape allows: a dataset bigger than t_s says is refused unread.
+  auto v = r.read<T>(ds, e, &shape, std::max<std::size_t>(n * width, 1));
   if (shape != want)
     throw InputError(r.file(), ds,
                      width == 1

@@ -333,7 +333,12 @@ Recording read_recording(const std::filesystem::path& path) {
         const auto cs = r.shape(b + "/channels/" + c, h5::Elem::kFloat64);
         per_sample += 8 * (cs.size() == 2 ? std::min<std::uint64_t>(cs[1], kMaxElements) : 1);
       }
-    total_bytes += std::min<std::uint64_t>(shape[0], kMaxElements) * per_sample;
+    const std::uint64_t n = std::min<std::uint64_t>(shape[0], kMaxElements);
+    // per_sample can reach ~2^33: compare by division so the product cannot wrap.
+    if (per_sample > kMaxRecordingBytes || n > (kMaxRecordingBytes - total_bytes) / per_sample)
+      total_bytes = kMaxRecordingBytes + 1;
+    else
+      total_bytes += n * per_sample;
     if (total_bytes > kMaxRecordingBytes)
       throw InputError(file, b, "a recording within the 4 GiB memory budget",
                        fmt::format("{} samples of {} bytes", shape[0], per_sample));

@@ -104,3 +104,16 @@ channel = "fz_N"
     with h5py.File(out, "r") as f:
         paths = [p.decode() if isinstance(p, bytes) else p for p in f["provenance/inputs/path"][()]]
     assert paths == [str(csv), str(m)]
+
+
+def test_decimal_comma_with_a_detected_comma_delimiter_is_refused(tmp_path):
+    # No delimiter in the map and a comma-separated file: "0,5" would become two cells.
+    csv = tmp_path / "R.csv"
+    csv.write_text("t_s,x_mm,y_mm,z_mm,fx_N,fy_N,fz_N\n0,0,0,0,0,5,1\n")
+    m = tmp_path / "map.toml"
+    m.write_text('format = "burrbench.csv_map"\nformat_version = "1.0"\ndecimal = ","\n[columns.fx_N]\nchannel = "fx_N"\n')
+    out = tmp_path / "R.h5"
+    r = run("recording", "import", "--csv", csv, "--map", m, "--out", out)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert f"{m}: decimal: expected" in r.stderr and str(csv) in r.stderr, r.stderr
+    assert not out.exists()

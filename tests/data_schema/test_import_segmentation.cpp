@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "test_formats_util.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/import/segment.hpp"
 #include "burrbench/data_schema/import/synth.hpp"
@@ -134,6 +135,11 @@ TEST(ImportSegmentation, RefusesAnisotropicVoxelsAndBadSettings) {
   SegmentationSettings s;
   s.compact_bvtv = 1.5;
   EXPECT_THROW(segment_ct(ct, s, "ct"), burrbench::InputError);
+  for (const double bad : {-1.0, 1e9}) {  // the compact opening radius is named as itself
+    SegmentationSettings o;
+    o.compact_open_mm = bad;
+    burrbench::test::expect_input_error([&] { segment_ct(ct, o, "ct"); }, {"ct: ", "compact_open_mm"});
+  }
 }
 
 TEST(ImportSynth, SameSeedSameVolumeAndPorosityAsAsked) {

@@ -151,10 +151,15 @@ Handle fixed_string_type(std::size_t longest) {
   return t;
 }
 
-// Packs strings into one buffer of n × (longest + 1) bytes, NUL-padded.
-std::vector<char> pack(const std::vector<std::string>& values, std::size_t& longest) {
+// Packs strings into one buffer of n × (longest + 1) bytes, NUL-padded. A NUL inside a
+// string would silently cut it short on reading: refused (file, field named).
+std::vector<char> pack(const std::vector<std::string>& values, std::size_t& longest, const std::string& file,
+                       const std::string& field) {
   longest = 0;
-  for (const auto& v : values) longest = std::max(longest, v.size());
+  for (const auto& v : values) {
+    if (v.find('\0') != std::string::npos) throw InputError(file, field, "text without NUL characters", "a NUL character");
+    longest = std::max(longest, v.size());
+  }
   std::vector<char> buf(std::max<std::size_t>(values.size(), 1) * (longest + 1), '\0');
   for (std::size_t i = 0; i < values.size(); ++i) std::memcpy(buf.data() + i * (longest + 1), values[i].data(), values[i].size());
   return buf;
@@ -476,7 +481,7 @@ void write_attr(hid_t f, const std::string& file, const std::string& obj, const 
 
 void Writer::attr(const std::string& obj, const std::string& name, const std::string& value) {
   std::size_t longest = 0;
-  const std::vector<char> buf = pack({value}, longest);
+  const std::vector<char> buf = pack({value}, longest, file_, attr_field(obj, name));
   Handle t = fixed_string_type(longest);
   Handle s(H5Screate(H5S_SCALAR), H5Sclose);
   write_attr(f_.get(), file_, obj, name, t.get(), s.get(), t.get(), buf.data());
@@ -544,7 +549,7 @@ template void Writer::dataset(const std::string&, const std::vector<hsize_t>&, c
 
 void Writer::strings(const std::string& path, const std::vector<std::string>& values) {
   std::size_t longest = 0;
-  const std::vector<char> buf = pack(values, longest);
+  const std::vector<char> buf = pack(values, longest, file_, path);
   Handle t = fixed_string_type(longest);
   const hsize_t n = values.size();
   Handle space(H5Screate_simple(1, &n, nullptr), H5Sclose);
@@ -559,7 +564,7 @@ void Writer::strings(const std::string& path, const std::vector<std::string>& va
 
 void Writer::string(const std::string& path, const std::string& value) {
   std::size_t longest = 0;
-  const std::vector<char> buf = pack({value}, longest);
+  const std::vector<char> buf = pack({value}, longest, file_, path);
   Handle t = fixed_string_type(longest);
   Handle space(H5Screate(H5S_SCALAR), H5Sclose);
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);

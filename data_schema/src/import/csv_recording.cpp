@@ -163,8 +163,8 @@ std::vector<std::string> split(std::string_view line, char delim) {
 
 Recording parse_csv_recording(std::string_view csv, const std::string& file, std::optional<std::string_view> map_toml,
                               const std::string& map_name) {
-  const CsvLayout L = map_toml ? parse_map(*map_toml, map_name.empty() ? "<map>" : map_name) : CsvLayout{};
   const std::string mfile = map_name.empty() ? "<map>" : map_name;
+  const CsvLayout L = map_toml ? parse_map(*map_toml, mfile) : CsvLayout{};
 
   // Lines (LF or CRLF); header at L.header_line; blank lines skipped.
   std::size_t pos = 0;
@@ -187,6 +187,10 @@ Recording parse_csv_recording(std::string_view csv, const std::string& file, std
   const char delim = L.delimiter ? *L.delimiter
                    : line.find('\t') != std::string_view::npos ? '\t'
                    : line.find(';') != std::string_view::npos ? ';' : ',';
+  // Also for a detected delimiter: "0,5" would otherwise split into two cells.
+  if (delim == ',' && L.decimal == ',')
+    throw InputError(mfile, "decimal", "\".\" when the delimiter is \",\" (set delimiter = \";\" or \"\\t\")",
+                     fmt::format("\",\" with \",\" as the delimiter of {}", file));
   const auto header = split(line, delim);
   const long header_lineno = lineno;
 

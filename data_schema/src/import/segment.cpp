@@ -76,7 +76,8 @@ Segmentation segment_ct(const ImageVolume& ct, const SegmentationSettings& s, co
   const int r_bvtv = std::max(1, vox(s.bvtv_radius_mm, l));
   const int r_env = vox(s.envelope_radius_mm, l);
   const int r_open = vox(s.compact_open_mm, l);
-  if (r_bvtv > 100 || r_env > 100 || r_open > 100) throw InputError(file, "bvtv_radius_mm/envelope_radius_mm", "at most 100 voxels");
+  if (r_bvtv > 100 || r_env > 100) throw InputError(file, "bvtv_radius_mm/envelope_radius_mm", "at most 100 voxels");
+  if (r_open > 100) throw InputError(file, "compact_open_mm", "at most 100 voxels", fmt::format("{} voxels", r_open));
 
   // 1. bone mask
   const double threshold = s.threshold ? *s.threshold : otsu(ct.values);
