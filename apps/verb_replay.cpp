@@ -65,8 +65,7 @@ void run(const Args& a) {
     buried += b;
     for (int k = 0; k < model::kMaxClasses; ++k)
       removed[std::size_t(k)] += p.removed_mm3[std::size_t(k)];
-    progress.finish(fmt::format("{} samples, {} buried, {} steps, {:.2f} s replay", p.t_s.size(), b,
-                                p.steps, p.wall_s));
+    // (model::replay already closed the progress line with its own summary)
   }
   model::write_prediction(a.out, preds, prov);
   if (!a.csv.empty()) model::write_prediction_csv(a.csv, preds);

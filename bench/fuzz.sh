@@ -3,7 +3,7 @@
 # (clang, AddressSanitizer + UndefinedBehaviorSanitizer) for a set time each and prints
 #   figure (execs) | target (no finding) | ok?
 # Usage: bench/fuzz.sh [SECONDS]      (default 60 per target; env FUZZ_SECONDS also works)
-# `make bench` calls it with its build dir as $1: a non-number is ignored. The fuzz build
+# `make fuzz` runs it (`make bench` does not). A non-number $1 is ignored. The fuzz build
 # lives in its own dir (env FUZZ_BUILD, default build-fuzz). Seeds are written here, the
 # growing corpus and any crash artifacts land in $FUZZ_BUILD/fuzz-work/<target>/.
 set -euo pipefail
@@ -123,7 +123,7 @@ for t in "${targets[@]}"; do
     printf '%-40s | %-32s | %s\n' "$t: ${execs:-?} execs" "no finding in ${secs} s" "ok"
   else
     status=1
-    printf '%-40s | %-32s | %s\n' "$t: ${execs:-?} execs" "no finding in ${secs} s" "FINDING (see $d/log)"
+    printf '%-40s | %-32s | %s\n' "$t: ${execs:-?} execs" "no finding in ${secs} s" "NO: FINDING (see $d/log)"
   fi
 done
 exit $status

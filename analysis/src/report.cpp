@@ -307,6 +307,9 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
       in.params_path = fs::absolute(dir / "params.toml").string();
       in.params_sha256 = sha256_file(dir / "params.toml");
     }
+    // The calibrate directory's own files are inputs of this report too.
+    for (const char* name : {"fit.json", "params.toml"})
+      if (fs::exists(dir / name)) in.provenance.inputs.push_back({(dir / name).string(), sha256_file(dir / name)});
     fs::create_directories(out_dir);
     write_analysis_input(out_dir, in);
   } else if (!has_analysis) {
@@ -489,7 +492,9 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
 
   // Beside the report: the series, residuals, metrics and the fit.
   if (!fs::equivalent(dir, out_dir, ec)) {
-    if (fs::exists(dir / "predictions.csv"))
+    // Only from an analysis directory: a report that replayed a fit wrote its own fresh
+    // predictions.csv above, which an older file must not replace.
+    if (has_analysis && fs::exists(dir / "predictions.csv"))
       fs::copy_file(dir / "predictions.csv", out_dir / "predictions.csv", fs::copy_options::overwrite_existing);
     if (fit_result) {
       // The copy beside the report carries the metrics (FitResult::metrics is analysis's
@@ -511,9 +516,11 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
                                 {"value", std::isfinite(r.value) ? json(r.value) : json(nullptr)},
                                 {"pass", r.pass}});
   }
-  const auto prov = make_provenance({out_dir / "predictions.csv"});
+  const auto prov = make_provenance({});
+  json inputs = json::array();
+  for (const auto& f : in.provenance.inputs) inputs.push_back({{"path", f.path}, {"sha256", f.sha256}});
   mj["provenance"] = {{"software_version", prov.software_version}, {"command_line", prov.command_line},
-                      {"created_utc", prov.created_utc}};
+                      {"created_utc", prov.created_utc}, {"inputs", inputs}};
   std::ofstream(out_dir / "metrics.json") << mj.dump(1) << "\n";
   return sum;
 }
