@@ -118,6 +118,7 @@ void run(const Options& o) {
   const auto contents = rig::read_journal(journal);
   rig::FinaliseReport rep;
   auto rec = rig::recording_from_journal(contents, journal.string(), &rep);
+  for (const auto& p : rep.problems) std::cerr << "warning: " << p << "\n";
   rec.provenance = make_provenance(inputs);
   data_schema::write_recording(out, rec);
   if (!o.keep_journal) std::filesystem::remove(journal);

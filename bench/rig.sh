@@ -17,7 +17,8 @@ seconds=${2:-60}
 here=$(cd "$(dirname "$0")" && pwd)
 src=$(dirname "$here")
 export BURRBENCH="$build/apps/burrbench" BURRBENCH_SOURCE_DIR="$src"
-export PROBE="$build/bench/bench_host_wakeup"
+export PROBE="$build/bench/bench_host_wakeup" JOURNAL_BENCH="$build/bench/bench_rig_journal"
+cmake --build "$build" --target bench_rig_journal -j 2 >/dev/null
 [[ -x "$BURRBENCH" ]] || cmake --build "$build" --target burrbench -j 2 >/dev/null
 [[ -x "$PROBE" ]] || cmake --build "$build" --target bench_host_wakeup -j 2 >/dev/null
 exec /usr/bin/python3 - "$seconds" <<'PY'
@@ -173,6 +174,15 @@ wire = (8 + 5 + 2 * 42) * 10 / 115200.0
 frac = rate * wire
 rtt_row("RTU", s)
 row("RTU 115200 baud, 42 registers: request rate", f"{rate:.1f} req/s = {100 * frac:.1f} % of wire limit {1 / wire:.1f}", ">= 90 %", frac >= 0.9)
+
+# 5. host-side cost per sample: decoding a 42-register block, journal append (+ fsync share)
+jb = json.loads(subprocess.run([os.environ["JOURNAL_BENCH"], "--benchmark_format=json"], capture_output=True,
+                               text=True, check=True).stdout)["benchmarks"]
+cpu_us = {b["name"]: b["cpu_time"] * {"ns": 1e-3, "us": 1.0, "ms": 1e3}[b["time_unit"]] for b in jb}
+real_us = {b["name"]: b["real_time"] * {"ns": 1e-3, "us": 1.0, "ms": 1e3}[b["time_unit"]] for b in jb}
+row("decode a 42-register block (CPU)", f"{cpu_us['BM_DecodeFtBlock']:.3f} us", "<< 1000 us", cpu_us["BM_DecodeFtBlock"] < 100)
+row("journal append, fsync every 100 samples (wall)", f"{real_us['BM_JournalAppend/100']:.1f} us", "<< 1000 us",
+    real_us["BM_JournalAppend/100"] < 100)
 
 load = os.getloadavg()[0]
 w = max(len(r[0]) for r in rows)

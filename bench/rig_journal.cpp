@@ -43,7 +43,8 @@ static void BM_JournalAppend(benchmark::State& state) {
   }
   std::filesystem::remove(path);
 }
-// 0: buffered only; 100: one fsync per 100 samples (50 ms of two 1 kHz devices ≈ 100).
-BENCHMARK(BM_JournalAppend)->Arg(0)->Arg(100);
+// 10000: nearly buffered only (bounded memory); 100: one fsync per 100 samples (50 ms of
+// two 1 kHz devices ≈ 100), what acquisition does.
+BENCHMARK(BM_JournalAppend)->Arg(10000)->Arg(100);
 
 BENCHMARK_MAIN();

@@ -54,8 +54,10 @@ namespace {
 // period). a is pinned by what each poll proves about its newest record: it was taken
 // before the reply came (t ≤ t_recv) and at most one period before the request reached
 // the device (t > t_send − period). The intersection of those bounds over all polls is
-// narrow; a is its middle. A counter reset starts a new segment.
-void fit_fifo_time(data_schema::Stream& s, double device_rate_hz) {
+// narrow; a is its middle. A counter reset starts a new segment. Returns what a reader of
+// the timestamps must know: where the fit fell back (a wrong device_rate_hz shows here).
+std::vector<std::string> fit_fifo_time(data_schema::Stream& s, double device_rate_hz) {
+  std::vector<std::string> notes;
   const std::size_t n = s.samples();
   const double nominal = 1e9 / device_rate_hz;
   std::size_t seg_start = 0;
@@ -80,6 +82,10 @@ void fit_fifo_time(data_schema::Stream& s, double device_rate_hz) {
       if (den > 0) {
         const double fit = (m * sxy - sx * sy) / den;
         if (std::abs(fit / nominal - 1.0) < 0.01) b = fit;  // clock rate within 1 %: trust it
+        else
+          notes.push_back(fmt::format("measured record period {:.6g} ms is not within 1 % of 1/device_rate_hz = "
+                                      "{:.6g} ms (is device_rate_hz right?); the nominal period is used",
+                                      fit * 1e-6, nominal * 1e-6));
       }
     }
     double lo = -1e300, hi = 1e300;
@@ -87,11 +93,15 @@ void fit_fifo_time(data_schema::Stream& s, double device_rate_hz) {
       lo = std::max(lo, (p.send - t0) - b - b * (p.c - c0));
       hi = std::min(hi, (p.recv - t0) - b * (p.c - c0));
     }
+    if (lo > hi)
+      notes.push_back(fmt::format("the polls' time bounds do not overlap ({:.3f} ms apart; is device_rate_hz "
+                                  "right?): timestamps pinned to the latest reply bound", (lo - hi) * 1e-6));
     const double a = t0 + (lo <= hi ? 0.5 * (lo + hi) : hi);
     for (std::size_t k = seg_start; k < i; ++k)
       s.t_ns[k] = static_cast<std::int64_t>(std::llround(a + b * (static_cast<double>(s.device_counter[k]) - c0)));
     seg_start = i;
   }
+  return notes;
 }
 
 }  // namespace
@@ -188,7 +198,11 @@ data_schema::Recording recording_from_journal(const JournalContents& j, const st
     }
     chans.push_back(std::move(flags));
     st.channels = std::move(chans);
-    if (d.mode == Mode::Fifo && st.samples() > 0) fit_fifo_time(st, d.fifo->device_rate_hz);
+    if (d.mode == Mode::Fifo && st.samples() > 0)
+      for (auto& note : fit_fifo_time(st, d.fifo->device_rate_hz)) {
+        rec.events.push_back({st.t_ns.front(), "clock_fit", d.name, note});
+        rep.problems.push_back(d.name + ": " + note);
+      }
     rep.samples += st.samples();
     rec.streams.push_back(std::move(st));
   }

@@ -109,6 +109,8 @@ TEST(RegisterMap, DefectsNameFileFieldAndExpectation) {
       {with("registers = [180, 181, 182]", "registers = [180, 181, 190]"), "devices[0].channels[0].registers[2]"},
       {with("count = 6", "count = 200"), "devices[0].count"},
       {with("rate_hz = 100", "rate_hz = 0"), "devices[0].rate_hz"},
+      {with("rate_hz = 100", "rate_hz = 1e-12"), "devices[0].rate_hz"},  // would overflow the period
+      {with("rate_hz = 100", "rate_hz = 100\nlate_reply_ms = 500"), "devices[0].late_reply_ms"},  // RTU only
       {with("rate_hz = 100", "rate_hz = 100\ncolour = 1"), "devices[0].colour"},
       {with("transport = \"tcp\"", "transport = \"udp\""), "devices[0].transport"},
       {with("slave = 9", "slave = 300"), "devices[0].slave"},
