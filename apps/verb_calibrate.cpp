@@ -21,26 +21,23 @@ using namespace burrbench;
 struct Args {
   std::string experiment, out;
   calibration::CalibrateOptions options;
-  bool no_cv = false;
+  bool no_cv = false, no_profiles = false;
+  std::string derivatives = "sensitivities";
 };
 
 void run(const Args& a) {
-  if (a.options.threads < 1 || a.options.threads > 64)
-    throw InputError("command line", "--threads", "1..64");
-  if (a.options.bootstrap < 0 || a.options.bootstrap > 10000)
-    throw InputError("command line", "--bootstrap", "0..10000 replicates");
-  if (a.options.max_iterations < 1 || a.options.max_iterations > 1000)
-    throw InputError("command line", "--max-iterations", "1..1000");
-  if (!(a.options.bootstrap_block_s > 0))
-    throw InputError("command line", "--bootstrap-block-s", "a block length > 0 s");
+  calibration::CalibrateOptions o = a.options;
+  o.cross_validate = !a.no_cv;
+  o.profiles = !a.no_profiles;
+  o.derivatives = a.derivatives == "fd" ? calibration::Derivatives::kFiniteDifferences
+                                        : calibration::Derivatives::kSensitivities;
+  calibration::validate(o);  // before any output folder is made
   std::error_code ec;
   if (fs::exists(a.out) && !fs::is_directory(a.out))
     throw InputError(a.out, "--out", "a directory (or a path to create one)", "an existing file");
   fs::create_directories(a.out, ec);
   if (ec) throw InputError(a.out, "--out", "a directory that can be created", ec.message());
   TerminalProgress progress("calibrate");
-  calibration::CalibrateOptions o = a.options;
-  o.cross_validate = !a.no_cv;
   o.progress = &progress;
   const auto res = calibration::calibrate(a.experiment, o);
   const fs::path fit = fs::path(a.out) / "fit.json", params = fs::path(a.out) / "params.toml";
@@ -62,6 +59,19 @@ void setup(CLI::App& root) {
   cmd->add_option("--bootstrap", a->options.bootstrap, "block-bootstrap replicates (0: none)")
       ->capture_default_str();
   cmd->add_option("--bootstrap-block-s", a->options.bootstrap_block_s, "bootstrap block length (s)")
+      ->capture_default_str();
+  cmd->add_option("--starts", a->options.starts,
+                  "global search starts (0: the manifest's fit.multistart, default 16)")
+      ->capture_default_str();
+  cmd->add_option("--start-iterations", a->options.start_iterations,
+                  "local iterations of each start")->capture_default_str();
+  cmd->add_option("--derivatives", a->derivatives,
+                  "Jacobian: exact forward sensitivities or central finite differences")
+      ->check(CLI::IsMember({"sensitivities", "fd"}))
+      ->capture_default_str();
+  cmd->add_flag("--no-profiles", a->no_profiles,
+                "skip the profile likelihoods (verdicts then come from the covariance)");
+  cmd->add_option("--profile-points", a->options.profile_points, "profile points per side, at most")
       ->capture_default_str();
   cmd->add_flag("--no-cross-validation", a->no_cv, "skip leave-one-out cross-validation");
   cmd->callback([a] { run(*a); });

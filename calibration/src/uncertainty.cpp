@@ -44,27 +44,45 @@ bool alpha_bound_not_excluded(const Objective& obj, const std::vector<double>& x
 
 }  // namespace
 
+Flags contact_checks(const Objective& obj, const SampleWeights& w, const Evaluation& at_x) {
+  const Layout& L = obj.layout();
+  Flags f;
+  f.held.assign(L.size(), false);
+  f.reason.assign(L.size(), "");
+  for (const auto& p : L.physics()) {
+    if (p.index < 0) continue;
+    const std::size_t i = std::size_t(p.index);
+    if (!class_touched(at_x, w, p.label)) {
+      f.held[i] = true;
+      f.reason[i] = fmt::format("class '{}' is never in contact in the used samples", p.class_name);
+    } else if (p.kind == PhysKind::kAlpha && !(removed(at_x, p.label) > 0)) {
+      f.held[i] = true;
+      f.reason[i] = fmt::format("no '{}' bone is removed in the replay: alpha has no effect on "
+                                "the predicted force", p.class_name);
+    }
+  }
+  return f;
+}
+
 UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
-                                     const SampleWeights& w, const Evaluation& at_x) {
+                                     const SampleWeights& w, const Evaluation& at_x,
+                                     Flags initial, bool covariance_rules) {
   const Layout& L = obj.layout();
   UncertaintyReport rep;
-  rep.held.assign(L.size(), false);
-  std::vector<std::string> reason(L.size());
+  rep.held = initial.held;
+  rep.held.resize(L.size(), false);
+  std::vector<std::string> reason = std::move(initial.reason);
+  reason.resize(L.size());
   auto flag = [&](int i, std::string why) {
-    if (i < 0 || rep.held[std::size_t(i)]) return false;
+    if (!covariance_rules || i < 0 || rep.held[std::size_t(i)]) return false;
     rep.held[std::size_t(i)] = true;
     reason[std::size_t(i)] = std::move(why);
     return true;
   };
   for (const auto& p : L.physics()) {
-    if (p.index < 0) continue;
+    if (p.index < 0 || !covariance_rules || rep.held[std::size_t(p.index)]) continue;
     const std::size_t i = std::size_t(p.index);
-    if (!class_touched(at_x, w, p.label))
-      flag(p.index, fmt::format("class '{}' is never in contact in the used samples", p.class_name));
-    else if (p.kind == PhysKind::kAlpha && !(removed(at_x, p.label) > 0))
-      flag(p.index, fmt::format("no '{}' bone is removed in the replay: alpha has no effect on "
-                                "the predicted force", p.class_name));
-    else if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i))
+    if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i))
       flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g} {}, "
                                 "next to no erosion): they give only a lower limit",
                                 std::exp(L.upper(i)), unit_of(p.kind)));
@@ -137,13 +155,17 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     f.fixed = p.index < 0;
     if (f.fixed) {
       f.estimate = p.spec.initial;
+      f.held = p.spec.initial;
+      f.verdict = "fixed";
     } else if (rep.held[std::size_t(p.index)]) {
       f.identifiable = false;
       f.reason = reason[std::size_t(p.index)];
+      f.held = std::exp(x[std::size_t(p.index)]);
     } else {
       const double xi = x[std::size_t(p.index)];
       const double se_log = std::sqrt(std::max(0.0, var(pos(std::size_t(p.index)))));
       f.estimate = std::exp(xi);
+      f.held = f.estimate;
       f.std_error = f.estimate * se_log;  // delta method
       f.ci95_low = std::exp(xi - kZ95 * se_log);  // interval on ln θ, mapped back
       f.ci95_high = std::exp(xi + kZ95 * se_log);

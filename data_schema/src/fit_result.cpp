@@ -198,6 +198,11 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
            {"identifiable", p.identifiable}, {"reason", p.reason}};
     if (!std::isnan(p.bootstrap_ci95_low)) j["bootstrap_ci95_low"] = num(p.bootstrap_ci95_low);
     if (!std::isnan(p.bootstrap_ci95_high)) j["bootstrap_ci95_high"] = num(p.bootstrap_ci95_high);
+    j["held"] = num(p.held);
+    j["verdict"] = p.verdict;
+    j["profile_ci95_low"] = num(p.profile_ci95_low);
+    j["profile_ci95_high"] = num(p.profile_ci95_high);
+    j["profile"] = p.profile;
     params.push_back(j);
   }
   json nuisance = json::array();
@@ -223,6 +228,7 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
                   {"final_cost", num(s.final_cost)}, {"wall_s", num(s.wall_s)}, {"replays", s.replays},
                   {"termination", s.termination}, {"multistart", s.multistart}}},
       {"cross_validation", cv},
+      {"multistart", f.multistart},
       {"metrics", f.metrics},
       {"settings", f.settings},
       {"provenance", provenance_json(detail::stamped(f.provenance))},
@@ -277,6 +283,11 @@ FitResult read_fit(const std::filesystem::path& path) {
     fp.fixed = p.boolean("fixed");
     fp.identifiable = p.boolean("identifiable");
     fp.reason = p.str("reason");
+    fp.held = p.opt_number("held");
+    if (p.has("verdict")) fp.verdict = p.str("verdict");
+    fp.profile_ci95_low = p.opt_number("profile_ci95_low");
+    fp.profile_ci95_high = p.opt_number("profile_ci95_high");
+    if (p.has("profile")) fp.profile = p.array("profile");
     p.done();
     f.parameters.push_back(fp);
   }
@@ -325,6 +336,7 @@ FitResult read_fit(const std::filesystem::path& path) {
     f.cross_validation.push_back({c.str("held_out"), c.object("metrics")});
     c.done();
   }
+  if (root.has("multistart")) f.multistart = root.array("multistart");
   f.metrics = root.object("metrics");
   f.settings = root.object("settings");
   f.provenance = read_provenance(root.sub("provenance"));
@@ -344,9 +356,11 @@ ParameterSet parameter_set_from(const FitResult& f, const std::string& file) {
   for (const auto& fp : f.parameters) {
     auto& c = p.classes[fp.class_id];
     c.name = fp.class_name;
-    if (fp.name == "alpha") c.alpha_N_per_mm2 = fp.estimate;
-    if (fp.name == "c1") c.c1_N_per_mm2 = fp.estimate;
-    if (fp.name == "mu") c.mu = fp.estimate;
+    const double v = std::isnan(fp.estimate) ? fp.held : fp.estimate;
+    if (!fp.fixed && !fp.identifiable) p.not_identifiable[fp.class_id].push_back(fp.name);
+    if (fp.name == "alpha") c.alpha_N_per_mm2 = v;
+    if (fp.name == "c1") c.c1_N_per_mm2 = v;
+    if (fp.name == "mu") c.mu = v;
   }
   for (const auto& [id, c] : p.classes) {
     if (!f.parameter(id, "c1") || !f.parameter(id, "mu"))

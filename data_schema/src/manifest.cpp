@@ -330,6 +330,9 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
       seg.end_s = s.num("end_s");
       seg.use = s.opt_boolean("use").value_or(true);
       seg.label = s.opt_str("label").value_or("");
+      if (s.has("role"))
+        seg.role = choice(s, "role", {{"calibrate", RecordingRole::kCalibrate}, {"validate", RecordingRole::kValidate}},
+                          RecordingRole::kCalibrate);
       s.done();
       rr.segments.push_back(seg);
     }
@@ -432,8 +435,11 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
       reg.insert("translation_mm", arr(r.registration.translation_mm));
     }
     toml::array segs;
-    for (const auto& s : r.segments)
-      segs.push_back(toml::table{{"start_s", s.start_s}, {"end_s", s.end_s}, {"use", s.use}, {"label", s.label}});
+    for (const auto& s : r.segments) {
+      toml::table st{{"start_s", s.start_s}, {"end_s", s.end_s}, {"use", s.use}, {"label", s.label}};
+      if (s.role) st.insert("role", to_string(*s.role));
+      segs.push_back(st);
+    }
     toml::table rt{{"id", r.id},          {"path", display(r.path, base)}, {"sample", r.sample},
                    {"role", to_string(r.role)}, {"lag_ms", r.lag_ms},       {"registration", reg}};
     if (!segs.empty()) rt.insert("segments", segs);

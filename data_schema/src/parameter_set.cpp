@@ -39,11 +39,18 @@ void validate(const ParameterSet& p, const std::string& file) {
 void write_params(const std::filesystem::path& path, const ParameterSet& p) {
   validate(p, path.string());
   toml::table classes;
-  for (const auto& [id, c] : p.classes)
-    classes.insert(c.name, toml::table{{"id", int64_t{id}},
-                                       {"alpha_N_per_mm2", c.alpha_N_per_mm2},
-                                       {"c1_N_per_mm2", c.c1_N_per_mm2},
-                                       {"mu", c.mu}});
+  for (const auto& [id, c] : p.classes) {
+    toml::table ct{{"id", int64_t{id}},
+                   {"alpha_N_per_mm2", c.alpha_N_per_mm2},
+                   {"c1_N_per_mm2", c.c1_N_per_mm2},
+                   {"mu", c.mu}};
+    if (auto it = p.not_identifiable.find(id); it != p.not_identifiable.end() && !it->second.empty()) {
+      toml::array names;
+      for (const auto& n : it->second) names.push_back(n);
+      ct.insert("not_identifiable", names);
+    }
+    classes.insert(c.name, ct);
+  }
   const toml::table root{{"format", kParamsFormat},
                          {"format_version", detail::version_string(kParamsVersionMajor, kParamsVersionMinor)},
                          {"notes", p.notes},
@@ -81,7 +88,13 @@ ParameterSet read_params(const std::filesystem::path& path) {
     cp.alpha_N_per_mm2 = c.num_or_inf("alpha_N_per_mm2");
     cp.c1_N_per_mm2 = c.num("c1_N_per_mm2");
     cp.mu = c.num("mu");
+    std::vector<std::string> flagged;
+    if (c.has("not_identifiable")) flagged = c.strings("not_identifiable");
+    for (const auto& n : flagged)
+      if (n != "alpha" && n != "c1" && n != "mu")
+        throw InputError(file, c.field("not_identifiable"), "names among alpha, c1, mu", n);
     c.done();
+    if (!flagged.empty()) p.not_identifiable[std::uint8_t(id)] = flagged;
     if (!p.classes.emplace(std::uint8_t(id), cp).second)
       throw InputError(file, c.field("id"), "unique class ids", std::to_string(id) + " twice");
   }

@@ -122,17 +122,30 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
 
   // Segments: a sample is used when some use=true segment holds it and no use=false one does.
   // Bounds are inclusive and compared in integer ns (start_s rounded to the ns), so a
-  // sample exactly on a boundary is never lost to rounding.
-  a.use.assign(a.t_s.size(), ref.segments.empty() ? 1 : 0);
+  // sample exactly on a boundary is never lost to rounding. A segment's role (default: the
+  // recording's) says whether its samples calibrate or validate.
+  const bool whole = ref.segments.empty();
+  const bool cal = ref.role == data_schema::RecordingRole::kCalibrate;
+  a.use_calibrate.assign(a.t_s.size(), whole && cal ? 1 : 0);
+  a.use_validate.assign(a.t_s.size(), whole && !cal ? 1 : 0);
   for (bool pass_use : {true, false})
     for (const auto& seg : ref.segments) {
       if (seg.use != pass_use) continue;
+      const bool seg_cal = seg.role.value_or(ref.role) == data_schema::RecordingRole::kCalibrate;
       const double lo = std::round(seg.start_s * 1e9), hi = std::round(seg.end_s * 1e9);
       for (std::size_t k = 0; k < a.t_s.size(); ++k) {
         const double rel_ns = double(f_stream.t_ns[f_keep[k]] - a.t0_ns);
-        if (rel_ns >= lo && rel_ns <= hi) a.use[k] = seg.use ? 1 : 0;
+        if (!(rel_ns >= lo && rel_ns <= hi)) continue;
+        if (!seg.use) {
+          a.use_calibrate[k] = a.use_validate[k] = 0;
+        } else {
+          (seg_cal ? a.use_calibrate : a.use_validate)[k] = 1;
+          (seg_cal ? a.use_validate : a.use_calibrate)[k] = 0;
+        }
       }
     }
+  a.use.resize(a.t_s.size());
+  for (std::size_t k = 0; k < a.t_s.size(); ++k) a.use[k] = a.use_calibrate[k] | a.use_validate[k];
 
   const std::string mfile = m.file.string();
   std::size_t index = 0;

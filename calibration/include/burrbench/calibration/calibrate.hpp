@@ -1,34 +1,43 @@
 #pragma once
 // `burrbench calibrate`: an experiment manifest in, a fit result and a parameter set out.
-// docs/calibration.md describes the objective, derivative scheme, starting values,
-// uncertainty, identifiability rules, bootstrap, cross-validation and their limits.
+// docs/calibration.md describes the objective, derivatives, global search, profiles,
+// verdicts, uncertainty, bootstrap, cross-validation and their limits.
 #include <cstdint>
 #include <filesystem>
 #include <string>
 
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/calibration/recording_model.hpp"
 #include "burrbench/data_schema/progress.hpp"
 
 namespace burrbench::calibration {
 
 struct CalibrateOptions {
   int threads = 2;              // replay workers (each holds its own copy of every sample)
-  int max_iterations = 30;      // main Ceres solve
+  int max_iterations = 30;      // refinement of the best start
+  int starts = 0;               // global search starts; 0: the manifest's fit.multistart
+  int start_iterations = 6;     // local iterations of each start (after its pre-fit)
+  bool profiles = true;         // profile likelihood of every free physics parameter
+  int profile_points = 6;       // per side, at most
+  Derivatives derivatives = Derivatives::kSensitivities;
   int bootstrap = 0;            // block-bootstrap replicates (0: none)
   double bootstrap_block_s = 1.0;  // bootstrap blocks: used spans cut to at most this long
   bool cross_validate = true;   // leave-one-recording (or segment) out
   Progress* progress = nullptr;
 };
 
+// InputError naming the command-line option when a value is out of its range.
+void validate(const CalibrateOptions& options);
+
 struct CalibrationOutput {
   data_schema::FitResult fit;
-  data_schema::ParameterSet params;  // estimates (identifiable or not: see `notes`)
+  data_schema::ParameterSet params;  // the values held at the optimum (flags: not_identifiable)
   std::string summary;               // human-readable, several lines
 };
 
 // InputError on a bad manifest, recordings or samples (missing files, unknown classes,
-// no used samples, ...). Deterministic: same inputs → same numbers.
+// no used samples, ...) or bad options. Deterministic: same inputs → same numbers.
 CalibrationOutput calibrate(const std::filesystem::path& manifest, const CalibrateOptions& options);
 
 }  // namespace burrbench::calibration

@@ -77,6 +77,7 @@ class ReplayRecordingModel final : public RecordingModel {
 
   const model::AlignedRecording& recording() const { return rec_; }
   void set_steps(const DiffSteps& s) { steps_ = s; }
+  void set_derivatives(Derivatives d) { derivatives_ = d; }
   const DiffSteps& steps() const { return steps_; }
 
  private:
@@ -84,6 +85,7 @@ class ReplayRecordingModel final : public RecordingModel {
   ReplayPool& pool_;
   model::ReplayOptions options_;
   DiffSteps steps_;
+  Derivatives derivatives_ = Derivatives::kFiniteDifferences;
 };
 
 model::ModelParams to_model_params(const PhysicsValues& v);

@@ -12,6 +12,7 @@
 //     past a bound (the data then give only a one-sided limit).
 // Flagged parameters are held at their estimate and the covariance of the rest is
 // recomputed (conditional on them), so one undetermined constant does not blur the others.
+#include <string>
 #include <vector>
 
 #include "burrbench/calibration/objective.hpp"
@@ -27,7 +28,20 @@ struct UncertaintyReport {
   std::vector<bool> held;                             // x entries held as not identifiable
 };
 
+// Parameters flagged before any interval is computed, with their reasons (x order).
+struct Flags {
+  std::vector<bool> held;
+  std::vector<std::string> reason;
+};
+
+// Rules 1 and 2 (no contact; α without removed bone): checks of the data, not of the cost.
+Flags contact_checks(const Objective& obj, const SampleWeights& w, const Evaluation& at_x);
+
+// `initial`: parameters already flagged (held, with reasons), e.g. by contact_checks or by
+// their profiles. `covariance_rules`: also apply the α slice check and rules 3–5 (used
+// when no profiles are computed); otherwise only the covariance of the rest is computed.
 UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
-                                     const SampleWeights& w, const Evaluation& at_x);
+                                     const SampleWeights& w, const Evaluation& at_x,
+                                     Flags initial, bool covariance_rules = true);
 
 }  // namespace burrbench::calibration

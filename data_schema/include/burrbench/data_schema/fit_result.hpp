@@ -17,7 +17,7 @@ namespace burrbench::data_schema {
 
 inline constexpr const char* kFitFormat = "burrbench.fit";
 inline constexpr int kFitVersionMajor = 1;
-inline constexpr int kFitVersionMinor = 0;
+inline constexpr int kFitVersionMinor = 1;  // 1.1: held value, verdict, profile, multistart
 
 inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -31,6 +31,14 @@ struct FitParameter {
   bool fixed = false;
   bool identifiable = true;
   std::string reason;  // why not identifiable ("" when identifiable)
+  // 1.1: the value the fit held at its optimum (also when not identifiable; NaN only when
+  // unknown, e.g. a 1.0 file), the profile-likelihood verdict, its interval (NaN = open on
+  // that side) and the profile's points [{"value", "delta_cost", "x": {...}}] (docs/calibration.md).
+  double held = kNaN;
+  std::string verdict{};  // identifiable | practically_non_identifiable | non_identifiable |
+                        // at_bound | fixed ("" in 1.0 files)
+  double profile_ci95_low = kNaN, profile_ci95_high = kNaN;
+  nlohmann::json profile = nlohmann::json::array();
 };
 
 struct FitNuisance {
@@ -78,6 +86,9 @@ struct FitResult {
   std::vector<CrossValidationFold> cross_validation;
   nlohmann::json metrics = nlohmann::json::object();   // analysis fills it
   nlohmann::json settings = nlohmann::json::object();  // loss, buried policy, ...
+  // 1.1: every multistart end point [{"start": {...}, "end": {...}, "cost", "termination",
+  // "iterations"}] sorted by cost (the waterfall), and how many reached the best optimum.
+  nlohmann::json multistart = nlohmann::json::array();
   Provenance provenance;
   std::string experiment_path, experiment_sha256;
 
@@ -88,8 +99,9 @@ void validate(const FitResult& f, const std::string& file_for_messages);
 void write_fit(const std::filesystem::path& path, const FitResult& f);
 FitResult read_fit(const std::filesystem::path& path);  // validates
 
-// The estimates as a parameter set (what a simulator release consumes); InputError if a
-// class lacks a finite estimate of c1 or mu.
+// The values the fit held as a parameter set (what a simulator release consumes): the
+// estimate, or the held value flagged in `not_identifiable` when the parameter is not
+// identifiable; InputError if a class lacks a finite value of c1 or mu.
 ParameterSet parameter_set_from(const FitResult& f, const std::string& file_for_messages);
 
 }  // namespace burrbench::data_schema

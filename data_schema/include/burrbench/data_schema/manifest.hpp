@@ -52,14 +52,17 @@ struct Registration {
   bool from_fiducials() const { return !fiducials_rig_mm.empty(); }
 };
 
+enum class RecordingRole { kCalibrate, kValidate };
+
 struct Segment {
   double start_s = 0;  // seconds from the recording's first sample
   double end_s = 0;
   bool use = true;     // false: skip this span
   std::string label;
+  // Overrides the recording's role for this span: one recording may calibrate on its
+  // plunge and sweep and validate on its polish (docs/calibration.md "Roles").
+  std::optional<RecordingRole> role{};
 };
-
-enum class RecordingRole { kCalibrate, kValidate };
 
 struct RecordingRef {
   std::string id;
@@ -101,7 +104,7 @@ struct FitSpec {
   double loss_scale = 3.0;  // in units of σ
   BuriedPolicy buried = BuriedPolicy::kExclude;
   std::uint64_t seed = 1;
-  int multistart = 1;
+  int multistart = 16;  // starts of the global search (docs/calibration.md)
   std::vector<ClassFitSpec> classes;
   NuisanceSpec nuisance;
 };

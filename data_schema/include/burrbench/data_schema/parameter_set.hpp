@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "burrbench/data_schema/provenance.hpp"
 
@@ -24,6 +25,10 @@ struct ClassParams {
 
 struct ParameterSet {
   std::map<std::uint8_t, ClassParams> classes;  // by class label
+  // Per class label, the constants the calibration could not identify ("alpha", "c1", "mu";
+  // key `not_identifiable` in the class's table): their value above is the one the fit held
+  // at its optimum, not a confident estimate (docs/calibration.md).
+  std::map<std::uint8_t, std::vector<std::string>> not_identifiable;
   std::string notes;
   Provenance provenance;  // optional in hand-written files; writers always stamp it
   const ClassParams* by_name(const std::string& name) const;

@@ -50,6 +50,8 @@ struct AlignedRecording {
   std::vector<double> t_s;                 // force timestamps (s from t0), strictly increasing
   std::vector<glm::dvec3> force_sensor_N;  // measured, sensor frame, as recorded
   std::vector<std::uint8_t> use;           // 1: inside a used segment (all 1 without segments)
+  // The same split by role (a segment's `role`, default the recording's): use = either.
+  std::vector<std::uint8_t> use_calibrate, use_validate;
   std::size_t dropped_force_samples = 0;   // stale or non-increasing timestamps
 
   Series<glm::dvec3> stage_rig_mm;  // stage-reported position (fresh samples only)

@@ -1,0 +1,49 @@
+#pragma once
+// Global search: many local fits from a Latin hypercube of starts (docs/calibration.md
+// "Global search"). Each start is first warmed by the cheap fixed-geometry pre-fit (C1, μ
+// and bias at fixed α, lag and depth), then solved locally for a few iterations with every
+// parameter free; the starts run concurrently on the shared replay pool. Every end point is
+// kept: sorted by cost they are the waterfall plot.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "burrbench/calibration/objective.hpp"
+
+namespace burrbench::calibration {
+
+// n points in x: point 0 is `x0` (the manifest's start); points 1..n−1 a Latin hypercube,
+// in ln θ, over the bounds of every free physics parameter (nuisances keep x0's values).
+// Seeded: the same seed gives the same points.
+std::vector<std::vector<double>> latin_hypercube_starts(const Layout& layout,
+                                                        const std::vector<double>& x0, int n,
+                                                        std::uint64_t seed);
+
+struct StartEnd {
+  int index = 0;                   // position in the list of starts
+  std::vector<double> start, end;  // x (scaled) before the pre-fit and at the end
+  double prefit_cost = 0, cost = 0;
+  std::uint64_t iterations = 0;
+  std::string termination;
+  bool usable = false;
+};
+
+struct MultistartOptions {
+  int prefit_iterations = 4;  // C1, μ, bias at fixed α / lag / depth
+  int iterations = 6;         // local solve with everything free
+  int concurrent = 2;         // starts solved at once
+  Progress* progress = nullptr;
+};
+
+struct MultistartOutcome {
+  std::vector<StartEnd> ends;  // sorted by cost (unusable ones last)
+  // Ends whose cost lies within `tolerance` of the best: "best optimum reached by k of N".
+  int reached_best = 0;
+  double tolerance = 0;
+};
+
+// `tolerance` (cost units): ends within it of the best count as reaching the best optimum.
+MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector<double>>& starts,
+                             const SampleWeights& w, const MultistartOptions& opt, double tolerance);
+
+}  // namespace burrbench::calibration

@@ -1,0 +1,54 @@
+#pragma once
+// Profile likelihood of one physics parameter (docs/calibration.md "Profiles"): ln θ is
+// stepped away from the optimum on each side and every other free parameter re-optimised,
+// until the cost has risen by the threshold (χ²₁(0.95)/2 × residual variance, in cost
+// units) or the bound is reached. The crossing gives the interval, which may be open on
+// one or both sides; the shape gives the verdict.
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "burrbench/calibration/objective.hpp"
+
+namespace burrbench::calibration {
+
+inline constexpr double kChi2_1_95 = 3.841458820694124;  // χ²₁ 95 % quantile
+
+struct ProfilePoint {
+  double x = 0;           // ln θ
+  double delta_cost = 0;  // cost − cost at the optimum (cost units)
+  std::vector<double> at; // the re-optimised parameters there
+};
+
+struct ProfileSide {
+  std::vector<ProfilePoint> points;  // moving away from the optimum
+  bool closed = false;               // the cost crossed the threshold
+  bool at_bound = false;             // stopped at the parameter's bound without crossing
+  double crossing = 0;               // ln θ of the crossing (closed only)
+};
+
+struct Profile {
+  std::size_t entry = 0;
+  double x_hat = 0, threshold = 0;
+  ProfileSide lower, upper;
+  // A point cheaper than the optimum by more than `lower_tolerance`: the fit stopped in a
+  // local minimum; `lower_at` is where to restart.
+  bool found_lower = false;
+  std::vector<double> lower_at;
+  double lower_cost = 0;
+};
+
+struct ProfileOptions {
+  int iterations = 4;   // re-optimisation per point (warm-started from the previous point)
+  int max_points = 6;   // per side
+  double first_step = 0.1;  // ln θ; the caller passes ≈ 1.96 × the covariance SE
+};
+
+// `cost_hat`: the cost at x_hat; `hold`: entries held during the re-optimisations besides
+// `entry` (e.g. parameters already known to be non-identifiable). Thread-safe for
+// concurrent calls on one Objective.
+Profile profile_parameter(const Objective& obj, const std::vector<double>& x_hat, double cost_hat,
+                          const SampleWeights& w, std::size_t entry, double threshold,
+                          const std::vector<bool>& hold, const ProfileOptions& opt);
+
+}  // namespace burrbench::calibration

@@ -1,0 +1,91 @@
+#pragma once
+// The calibration driver's state and its stages (internal). calibrate() in calibrate.cpp
+// runs them in order; each stage reads what the earlier ones left in the Run.
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "burrbench/calibration/calibrate.hpp"
+#include "burrbench/calibration/multistart.hpp"
+#include "burrbench/calibration/objective.hpp"
+#include "burrbench/calibration/profile.hpp"
+#include "burrbench/calibration/replay_model.hpp"
+#include "burrbench/calibration/uncertainty.hpp"
+#include "burrbench/model/experiment.hpp"
+
+namespace burrbench::calibration::detail {
+
+namespace ds = data_schema;
+
+struct Metrics {
+  double rmse_N = NAN, r2 = NAN;
+  std::uint64_t samples = 0;
+  nlohmann::json json() const;
+};
+
+struct Run {
+  Run(const CalibrateOptions& o, const std::filesystem::path& manifest)
+      : opt(o), manifest_path(manifest), mfile(manifest.string()), exp(model::load_experiment(manifest)) {}
+  const CalibrateOptions& opt;
+  std::filesystem::path manifest_path;
+  std::string mfile;
+  model::Experiment exp;
+
+  // select
+  std::vector<const model::AlignedRecording*> recs;  // recordings with calibrating samples
+  std::map<std::uint8_t, std::string> present;        // class label → name
+  std::unique_ptr<Layout> layout;
+  std::map<std::string, ds::SampleVolume> used_samples;
+  std::unique_ptr<ReplayPool> pool;
+  std::vector<std::unique_ptr<ReplayRecordingModel>> owned;
+  std::vector<const RecordingModel*> models;
+  SampleWeights w_all;       // calibrating samples
+  SampleWeights w_validate;  // validating samples of the same recordings (may be all 0)
+  ObjectiveSettings settings;
+  std::string sigma_source = "manifest (sensor.sigma_N)";
+  std::unique_ptr<Objective> obj;
+  std::uint64_t replays_before = 0;
+
+  // search
+  DiffSteps steps;
+  nlohmann::json sweeps = nlohmann::json::array();
+  int starts = 1;
+  MultistartOutcome search;
+  SolveOutcome fit;
+  std::vector<double> x;
+  int restarts = 0;  // refits from a profile point cheaper than the optimum
+
+  // assess
+  Evaluation ev;
+  double threshold = 0;              // profile threshold, cost units
+  std::vector<Profile> profiles;     // free physics parameters that were profiled
+  UncertaintyReport unc;
+  std::vector<std::string> verdict;  // per x entry (physics only)
+  std::vector<std::string> warnings;
+
+  // resampling
+  ds::FitResult out;
+  Metrics calibration_metrics, validation_metrics;
+
+  void say(const std::string& s) const {
+    if (opt.progress) opt.progress->update(-1, s);
+  }
+};
+
+Metrics metrics(const Objective& obj, const Evaluation& ev, const std::vector<double>& x,
+                const SampleWeights& w);
+
+void select_recordings(Run& run);   // recordings, classes, layout, pool, weights, σ
+void choose_steps(Run& run);        // difference steps (finite differences only)
+void global_search(Run& run);       // multistart from a Latin hypercube
+void refine(Run& run);              // the best start to convergence
+void assess(Run& run);              // profiles, verdicts, covariance (restarts refine if cheaper)
+void bootstrap(Run& run);
+void cross_validate(Run& run);
+void score_validation(Run& run);    // validate-role segments with their recording's nuisances
+CalibrationOutput results(Run& run);
+
+}  // namespace burrbench::calibration::detail

@@ -1,0 +1,213 @@
+// Stage "assess": profile likelihoods, verdicts and the covariance of what is identifiable.
+// A profile point cheaper than the optimum sends the fit back to `refine` from there.
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "pipeline.hpp"
+
+namespace burrbench::calibration::detail {
+namespace {
+
+constexpr int kMaxRestarts = 2;
+constexpr double kBoundLog = 0.01;  // within 1 % (in ln θ) of a bound = at the bound
+
+const PhysicsParam* physics_at(const Layout& L, std::size_t i) {
+  for (const auto& p : L.physics())
+    if (p.index == int(i)) return &p;
+  return nullptr;
+}
+
+std::vector<Profile> run_profiles(Run& run, const Flags& pre) {
+  const Layout& L = *run.layout;
+  const CovarianceOutcome cov = run.obj->covariance(run.x, run.w_all, pre.held);
+  std::vector<std::size_t> entries;
+  for (const auto& p : L.physics())
+    if (p.index >= 0 && !pre.held[std::size_t(p.index)]) entries.push_back(std::size_t(p.index));
+  std::vector<Profile> out(entries.size());
+  std::size_t next = 0, done = 0;
+  std::mutex mu;
+  std::exception_ptr error;
+  auto worker = [&] {
+    for (;;) {
+      std::size_t k;
+      {
+        std::lock_guard lk(mu);
+        if (next >= entries.size() || error) return;
+        k = next++;
+      }
+      try {
+        const std::size_t i = entries[k];
+        double se = NAN;
+        for (std::size_t a = 0; a < cov.indices.size(); ++a)
+          if (cov.ok && cov.indices[a] == i) se = std::sqrt(std::max(0.0, cov.cov[a * cov.indices.size() + a]));
+        ProfileOptions po;
+        po.max_points = run.opt.profile_points;
+        po.first_step = std::isfinite(se) && se > 0 ? 1.96 * se : 0.1;
+        Profile p = profile_parameter(*run.obj, run.x, run.fit.final_cost, run.w_all, i,
+                                      run.threshold, pre.held, po);
+        std::lock_guard lk(mu);
+        out[k] = std::move(p);
+        ++done;
+        run.say(fmt::format("profile {}/{}: {}", done, entries.size(), L.name(i)));
+      } catch (...) {
+        std::lock_guard lk(mu);
+        if (!error) error = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int t = 0; t < std::max(1, run.opt.threads); ++t) threads.emplace_back(worker);
+  for (auto& t : threads) t.join();
+  if (error) std::rethrow_exception(error);
+  // Correlations of the free physics parameters (for the warnings below).
+  const std::size_t m = cov.indices.size();
+  if (cov.ok)
+    for (std::size_t a = 0; a < m; ++a)
+      for (std::size_t b = a + 1; b < m; ++b) {
+        const auto* pa = physics_at(L, cov.indices[a]);
+        const auto* pb = physics_at(L, cov.indices[b]);
+        if (!pa || !pb) continue;
+        const double den = std::sqrt(cov.cov[a * m + a] * cov.cov[b * m + b]);
+        const double r = den > 0 ? cov.cov[a * m + b] / den : 0.0;
+        if (std::abs(r) > 0.99)
+          run.warnings.push_back(fmt::format("{} and {} correlate at {:.5f}: read their intervals "
+                                             "together (profiles below)", L.name(cov.indices[a]),
+                                             L.name(cov.indices[b]), r));
+      }
+  return out;
+}
+
+nlohmann::json profile_json(const Layout& L, const Profile& p) {
+  std::vector<std::pair<double, double>> pts{{p.x_hat, 0.0}};
+  for (const auto* s : {&p.lower, &p.upper})
+    for (const auto& q : s->points) pts.emplace_back(q.x, q.delta_cost);
+  std::sort(pts.begin(), pts.end());
+  nlohmann::json j = nlohmann::json::array();
+  for (const auto& [x, d] : pts)
+    j.push_back({{"value", L.natural(p.entry, x)},
+                 {"delta_cost", std::isfinite(d) ? nlohmann::json(d) : nlohmann::json(nullptr)}});
+  return j;
+}
+
+}  // namespace
+
+void assess(Run& run) {
+  const Layout& L = *run.layout;
+  Flags flags;
+  for (;;) {
+    run.ev = run.obj->evaluate(run.x, run.w_all);
+    const double dof = double(run.ev.residuals_used) - double(L.size());
+    const double s2 = dof > 0 ? std::max(2.0 * run.ev.cost / dof, 1e-12) : 1.0;
+    run.threshold = 0.5 * kChi2_1_95 * s2;
+    flags = contact_checks(*run.obj, run.w_all, run.ev);
+    run.profiles.clear();
+    run.warnings.clear();
+    if (!run.opt.profiles) break;
+    run.say("profiles: re-optimising along each physics parameter");
+    run.profiles = run_profiles(run, flags);
+    const Profile* cheaper = nullptr;
+    for (const auto& p : run.profiles)
+      if (p.found_lower && (!cheaper || p.lower_cost < cheaper->lower_cost)) cheaper = &p;
+    if (!cheaper || run.restarts >= kMaxRestarts) {
+      if (cheaper)
+        run.warnings.push_back(fmt::format("a profile point is still cheaper than the optimum "
+                                           "(cost {:.6g} < {:.6g}) after {} restarts",
+                                           cheaper->lower_cost, run.fit.final_cost, run.restarts));
+      break;
+    }
+    run.say(fmt::format("profile of {} found a cheaper point (cost {:.6g} < {:.6g}): refitting "
+                        "from there", L.name(cheaper->entry), cheaper->lower_cost, run.fit.final_cost));
+    run.x = cheaper->lower_at;
+    ++run.restarts;
+    const auto previous = run.fit;
+    refine(run);
+    run.fit.initial_cost = previous.initial_cost;
+    run.fit.iterations += previous.iterations;
+  }
+
+  // "Best optimum reached by k of N": ends within the profile threshold of the optimum.
+  run.search.tolerance = run.threshold;
+  run.search.reached_best = 0;
+  for (const auto& e : run.search.ends)
+    run.search.reached_best += e.usable && e.cost <= run.fit.final_cost + run.threshold;
+  if (run.starts > 1 && run.search.reached_best <= 1)
+    run.warnings.push_back(fmt::format("the best optimum was reached by only {} of {} starts: it may "
+                                       "not be the global one (more starts: --starts)",
+                                       run.search.reached_best, run.starts));
+
+  run.verdict.assign(L.size(), "");
+  for (const auto& p : L.physics())
+    if (p.index >= 0 && flags.held[std::size_t(p.index)]) run.verdict[std::size_t(p.index)] = "non_identifiable";
+  if (run.opt.profiles) {
+    for (const auto& pr : run.profiles) {
+      const std::size_t i = pr.entry;
+      const auto* p = physics_at(L, i);
+      const double xi = run.x[i];
+      std::string v, why;
+      if (xi - L.lower(i) < kBoundLog || L.upper(i) - xi < kBoundLog) {
+        const bool up = L.upper(i) - xi < kBoundLog;
+        v = "at_bound";
+        why = fmt::format("estimate at its {} bound ({:.4g} {}): widen it ([fit.classes.{}] {})",
+                          up ? "upper" : "lower", std::exp(xi), unit_of(p->kind), p->class_name,
+                          to_string(p->kind));
+      } else if (pr.lower.closed && pr.upper.closed) {
+        v = "identifiable";
+      } else if (pr.lower.closed || pr.upper.closed) {
+        v = "practically_non_identifiable";
+        const bool up_open = !pr.upper.closed;
+        why = fmt::format("profile flat towards its {} bound: the data give only {} limit ({} {:.4g} {})",
+                          up_open ? "upper" : "lower", up_open ? "a lower" : "an upper",
+                          up_open ? ">=" : "<=",
+                          std::exp(up_open ? pr.lower.crossing : pr.upper.crossing), unit_of(p->kind));
+      } else {
+        v = "non_identifiable";
+        why = "profile flat on both sides within the bounds";
+      }
+      // Other near-optimal ends of the global search outside the profile interval: the
+      // profile's valley does not hold every optimum of equal cost.
+      if (v == "identifiable")
+        for (const auto& e : run.search.ends)
+          if (e.usable && e.cost <= run.fit.final_cost + run.threshold &&
+              (e.end[i] < pr.lower.crossing || e.end[i] > pr.upper.crossing)) {
+            v = "non_identifiable";
+            why = fmt::format("start {} reached an equally good fit (cost {:.6g}) at {:.4g} {}, "
+                              "outside the profile interval", e.index, e.cost, std::exp(e.end[i]),
+                              unit_of(p->kind));
+            break;
+          }
+      run.verdict[i] = v;
+      if (v != "identifiable") {
+        flags.held[i] = true;
+        flags.reason[i] = why;
+      }
+    }
+  }
+  run.unc = assess_uncertainty(*run.obj, run.x, run.w_all, run.ev, flags, !run.opt.profiles);
+  for (auto& fp : run.unc.parameters) {
+    const PhysicsParam* p = nullptr;
+    for (const auto& q : L.physics())
+      if (q.label == fp.class_id && to_string(q.kind) == fp.name) p = &q;
+    if (!p || p->index < 0) continue;
+    const std::size_t i = std::size_t(p->index);
+    fp.verdict = !run.verdict[i].empty() ? run.verdict[i]
+                 : fp.identifiable       ? "identifiable"
+                                         : "non_identifiable";
+    for (const auto& pr : run.profiles)
+      if (pr.entry == i) {
+        fp.profile = profile_json(L, pr);
+        fp.profile_ci95_low = pr.lower.closed ? std::exp(pr.lower.crossing) : NAN;
+        fp.profile_ci95_high = pr.upper.closed ? std::exp(pr.upper.crossing) : NAN;
+      }
+  }
+  run.out.parameters = run.unc.parameters;
+  run.out.nuisance = run.unc.nuisance;
+  run.out.covariance = run.unc.covariance;
+  run.out.correlation = run.unc.correlation;
+}
+
+}  // namespace burrbench::calibration::detail

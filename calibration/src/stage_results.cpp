@@ -1,0 +1,156 @@
+// Stage "results": fit.json content, the parameter set and the printed summary.
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/provenance.hpp"
+#include "pipeline.hpp"
+
+namespace burrbench::calibration::detail {
+namespace {
+
+nlohmann::json named(const Layout& L, const std::vector<double>& x) {
+  nlohmann::json j = nlohmann::json::object();
+  for (std::size_t i = 0; i < x.size(); ++i) j[L.name(i)] = L.natural(i, x[i]);
+  return j;
+}
+
+std::string interval_text(double lo, double hi) {
+  auto side = [](double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : std::string("open"); };
+  return fmt::format("[{}, {}]", side(lo), side(hi));
+}
+
+}  // namespace
+
+CalibrationOutput results(Run& run) {
+  const Layout& L = *run.layout;
+  auto& out = run.out;
+  const auto& ev = run.ev;
+  out.residuals_summary.samples_used = ev.samples_used;
+  out.residuals_summary.samples_buried = ev.samples_buried;
+  out.residuals_summary.samples_excluded = ev.samples_excluded;
+  out.residuals_summary.sigma_N = run.settings.sigma_N;
+  out.residuals_summary.rms_normalised =
+      ev.residuals_used ? std::sqrt(2 * ev.cost / double(ev.residuals_used)) : NAN;
+
+  for (const auto& e : run.search.ends)
+    out.multistart.push_back({{"index", e.index},
+                              {"start", named(L, e.start)},
+                              {"end", e.end.empty() ? nlohmann::json(nullptr) : named(L, e.end)},
+                              {"prefit_cost", e.prefit_cost},
+                              {"cost", std::isfinite(e.cost) ? nlohmann::json(e.cost) : nlohmann::json(nullptr)},
+                              {"iterations", e.iterations},
+                              {"termination", e.termination},
+                              {"reached_best", e.usable && e.cost <= run.fit.final_cost + run.search.tolerance}});
+
+  out.solver.iterations = run.fit.iterations;
+  out.solver.initial_cost = run.fit.initial_cost;
+  out.solver.final_cost = run.fit.final_cost;
+  out.solver.replays = run.replays_before + run.obj->replays();
+  out.solver.termination = run.fit.termination;
+  out.solver.multistart = std::uint64_t(run.starts);
+  out.metrics["calibration"] = run.calibration_metrics.json();
+  if (run.validation_metrics.samples > 0) out.metrics["validation"] = run.validation_metrics.json();
+
+  auto& st = out.settings;
+  st["loss"] = ds::to_string(run.settings.loss);
+  st["loss_scale_sigma"] = run.settings.loss_scale;
+  st["buried"] = ds::to_string(run.settings.buried);
+  st["buried_weight"] = run.settings.buried == ds::BuriedPolicy::kDownweight ? run.settings.buried_weight : 0.0;
+  st["sigma_source"] = run.sigma_source;
+  st["residual_variance"] = run.unc.residual_variance;
+  st["parameterisation"] = "ln(alpha), ln(C1), ln(mu); bias N; lag ms; depth offset mm";
+  nlohmann::json deriv = {{"scheme", to_string(run.opt.derivatives)}};
+  if (run.opt.derivatives == Derivatives::kFiniteDifferences) {
+    nlohmann::json steps = nlohmann::json::object();
+    for (const auto& [label, name] : run.present) steps[name] = run.steps.log_alpha[label];
+    deriv["step_log_alpha"] = steps;
+    deriv["step_lag_ms"] = run.steps.lag_ms;
+    deriv["step_depth_mm"] = run.steps.depth_mm;
+    deriv["sweeps"] = run.sweeps;
+  }
+  st["derivatives"] = deriv;
+  st["global_search"] = {{"starts", run.starts},
+                         {"design", "manifest start + Latin hypercube in ln(theta) over the bounds"},
+                         {"start_iterations", run.opt.start_iterations},
+                         {"reached_best", run.search.reached_best},
+                         {"tolerance_cost", run.search.tolerance},
+                         {"seed", run.exp.manifest.fit.seed}};
+  st["profiles"] = {{"computed", run.opt.profiles},
+                    {"threshold_cost", run.threshold},
+                    {"threshold", "chi2_1(0.95)/2 x residual variance"},
+                    {"restarts_from_profile", run.restarts}};
+  st["warnings"] = run.warnings;
+  st["depth_offset_bound_mm"] = 0.5 * run.exp.manifest.burr.radius_mm;
+  st["threads"] = run.opt.threads;
+  std::vector<std::filesystem::path> inputs{run.manifest_path};
+  for (const auto& s : run.exp.manifest.samples) inputs.push_back(s.path);
+  for (const auto& r : run.exp.manifest.recordings) inputs.push_back(r.path);
+  out.provenance = make_provenance(inputs);
+  out.experiment_path = std::filesystem::absolute(run.manifest_path).string();
+  out.experiment_sha256 = sha256_file(run.manifest_path);
+
+  // The parameter set holds what the fit held at its optimum; the constants that are not
+  // identifiable are flagged in it (never a start value).
+  CalibrationOutput res;
+  std::string notes = fmt::format("fitted by burrbench calibrate from {}", run.mfile);
+  for (const auto& p : out.parameters) {
+    auto& c = res.params.classes[p.class_id];
+    c.name = p.class_name;
+    const double v = p.held;
+    if (!p.fixed && !p.identifiable) {
+      res.params.not_identifiable[p.class_id].push_back(p.name);
+      notes += fmt::format("; {}.{} NOT identifiable ({}): the value held at the optimum is written",
+                           p.class_name, p.name, p.reason);
+    }
+    if (p.name == "alpha") c.alpha_N_per_mm2 = v;
+    else if (p.name == "c1") c.c1_N_per_mm2 = v;
+    else c.mu = v;
+  }
+  res.params.notes = notes;
+  res.params.provenance = out.provenance;
+
+  std::string s = fmt::format("calibrated {} recording(s), {} used samples ({} buried, {} excluded), "
+                              "σ = {:.4g} N\n", run.models.size(), ev.samples_used, ev.samples_buried,
+                              ev.samples_excluded, run.settings.sigma_N);
+  s += fmt::format("global search: best optimum reached by {} of {} starts\n", run.search.reached_best,
+                   run.starts);
+  s += fmt::format("solver: {} iterations, cost {:.6g} → {:.6g}, {} replays ({} derivatives), {}\n",
+                   run.fit.iterations, run.fit.initial_cost, run.fit.final_cost, out.solver.replays,
+                   to_string(run.opt.derivatives), run.fit.termination);
+  for (const auto& p : out.parameters) {
+    if (p.fixed) {
+      s += fmt::format("  {:<12} {:<5} = {:.6g} {} (fixed)\n", p.class_name, p.name, p.estimate, p.unit);
+    } else if (!p.identifiable) {
+      s += fmt::format("  {:<12} {:<5}   {} (held {:.6g}{}): {}\n", p.class_name, p.name,
+                       p.verdict == "at_bound" ? "AT BOUND" : "NOT identifiable", p.held,
+                       p.profile.empty() ? "" : ", profile " + interval_text(p.profile_ci95_low, p.profile_ci95_high),
+                       p.reason);
+    } else {
+      s += fmt::format("  {:<12} {:<5} = {:.6g} {} profile 95 % {}; covariance [{:.6g}, {:.6g}]{}\n",
+                       p.class_name, p.name, p.estimate, p.unit,
+                       interval_text(p.profile_ci95_low, p.profile_ci95_high), p.ci95_low, p.ci95_high,
+                       std::isfinite(p.bootstrap_ci95_low)
+                           ? fmt::format("; bootstrap [{:.6g}, {:.6g}]", p.bootstrap_ci95_low, p.bootstrap_ci95_high)
+                           : "");
+    }
+  }
+  for (const auto& n : out.nuisance)
+    if (!n.fixed)
+      s += fmt::format("  {:<12} {:<12} = {:.4g} ± {:.2g} {}\n", n.recording_id, n.name, n.estimate,
+                       n.std_error, n.unit);
+  s += fmt::format("fit: RMSE {:.4g} N, R² {:.4f}, rms(residual/σ) {:.3f}\n", run.calibration_metrics.rmse_N,
+                   run.calibration_metrics.r2, out.residuals_summary.rms_normalised);
+  if (run.validation_metrics.samples > 0)
+    s += fmt::format("validation spans: RMSE {:.4g} N, R² {:.4f} over {} samples\n",
+                     run.validation_metrics.rmse_N, run.validation_metrics.r2, run.validation_metrics.samples);
+  for (const auto& cv : out.cross_validation)
+    s += fmt::format("  without {}: held-out RMSE {} N, R² {}\n", cv.held_out,
+                     cv.metrics["held_out"]["rmse_N"].dump(), cv.metrics["held_out"]["r2"].dump());
+  for (const auto& w : run.warnings) s += "warning: " + w + "\n";
+  res.summary = s;
+  res.fit = std::move(out);
+  return res;
+}
+
+}  // namespace burrbench::calibration::detail

@@ -1,0 +1,102 @@
+// Stages "difference steps", "global search" and "refine".
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "burrbench/calibration/steps.hpp"
+#include "burrbench/data_schema/error.hpp"
+#include "pipeline.hpp"
+
+namespace burrbench::calibration::detail {
+
+void choose_steps(Run& run) {
+  if (run.opt.derivatives != Derivatives::kFiniteDifferences) return;
+  const Layout& L = *run.layout;
+  const Objective& obj = *run.obj;
+  // Swept at the manifest's start after its cheap pre-fit (C1, μ, bias at fixed α).
+  std::vector<double> x = L.initial();
+  {
+    SolveOptions pre;
+    pre.max_iterations = 4;
+    pre.geometry_terms = false;
+    pre.hold.assign(L.size(), false);
+    for (const auto& p : L.physics())
+      if (p.index >= 0 && p.kind == PhysKind::kAlpha) pre.hold[std::size_t(p.index)] = true;
+    for (const auto& r : L.recordings()) {
+      if (r.lag >= 0) pre.hold[std::size_t(r.lag)] = true;
+      if (r.depth >= 0) pre.hold[std::size_t(r.depth)] = true;
+    }
+    const auto r = obj.solve(x, run.w_all, pre);
+    if (r.usable) x = r.x;
+  }
+  auto record = [&](const StepSweep& s) {
+    run.sweeps.push_back({{"parameter", s.name}, {"h", s.h}, {"curvature", s.curvature}, {"chosen", s.chosen}});
+  };
+  std::vector<std::size_t> lag_idx, depth_idx;
+  for (const auto& r : L.recordings()) {
+    if (r.lag >= 0) lag_idx.push_back(std::size_t(r.lag));
+    if (r.depth >= 0) depth_idx.push_back(std::size_t(r.depth));
+  }
+  // α per class; a class whose cost does not curve keeps the default 0.1.
+  for (const auto& p : L.physics())
+    if (p.index >= 0 && p.kind == PhysKind::kAlpha) {
+      auto s = sweep_step(obj, x, run.w_all, std::size_t(p.index), {0.4, 0.2, 0.1, 0.05}, -1);
+      record(s);
+      if (s.curvature.front() > 0) run.steps.log_alpha[p.label] = s.chosen;
+    }
+  if (!lag_idx.empty()) {
+    auto s = sweep_step(obj, x, run.w_all, lag_idx[0], {2.0, 1.0, 0.5, 0.25}, 0);
+    record(s);
+    run.steps.lag_ms = s.chosen;
+  }
+  if (!depth_idx.empty()) {
+    const double l = run.used_samples.begin()->second.voxel_mm;
+    auto s = sweep_step(obj, x, run.w_all, depth_idx[0], {0.5 * l, 0.25 * l, 0.125 * l, 0.0625 * l}, 0);
+    record(s);
+    run.steps.depth_mm = s.chosen;
+  }
+  for (auto& m : run.owned) m->set_steps(run.steps);
+}
+
+void global_search(Run& run) {
+  const Layout& L = *run.layout;
+  const bool any_free = std::any_of(L.physics().begin(), L.physics().end(),
+                                    [](const PhysicsParam& p) { return p.index >= 0; });
+  run.starts = run.opt.starts > 0 ? run.opt.starts : run.exp.manifest.fit.multistart;
+  if (!any_free) run.starts = 1;
+  const auto points = latin_hypercube_starts(L, L.initial(), run.starts, run.exp.manifest.fit.seed);
+  run.say(fmt::format("global search: {} starts (Latin hypercube in ln θ)", points.size()));
+  MultistartOptions mo;
+  mo.iterations = run.opt.start_iterations;
+  mo.concurrent = run.opt.threads;
+  mo.progress = run.opt.progress;
+  run.search = multistart(*run.obj, points, run.w_all, mo, 0.0);
+  if (run.search.ends.empty() || !run.search.ends.front().usable)
+    throw InputError(run.mfile, "fit", "a start from which the solver can evaluate the cost",
+                     "every start failed");
+}
+
+void refine(Run& run) {
+  run.say("refine: the best start to convergence");
+  SolveOptions so;
+  so.max_iterations = run.opt.max_iterations;
+  so.progress = run.opt.progress;
+  so.threads = run.opt.threads;
+  const std::vector<double> from = run.x.empty() ? run.search.ends.front().end : run.x;
+  auto fit = run.obj->solve(from, run.w_all, so);
+  // A second pass with a fresh trust region: the first can stop early in the long α–μ
+  // valley once its region has shrunk.
+  SolveOptions again = so;
+  again.max_iterations = std::max(5, run.opt.max_iterations / 3);
+  auto second = run.obj->solve(fit.x, run.w_all, again);
+  if (second.usable && second.final_cost <= fit.final_cost) {
+    second.initial_cost = fit.initial_cost;
+    second.iterations += fit.iterations;
+    fit = second;
+  }
+  run.fit = fit;
+  run.x = fit.x;
+}
+
+}  // namespace burrbench::calibration::detail

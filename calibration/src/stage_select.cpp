@@ -1,0 +1,165 @@
+// Stage "select recordings": which recordings and samples calibrate, which classes are
+// present, the parameter layout, the replay pool and the noise level σ.
+#include <algorithm>
+#include <array>
+
+#include <fmt/format.h>
+
+#include "burrbench/data_schema/error.hpp"
+#include "pipeline.hpp"
+
+namespace burrbench::calibration::detail {
+namespace {
+
+// Defaults for a class present in the samples but absent from [fit.classes]: wide enough
+// for bone (docs/calibration.md "Defaults"): α is a specific cutting energy, 1 … 1e5 N/mm²
+// (= mJ/mm³); C1 1e-2 … 1e4 N/mm²; μ 1e-2 … 3. Starts at the geometric middle of α's
+// range; the global search covers the rest.
+ds::ClassFitSpec default_spec(std::uint8_t label) {
+  ds::ClassFitSpec s;
+  s.label = label;
+  s.alpha = {316.0, 1.0, 1e5, false};
+  s.c1 = {10.0, 1e-2, 1e4, false};
+  s.mu = {0.3, 1e-2, 3.0, false};
+  return s;
+}
+
+// Robust noise level from samples without predicted contact: 1.4826·MAD about the
+// per-recording, per-axis median (the median absorbs the bias).
+std::optional<double> estimate_sigma(const Objective& obj, const Evaluation& ev,
+                                     const SampleWeights& w, std::size_t& n_used) {
+  std::vector<double> dev;
+  for (std::size_t r = 0; r < obj.models().size(); ++r) {
+    const auto& meas = obj.models()[r]->measured_sensor_N();
+    const auto& p = ev.predictions[r];
+    for (int a = 0; a < 3; ++a) {
+      std::vector<double> v;
+      for (std::size_t j = 0; j < meas.size(); ++j)
+        if (w[r][j] > 0 && p.class_mask[j] == 0) v.push_back(meas[j][a]);
+      if (v.size() < 10) continue;
+      std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+      const double med = v[v.size() / 2];
+      for (double x : v) dev.push_back(std::abs(x - med));
+    }
+  }
+  n_used = dev.size() / 3;
+  if (dev.size() < 30) return std::nullopt;
+  std::nth_element(dev.begin(), dev.begin() + long(dev.size() / 2), dev.end());
+  const double s = 1.4826 * dev[dev.size() / 2];
+  return s > 0 ? std::optional<double>(s) : std::nullopt;
+}
+
+bool any(const std::vector<std::uint8_t>& v) {
+  return std::any_of(v.begin(), v.end(), [](std::uint8_t u) { return u != 0; });
+}
+
+}  // namespace
+
+void select_recordings(Run& run) {
+  const auto& M = run.exp.manifest;
+  const std::string& mfile = run.mfile;
+  std::vector<std::size_t> rec_index;
+  for (std::size_t i = 0; i < run.exp.recordings.size(); ++i) {
+    const auto& r = run.exp.recordings[i];
+    const auto& ref = M.recordings[i];
+    for (std::size_t k = 0; k < ref.segments.size(); ++k) {
+      const auto& seg = ref.segments[k];
+      const bool holds = std::any_of(r.t_s.begin(), r.t_s.end(), [&](double t) {
+        return t >= seg.start_s && t <= seg.end_s;
+      });
+      if (!holds)
+        throw InputError(mfile, fmt::format("recordings[{}].segments[{}]", i, k),
+                         fmt::format("a span holding force samples (the recording covers 0..{:.6g} s)",
+                                     r.t_s.empty() ? 0.0 : r.t_s.back()),
+                         fmt::format("{}..{} s", seg.start_s, seg.end_s));
+    }
+    if (ref.role == ds::RecordingRole::kCalibrate && !any(r.use))
+      throw InputError(mfile, fmt::format("recordings[{}].segments", i),
+                       "at least one used force sample (use = true segments)", "none");
+    if (!any(r.use_calibrate)) continue;
+    run.recs.push_back(&r);
+    rec_index.push_back(i);
+  }
+  if (run.recs.empty())
+    throw InputError(mfile, "recordings",
+                     "at least one recording (or segment) with role = \"calibrate\"");
+
+  // Classes present in the samples the calibrating recordings use.
+  for (const auto* r : run.recs) {
+    const auto& s = run.exp.samples.at(r->sample_id);
+    std::array<bool, 256> seen{};
+    for (std::size_t i = 0; i < s.labels.size(); ++i)
+      if (s.labels[i] != 0 && s.fraction[i] > 0) seen[s.labels[i]] = true;
+    for (int k = 1; k < 256; ++k)
+      if (seen[std::size_t(k)]) {
+        if (k >= kLabels)
+          throw InputError(r->sample_id, "labels", fmt::format("class labels < {}", kLabels),
+                           std::to_string(k));
+        auto it = s.classes.find(std::uint8_t(k));
+        run.present.emplace(std::uint8_t(k),
+                            it != s.classes.end() ? it->second : fmt::format("class{}", k));
+      }
+  }
+  for (const auto& c : M.fit.classes)
+    if (!run.present.count(c.label)) {
+      // Named in [fit.classes] but no voxel of it in the samples: kept, reported untouched.
+      std::string name = c.key;
+      for (const auto& [id, s] : run.exp.samples)
+        if (auto it = s.classes.find(c.label); it != s.classes.end()) name = it->second;
+      run.present.emplace(c.label, name);
+    }
+  std::vector<std::pair<std::uint8_t, std::pair<std::string, ds::ClassFitSpec>>> classes;
+  for (const auto& [label, name] : run.present) {
+    ds::ClassFitSpec spec = default_spec(label);
+    for (const auto& c : M.fit.classes)
+      if (c.label == label) spec = c;
+    classes.push_back({label, {name, spec}});
+  }
+
+  std::vector<std::pair<std::string, double>> rec_lags;
+  for (std::size_t i : rec_index) rec_lags.emplace_back(run.exp.recordings[i].id, M.recordings[i].lag_ms);
+  run.layout = std::make_unique<Layout>(classes, rec_lags, M.fit.nuisance, 0.5 * M.burr.radius_mm);
+  for (const auto* r : run.recs) run.used_samples.emplace(r->sample_id, run.exp.samples.at(r->sample_id));
+  run.pool = std::make_unique<ReplayPool>(run.used_samples, run.opt.threads);
+  for (const auto* r : run.recs) {
+    run.owned.push_back(std::make_unique<ReplayRecordingModel>(*r, *run.pool));
+    run.owned.back()->set_derivatives(run.opt.derivatives);
+    run.models.push_back(run.owned.back().get());
+  }
+  for (const auto* r : run.recs) {
+    run.w_all.emplace_back(r->use_calibrate.begin(), r->use_calibrate.end());
+    run.w_validate.emplace_back(r->use_validate.begin(), r->use_validate.end());
+  }
+  // A recording listed again with role "validate" (the same file) validates on the
+  // calibrating copy's fitted nuisances: they belong to the recording, not the listing.
+  for (std::size_t i = 0; i < run.exp.recordings.size(); ++i) {
+    const auto& r = run.exp.recordings[i];
+    if (any(r.use_calibrate) || !any(r.use_validate)) continue;
+    for (std::size_t q = 0; q < run.recs.size(); ++q)
+      if (run.recs[q]->file == r.file && run.recs[q]->t_s == r.t_s)
+        for (std::size_t j = 0; j < r.t_s.size(); ++j)
+          if (r.use_validate[j] && !run.recs[q]->use_calibrate[j]) run.w_validate[q][j] = 1;
+  }
+
+  run.settings.loss = M.fit.loss;
+  run.settings.loss_scale = M.fit.loss_scale;
+  run.settings.buried = M.fit.buried;
+  if (M.sensor.sigma_N) {
+    run.settings.sigma_N = *M.sensor.sigma_N;
+  } else {
+    Objective probe(*run.layout, run.models, run.settings);
+    const auto ev0 = probe.evaluate(run.layout->initial(), run.w_all);
+    run.replays_before += probe.replays();
+    std::size_t n_free = 0;
+    auto s = estimate_sigma(probe, ev0, run.w_all, n_free);
+    if (!s)
+      throw InputError(mfile, "sensor.sigma_N",
+                       "a noise level, or >= 10 used samples without contact to estimate it from",
+                       fmt::format("{} such samples", n_free));
+    run.settings.sigma_N = *s;
+    run.sigma_source = fmt::format("estimated from {} no-contact samples (1.4826·MAD)", n_free);
+  }
+  run.obj = std::make_unique<Objective>(*run.layout, run.models, run.settings);
+}
+
+}  // namespace burrbench::calibration::detail
