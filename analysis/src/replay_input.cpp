@@ -124,8 +124,33 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     const bool fitted_bias = fit && std::isfinite(nuisance(fit, r.id, "bias_x", NAN));
     if (!fitted_bias && opt.tare && free_n >= kMinTareSamples) bias = free_sum / double(free_n);
     for (auto& p : rs.predicted_N) p += bias;  // the bias is added to the prediction
+    // A recording whose segments carry both roles appears once per role, each with its
+    // own used samples (its fitted nuisances are the recording's, whichever the role).
+    const bool both = std::any_of(r.use_calibrate.begin(), r.use_calibrate.end(), [](auto u) { return u != 0; }) &&
+                      std::any_of(r.use_validate.begin(), r.use_validate.end(), [](auto u) { return u != 0; });
+    if (both) {
+      RecordingSeries val = rs;
+      rs.role = ds::to_string(ds::RecordingRole::kCalibrate);
+      val.role = ds::to_string(ds::RecordingRole::kValidate);
+      for (std::size_t k = 0; k < n; ++k) {
+        rs.used[k] = rs.used[k] && r.use_calibrate[k];
+        val.used[k] = val.used[k] && r.use_validate[k];
+      }
+      auto keep = [&](RecordingSeries& s, ds::RecordingRole role) {
+        s.segments.clear();
+        for (const auto& seg : ref->segments)
+          if (seg.use && seg.role.value_or(ref->role) == role)
+            s.segments.push_back({seg.label.empty() ? "segment" : seg.label, seg.start_s, seg.end_s});
+      };
+      keep(rs, ds::RecordingRole::kCalibrate);
+      keep(val, ds::RecordingRole::kValidate);
+      in.recordings.push_back(std::move(rs));
+      in.recordings.push_back(std::move(val));
+      continue;
+    }
     in.recordings.push_back(std::move(rs));
   }
+
 
   for (const auto& sref : ex.manifest.samples) {
     const auto& s = ex.samples.at(sref.id);

@@ -7,7 +7,9 @@ namespace burrbench::calibration {
 namespace {
 
 // Walks one side (sign ±1). The step grows from the predicted crossing of a quadratic
-// profile, so a well-determined parameter closes in two or three points.
+// profile, so a well-determined parameter closes in two or three points; a step that
+// overshoots the threshold by more than 4× is bisected (in √Δ) before the crossing is
+// interpolated, since a profile is quadratic only near its minimum.
 ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double cost_hat,
                  const SampleWeights& w, std::size_t i, double threshold, double sign,
                  const std::vector<bool>& hold_in, const ProfileOptions& opt, Profile& prof) {
@@ -18,15 +20,23 @@ ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double 
   std::vector<bool> hold = hold_in;
   if (hold.empty()) hold.assign(L.size(), false);
   hold[i] = true;
-  std::vector<double> x = x_hat;
-  double h = std::clamp(opt.first_step, 0.005, 1.0), h_prev = 0, d_prev = 0;
   const double lower_tol = std::max(0.05 * threshold, 1e-9 * std::abs(cost_hat));
+  // Bracket: [h_in, Δ_in] below the threshold (starts at the optimum), [h_out, Δ_out] above.
+  double h_in = 0, d_in = 0, h_out = -1, d_out = 0;
+  std::vector<double> x_in = x_hat;
+  auto crossing = [&] {
+    const double s0 = std::sqrt(std::max(0.0, d_in)), s1 = std::sqrt(d_out), st = std::sqrt(threshold);
+    const double f = s1 > s0 ? std::clamp((st - s0) / (s1 - s0), 0.0, 1.0) : 1.0;
+    return h_in + f * (h_out - h_in);
+  };
+  double h = std::clamp(opt.first_step, 0.005, 1.0);
   for (int k = 0; k < opt.max_points; ++k) {
     bool last = false;
     if (h >= room) {
       h = room;
       last = true;
     }
+    std::vector<double> x = x_in;  // warm start from the last point inside the threshold
     x[i] = x_hat[i] + sign * h;
     SolveOptions so;
     so.max_iterations = opt.iterations;
@@ -44,23 +54,30 @@ ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double 
       prof.lower_cost = cost_hat + d;
     }
     if (d >= threshold) {
-      // Crossing between the previous point and this one; √Δ is ~linear in the step for a
-      // quadratic profile, so interpolate in √Δ.
-      const double s0 = std::sqrt(std::max(0.0, d_prev)), s1 = std::sqrt(d), st = std::sqrt(threshold);
-      const double f = s1 > s0 ? (st - s0) / (s1 - s0) : 1.0;
-      side.closed = true;
-      side.crossing = x_hat[i] + sign * (h_prev + std::clamp(f, 0.0, 1.0) * (h - h_prev));
-      return side;
+      h_out = h;
+      d_out = d;
+      if (d_out <= 4 * threshold) break;
+      h = crossing();  // overshoot: look closer to the predicted crossing
+      continue;
+    }
+    h_in = h;
+    d_in = std::max(0.0, d);
+    x_in = at;
+    if (h_out > 0) {  // bracketed
+      if (d_out <= 4 * threshold || d_in >= 0.25 * threshold) break;
+      h = crossing();
+      continue;
     }
     if (last) {
       side.at_bound = true;
       return side;
     }
-    x = at;  // warm start for the next point
     const double grow = d > 0 ? 1.1 * std::sqrt(threshold / d) : 4.0;
-    h_prev = h;
-    d_prev = std::max(0.0, d);
     h *= std::clamp(grow, 1.3, 4.0);
+  }
+  if (h_out > 0) {
+    side.closed = true;
+    side.crossing = x_hat[i] + sign * crossing();
   }
   return side;  // not closed within max_points: open
 }

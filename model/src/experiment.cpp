@@ -20,6 +20,21 @@ T Series<T>::at(double t) const {
   const double u = (t - t_s[j]) / (t_s[j + 1] - t_s[j]);
   return value[j] + u * (value[j + 1] - value[j]);  // u = 0 returns value[j] exactly
 }
+template <class T>
+T Series<T>::slope(double t) const {
+  BURRBENCH_CHECK(!t_s.empty() && t_s.size() == value.size(), "empty or ragged series");
+  const std::size_t n = t_s.size();
+  if (n < 2 || t < t_s.front() || t > t_s.back()) return T(0);
+  auto seg = [&](std::size_t j) { return (value[j + 1] - value[j]) / (t_s[j + 1] - t_s[j]); };
+  const auto it = std::upper_bound(t_s.begin(), t_s.end(), t);
+  const std::size_t j = std::size_t(it - t_s.begin()) - 1;  // t_s[j] <= t
+  if (t > t_s[j]) return seg(j);
+  // On a sample instant: mean of the slopes on either side (one side at the ends, halved
+  // there too, since at() is clamped beyond them).
+  const T left = j > 0 ? seg(j - 1) : T(0), right = j + 1 < n ? seg(j) : T(0);
+  return 0.5 * (left + right);
+}
+
 template struct Series<double>;
 template struct Series<glm::dvec3>;
 
@@ -42,6 +57,13 @@ Trajectory AlignedRecording::trajectory(double lag, double depth_offset_mm) cons
     tr.omega_vol_rad_s[k] = omega_vol_rad_s(spindle_rpm.at(tau));
   }
   return tr;
+}
+
+std::vector<glm::dvec3> AlignedRecording::dcentre_dlag_ms(double lag) const {
+  std::vector<glm::dvec3> d(t_s.size());
+  for (std::size_t k = 0; k < t_s.size(); ++k)  // centre(t − lag): d/dlag = −R·stage'
+    d[k] = -1e-3 * (rig_to_vol.R * stage_rig_mm.slope(t_s[k] - lag));
+  return d;
 }
 
 glm::dvec3 AlignedRecording::sensor_force_from_burr_force(const glm::dvec3& f_burr_vol) const {

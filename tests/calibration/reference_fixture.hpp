@@ -60,6 +60,37 @@ inline data_schema::SampleVolume reference_sample(const ReferenceSpec& s) {
   return v;
 }
 
+// The head of a protocol file (1 kHz, 40 000 rpm, burr axis tilted in x–z) with its start
+// point above (x0, y0, top) and a vertical approach.
+inline std::string protocol_head(const std::string& name, double R, double x0, double y0, double top) {
+  return fmt::format(R"(format = "burrbench.protocol"
+format_version = "1.0"
+name = "{}"
+sample_rate_hz = 1000.0
+spindle_rpm = 40000.0
+[burr]
+radius_mm = {}
+axis = [0.8, 0.0, 0.6]
+spin_sign = 1
+[start]
+point_mm = [{}, {}, {}]
+approach = [0.0, 0.0, -1.0]
+)", name, R, x0, y0, top + R + 0.1);
+}
+
+// `burrbench synth` of one protocol in `dir` (sample.h5, truth.toml) into NAME.h5.
+inline void synth_recording(const std::filesystem::path& dir, const std::string& name,
+                            const std::string& burrbench, double noise_N, glm::dvec3 bias_N,
+                            double lag_ms, std::uint64_t seed) {
+  const std::string cmd = fmt::format(
+      "'{}' synth --sample '{}' --protocol '{}' --params '{}' --out '{}' --truth '{}' "
+      "--noise-N {} --bias-N {},{},{} --lag-ms {} --seed {} > /dev/null 2>&1",
+      burrbench, (dir / "sample.h5").string(), (dir / (name + ".protocol.toml")).string(),
+      (dir / "truth.toml").string(), (dir / (name + ".h5")).string(),
+      (dir / (name + ".truth.json")).string(), noise_N, bias_N.x, bias_N.y, bias_N.z, lag_ms, seed);
+  if (std::system(cmd.c_str()) != 0) throw std::runtime_error("synth failed: " + cmd);
+}
+
 // Writes everything into `dir` and returns the manifest path. `burrbench`: the CLI.
 inline std::filesystem::path make_reference_experiment(const std::filesystem::path& dir,
                                                        const ReferenceSpec& s,
@@ -74,22 +105,8 @@ inline std::filesystem::path make_reference_experiment(const std::filesystem::pa
   data_schema::write_params(dir / "truth.toml", truth);
   const double R = s.radius_mm, top = 2.0, k = s.time_scale;
   const double yc = 2.0 + R;
-  const std::string head = fmt::format(R"(format = "burrbench.protocol"
-format_version = "1.0"
-name = "{{}}"
-sample_rate_hz = 1000.0
-spindle_rpm = 40000.0
-[burr]
-radius_mm = {}
-axis = [0.8, 0.0, 0.6]
-spin_sign = 1
-)", R);
   auto protocol = [&](const std::string& name, double x0, const std::string& moves) {
-    std::string h = head;
-    h.replace(h.find("{}"), 2, name);
-    write_text(dir / (name + ".protocol.toml"),
-               h + fmt::format("[start]\npoint_mm = [{}, {}, {}]\napproach = [0.0, 0.0, -1.0]\n", x0, yc,
-                               top + R + 0.1) + moves);
+    write_text(dir / (name + ".protocol.toml"), protocol_head(name, R, x0, yc, top) + moves);
   };
   // Over compact only (trabecular = false) every lateral move ends 1.5 R short of x = 4.
   const double sweep_x0 = s.trabecular ? 2.0 : 1.0, sweep_len = s.trabecular ? 4.0 : 4.0 - 1.5 * R - 1.0;
@@ -156,13 +173,8 @@ speed_mm_s = 2.0
   std::string recs;
   int i = 0;
   for (const auto& n : names) {
-    const std::string cmd = fmt::format(
-        "'{}' synth --sample '{}' --protocol '{}' --params '{}' --out '{}' --truth '{}' "
-        "--noise-N {} --bias-N {},{},{} --lag-ms {} --seed {} > /dev/null 2>&1",
-        burrbench, (dir / "sample.h5").string(), (dir / (n + ".protocol.toml")).string(),
-        (dir / "truth.toml").string(), (dir / (n + ".h5")).string(), (dir / (n + ".truth.json")).string(),
-        s.noise_N, 0.05 + 0.01 * i, -0.03, 0.1 - 0.02 * i, s.lag_ms, s.seed * 100 + std::uint64_t(i));
-    if (std::system(cmd.c_str()) != 0) throw std::runtime_error("synth failed: " + cmd);
+    synth_recording(dir, n, burrbench, s.noise_N, glm::dvec3(0.05 + 0.01 * i, -0.03, 0.1 - 0.02 * i),
+                    s.lag_ms, s.seed * 100 + std::uint64_t(i));
     recs += fmt::format(R"(
 [[recordings]]
 id = "{0}"

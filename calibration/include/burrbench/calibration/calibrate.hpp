@@ -17,9 +17,9 @@ struct CalibrateOptions {
   int threads = 2;              // replay workers (each holds its own copy of every sample)
   int max_iterations = 30;      // refinement of the best start
   int starts = 0;               // global search starts; 0: the manifest's fit.multistart
-  int start_iterations = 6;     // local iterations of each start (after its pre-fit)
+  int start_iterations = 12;    // local iterations of each start (after its pre-fit)
   bool profiles = true;         // profile likelihood of every free physics parameter
-  int profile_points = 6;       // per side, at most
+  int profile_points = 8;       // per side, at most
   Derivatives derivatives = Derivatives::kSensitivities;
   int bootstrap = 0;            // block-bootstrap replicates (0: none)
   double bootstrap_block_s = 1.0;  // bootstrap blocks: used spans cut to at most this long

@@ -39,8 +39,8 @@ struct Profile {
 };
 
 struct ProfileOptions {
-  int iterations = 4;   // re-optimisation per point (warm-started from the previous point)
-  int max_points = 6;   // per side
+  int iterations = 10;  // re-optimisation per point (stops earlier on convergence) (warm-started from the previous point)
+  int max_points = 8;   // per side
   double first_step = 0.1;  // ln θ; the caller passes ≈ 1.96 × the covariance SE
 };
 

@@ -43,5 +43,10 @@ Flags contact_checks(const Objective& obj, const SampleWeights& w, const Evaluat
 UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
                                      const SampleWeights& w, const Evaluation& at_x,
                                      Flags initial, bool covariance_rules = true);
+// Every rule, 1–5 (no profiles).
+inline UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
+                                            const SampleWeights& w, const Evaluation& at_x) {
+  return assess_uncertainty(obj, x, w, at_x, contact_checks(obj, w, at_x), true);
+}
 
 }  // namespace burrbench::calibration

@@ -35,6 +35,9 @@ struct Series {
   std::vector<double> t_s;
   std::vector<T> value;
   T at(double t) const;
+  // d at/dt: the slope of the segment holding t; at a sample instant the mean of the two
+  // neighbouring slopes (what a central difference sees); 0 where at() is clamped.
+  T slope(double t) const;
 };
 extern template struct Series<double>;
 extern template struct Series<glm::dvec3>;
@@ -76,6 +79,10 @@ struct AlignedRecording {
   // re-interpolation, no file I/O. Use this in fits.
   Trajectory trajectory(double lag_s, double depth_offset_mm = 0) const;
   Trajectory trajectory() const { return trajectory(lag_s, 0); }
+  // ∂(burr centre, volume frame)/∂lag in mm per ms at each force sample, for the replay's
+  // forward sensitivities (Series::slope of the stage path; ω's dependence on the lag
+  // through the rpm is not included). ∂centre/∂depth_offset is −shaft_axis_vol.
+  std::vector<glm::dvec3> dcentre_dlag_ms(double lag_s) const;
 
   // What the sensor should read for a force on the burr in the volume frame.
   glm::dvec3 sensor_force_from_burr_force(const glm::dvec3& force_on_burr_vol_N) const;
