@@ -66,6 +66,7 @@ void run(const Args& a) {
     for (int k = 0; k < model::kMaxClasses; ++k)
       removed[std::size_t(k)] += p.removed_mm3[std::size_t(k)];
     // (model::replay already closed the progress line with its own summary)
+    std::cout << fmt::format("  {}: {}\n", r.id, r.registration.text());
   }
   model::write_prediction(a.out, preds, prov);
   if (!a.csv.empty()) model::write_prediction_csv(a.csv, preds);

@@ -60,6 +60,8 @@ void run(const Args& a) {
 
   std::size_t failed = 0;
   for (const auto& r : s.results) failed += !r.pass;
+  for (const auto& r : in.recordings)
+    if (!r.registration.empty()) std::cout << fmt::format("  {}: {}\n", r.id, r.registration);
   std::cout << fmt::format("report: {}\n", s.html.string());
   for (const auto& r : s.results) {
     const auto& c = s.criteria.criteria[r.index];

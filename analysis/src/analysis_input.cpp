@@ -128,6 +128,7 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
       segs.push_back({{"label", s.label}, {"start_s", s.start_s}, {"end_s", s.end_s}});
     j["recordings"].push_back({{"id", r.id}, {"sample", r.sample_id}, {"role", r.role},
                                {"path", r.path}, {"sha256", r.sha256}, {"notes", r.notes},
+                               {"registration", r.registration},
                                {"segments", segs}, {"samples", r.t_s.size()}});
   }
   j["provenance"] = provenance_to_json(in.provenance);
@@ -236,7 +237,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
   i = 0;
   for (const auto& rj : o.arr("recordings")) {
     Obj r(rj, file, fmt::format("recordings[{}]", i++),
-          {"id", "sample", "role", "path", "sha256", "notes", "segments", "samples"});
+          {"id", "sample", "role", "path", "sha256", "notes", "registration", "segments", "samples"});
     RecordingSeries rs;
     rs.id = r.str("id");
     rs.sample_id = r.str("sample");
@@ -244,6 +245,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
     rs.path = r.str("path");
     rs.sha256 = r.str("sha256");
     rs.notes = r.str("notes");
+    rs.registration = r.str("registration", false);
     std::size_t k = 0;
     for (const auto& sj : r.arr("segments")) {
       Obj s(sj, file, r.path(fmt::format("segments[{}]", k++)), {"label", "start_s", "end_s"});

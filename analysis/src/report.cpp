@@ -385,7 +385,8 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     b += "<tr>" + td(esc(s.id)) + td("<code>" + esc(s.path) + "</code>") +
          td("<span class=\"hash\">" + esc(s.sha256) + "</span>") + td(num(s.removed_volume_mm3), true) + "</tr>";
   b += "</table><h3>Recordings</h3><table><tr><th>id</th><th>sample</th><th>role</th><th>samples</th>"
-       "<th>used</th><th>duration (s)</th><th>segments</th><th>file</th><th>SHA-256</th><th>notes</th></tr>";
+       "<th>used</th><th>duration (s)</th><th>segments</th><th>registration</th><th>file</th><th>SHA-256</th>"
+       "<th>notes</th></tr>";
   for (const auto& r : in.recordings) {
     std::size_t used = 0;
     for (auto u : r.used) used += u;
@@ -395,7 +396,8 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     b += "<tr>" + td(esc(r.id)) + td(esc(r.sample_id)) + td(esc(r.role)) +
          td(std::to_string(r.t_s.size()), true) + td(std::to_string(used), true) +
          td(r.t_s.empty() ? "—" : num(r.t_s.back() - r.t_s.front()), true) +
-         td(segs.empty() ? "whole recording" : segs) + td("<code>" + esc(r.path) + "</code>") +
+         td(segs.empty() ? "whole recording" : segs) + td(esc(r.registration)) +
+         td("<code>" + esc(r.path) + "</code>") +
          td("<span class=\"hash\">" + esc(r.sha256) + "</span>") + td(esc(r.notes)) + "</tr>";
   }
   b += "</table>";

@@ -81,6 +81,16 @@ CalibrationOutput results(Run& run) {
                     {"threshold", "chi2_1(0.95)/2 x residual variance"},
                     {"restarts_from_profile", run.restarts}};
   st["warnings"] = run.warnings;
+  nlohmann::json reg = nlohmann::json::object();
+  for (const auto* r : run.recs) {
+    const auto& g = r->registration;
+    auto n = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+    reg[r->id] = {{"method", g.method}, {"fiducials", g.fiducials}, {"rms_mm", n(g.rms_mm)},
+                  {"max_mm", n(g.max_mm)}, {"worst_fiducial", g.worst}, {"fle_mm", n(g.fle_mm)},
+                  {"fle_given", g.fle_given}, {"tre_path_rms_mm", n(g.tre_path_rms_mm)},
+                  {"tre_path_max_mm", n(g.tre_path_max_mm)}};
+  }
+  st["registration"] = reg;
   st["depth_offset_bound_mm"] = 0.5 * run.exp.manifest.burr.radius_mm;
   st["threads"] = run.opt.threads;
   std::vector<std::filesystem::path> inputs{run.manifest_path};
@@ -113,6 +123,7 @@ CalibrationOutput results(Run& run) {
   std::string s = fmt::format("calibrated {} recording(s), {} used samples ({} buried, {} excluded), "
                               "σ = {:.4g} N\n", run.models.size(), ev.samples_used, ev.samples_buried,
                               ev.samples_excluded, run.settings.sigma_N);
+  for (const auto* r : run.recs) s += fmt::format("  {}: {}\n", r->id, r->registration.text());
   s += fmt::format("global search: best optimum reached by {} of {} starts\n", run.search.reached_best,
                    run.starts);
   s += fmt::format("solver: {} iterations, cost {:.6g} → {:.6g}, {} replays ({} derivatives), {}\n",

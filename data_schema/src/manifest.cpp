@@ -314,11 +314,28 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
     rr.lag_ms = r.opt_num("lag_ms").value_or(0.0);
     auto g = r.table("registration");
     const bool fid = g.has("fiducials_rig_mm") || g.has("fiducials_vol_mm");
-    if (fid && (g.has("rotation") || g.has("translation_mm")))
-      throw InputError(file, g.field("rotation"), "either rotation/translation_mm or fiducials, not both");
+    const int given = int(g.has("rotation") || g.has("translation_mm")) + int(g.has("vol_from_rig")) +
+                      int(g.has("rig_from_vol"));
+    if (fid && given)
+      throw InputError(file, g.field("fiducials_rig_mm"), "either a transform or fiducials, not both");
+    if (given > 1)
+      throw InputError(file, g.field("vol_from_rig"),
+                       "one transform: rotation/translation_mm, vol_from_rig or rig_from_vol");
     if (fid) {
       rr.registration.fiducials_rig_mm = g.points("fiducials_rig_mm");
       rr.registration.fiducials_vol_mm = g.points("fiducials_vol_mm");
+      if (g.has("fiducial_error_mm")) rr.registration.fiducial_error_mm = g.positive("fiducial_error_mm");
+    } else if (g.has("vol_from_rig") || g.has("rig_from_vol")) {
+      const bool inv = g.has("rig_from_vol");
+      auto t = g.table(inv ? "rig_from_vol" : "vol_from_rig");
+      const glm::dmat3 R = t.mat3_rows("rotation");
+      const glm::dvec3 tr = t.vec3("translation_mm");
+      t.done();
+      rr.registration.given_as = inv ? "rig_from_vol" : "vol_from_rig";
+      // x_rig = R·x_vol + t  ⇔  x_vol = Rᵀ·x_rig − Rᵀ·t (R is checked to be a rotation later;
+      // a non-rotation stays non-orthonormal under transposition, so the check still fires).
+      rr.registration.rotation = inv ? glm::transpose(R) : R;
+      rr.registration.translation_mm = inv ? -(glm::transpose(R) * tr) : tr;
     } else {
       rr.registration.rotation = g.mat3_rows("rotation");
       rr.registration.translation_mm = g.vec3("translation_mm");
@@ -430,6 +447,7 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
     if (r.registration.from_fiducials()) {
       reg.insert("fiducials_rig_mm", pts(r.registration.fiducials_rig_mm));
       reg.insert("fiducials_vol_mm", pts(r.registration.fiducials_vol_mm));
+      if (r.registration.fiducial_error_mm) reg.insert("fiducial_error_mm", *r.registration.fiducial_error_mm);
     } else {
       reg.insert("rotation", rows(r.registration.rotation));
       reg.insert("translation_mm", arr(r.registration.translation_mm));

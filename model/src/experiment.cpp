@@ -174,12 +174,25 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
   while (index < m.recordings.size() && m.recordings[index].id != ref.id) ++index;
   const std::string reg_field = fmt::format("recordings[{}].registration", index);
   if (ref.registration.from_fiducials()) {
-    a.fiducial_fit = fit_rigid(ref.registration.fiducials_rig_mm, ref.registration.fiducials_vol_mm,
-                               mfile, reg_field);
+    const auto& g = ref.registration;
+    a.fiducial_fit = fit_rigid(g.fiducials_rig_mm, g.fiducials_vol_mm, mfile, reg_field);
+    auto& rs = a.registration;
+    rs.method = "fiducials";
+    rs.fiducials = g.fiducials_rig_mm.size();
+    rs.fle_given = g.fiducial_error_mm.has_value();
+    rs.fle_mm = g.fiducial_error_mm.value_or(kDefaultFiducialErrorMm);
+    check_fiducial_fit(*a.fiducial_fit, g.fiducials_rig_mm, g.fiducials_vol_mm,
+                       kFiducialLimitFactor * rs.fle_mm, mfile, reg_field + ".fiducials_vol_mm");
     a.rig_to_vol = a.fiducial_fit->transform;
+    rs.rms_mm = a.fiducial_fit->rms_mm;
+    rs.max_mm = a.fiducial_fit->max_mm;
+    for (std::size_t i = 0; i < a.fiducial_fit->residual_mm.size(); ++i)
+      if (rs.worst < 0 || a.fiducial_fit->residual_mm[i] > a.fiducial_fit->residual_mm[std::size_t(rs.worst)])
+        rs.worst = int(i);
   } else {
     check_rotation(ref.registration.rotation, mfile, reg_field + ".rotation");
     a.rig_to_vol = {ref.registration.rotation, ref.registration.translation_mm};
+    a.registration.method = ref.registration.given_as;
   }
   check_rotation(m.sensor.rotation_sensor_to_rig, mfile, "sensor.rotation_sensor_to_rig");
   const double axis_len = glm::length(m.burr.shaft_axis_rig);
@@ -196,7 +209,27 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
   if (!std::isfinite(ref.lag_ms))
     throw InputError(mfile, fmt::format("recordings[{}].lag_ms", index), "a finite number");
   a.lag_s = ref.lag_ms * 1e-3;
+  if (a.fiducial_fit) {
+    // Predicted TRE along the burr's path (volume frame, as the fiducials).
+    double ss = 0, mx = 0;
+    const auto& fv = ref.registration.fiducials_vol_mm;
+    for (const auto& p : a.stage_rig_mm.value) {
+      const double e = predicted_tre_mm(fv, a.registration.fle_mm, a.centre_vol_mm(p));
+      ss += e * e;
+      mx = std::max(mx, e);
+    }
+    a.registration.tre_path_rms_mm = std::sqrt(ss / double(std::max<std::size_t>(1, a.stage_rig_mm.value.size())));
+    a.registration.tre_path_max_mm = mx;
+  }
   return a;
+}
+
+std::string RegistrationSummary::text() const {
+  if (method != "fiducials") return fmt::format("registration {} (given; taken as exact)", method);
+  return fmt::format("registration from {} fiducials: RMS {:.4g} mm, largest {:.4g} mm (fiducial {}); "
+                     "predicted TRE along the path RMS {:.4g} mm, max {:.4g} mm (FLE {:.4g} mm{})",
+                     fiducials, rms_mm, max_mm, worst, tre_path_rms_mm, tre_path_max_mm, fle_mm,
+                     fle_given ? "" : ", default: set fiducial_error_mm");
 }
 
 Experiment load_experiment(const std::filesystem::path& manifest_path) {

@@ -150,4 +150,60 @@ RegistrationFit fit_rigid(const std::vector<glm::dvec3>& from, const std::vector
   return fit;
 }
 
+double predicted_tre_mm(const std::vector<glm::dvec3>& fid, double fle_mm, const glm::dvec3& target) {
+  const std::size_t n = fid.size();
+  if (n < 3) return NAN;
+  const glm::dvec3 c = centroid(fid);
+  std::array<std::array<double, 3>, 3> C{}, V{};
+  for (const auto& p : fid) {
+    const glm::dvec3 d = p - c;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) C[i][j] += d[i] * d[j];
+  }
+  jacobi_eigen<3>(C, V);
+  const glm::dvec3 r = target - c;
+  double sum = 0;
+  for (int k = 0; k < 3; ++k) {
+    const glm::dvec3 e(V[0][k], V[1][k], V[2][k]);
+    double f2 = 0;
+    for (const auto& p : fid) {
+      const glm::dvec3 d = p - c;
+      f2 += glm::dot(d, d) - glm::dot(d, e) * glm::dot(d, e);
+    }
+    f2 /= double(n);
+    const double d2 = glm::dot(r, r) - glm::dot(r, e) * glm::dot(r, e);
+    if (f2 > 0) sum += d2 / f2;
+  }
+  return fle_mm * std::sqrt((1 + sum / 3) / double(n));
+}
+
+void check_fiducial_fit(const RegistrationFit& fit, const std::vector<glm::dvec3>& from,
+                        const std::vector<glm::dvec3>& to, double limit_mm,
+                        const std::string& file, const std::string& field) {
+  if (!(fit.rms_mm > limit_mm)) return;
+  std::size_t worst = 0;
+  for (std::size_t i = 0; i < fit.residual_mm.size(); ++i)
+    if (fit.residual_mm[i] > fit.residual_mm[worst]) worst = i;
+  // Two rows exchanged in one list is the common mistake: try every swap.
+  double best = INFINITY;
+  std::size_t bi = 0, bj = 0;
+  for (std::size_t i = 0; i < to.size(); ++i)
+    for (std::size_t j = i + 1; j < to.size(); ++j) {
+      std::vector<glm::dvec3> t = to;
+      std::swap(t[i], t[j]);
+      try {
+        const double r = fit_rigid(from, t, file, field).rms_mm;
+        if (r < best) { best = r; bi = i; bj = j; }
+      } catch (const InputError&) {}
+    }
+  const std::string swapped =
+      best <= limit_mm ? fmt::format("; rows {} and {} look swapped (exchanged, the RMS is {:.4g} mm)", bi, bj, best)
+                       : "";
+  throw InputError(file, field,
+                   fmt::format("fiducial residuals within the limit (RMS <= {:.4g} mm = {} x fiducial_error_mm)",
+                               limit_mm, kFiducialLimitFactor),
+                   fmt::format("RMS {:.4g} mm, worst fiducial {} ({:.4g} mm){}", fit.rms_mm, worst,
+                               fit.residual_mm[worst], swapped));
+}
+
 }  // namespace burrbench::model

@@ -28,7 +28,7 @@ struct ReferenceSpec {
   bool trabecular = true;      // false: every move stays over compact bone
   bool erosion = true;         // false: the truth has α = ∞ (no erosion)
   bool depth_offset = false;   // fit a depth offset per recording
-  int multistart = 4;  // α scan: manifest start + 3 log-uniform grid points inside the bounds
+  int multistart = 4;  // global search: manifest start + 3 Latin-hypercube points
   // truth
   double alpha1 = 150, c1_1 = 16, mu1 = 0.4;
   double alpha2 = 60, c1_2 = 6, mu2 = 0.3;

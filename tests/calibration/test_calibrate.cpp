@@ -110,6 +110,24 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   const auto ps = ds::read_params(dir / "out" / "params.toml");
   EXPECT_DOUBLE_EQ(ps.classes.at(1).c1_N_per_mm2, param(fit, 1, "c1").estimate);
   EXPECT_DOUBLE_EQ(ps.classes.at(2).mu, param(fit, 2, "mu").estimate);
+  // `report` of the calibrate directory replays what the fit held: its pooled RMSE (the
+  // three axes' rows of "calibrate / all") reproduces fit.json's to 1e-6 relative.
+  const fs::path rep = dir / "rep" / "report.html";
+  fs::create_directories(rep.parent_path());
+  const std::string cmd = fmt::format("'{}' report '{}' --out '{}' > /dev/null 2>&1", cli(),
+                                      (dir / "out").string(), rep.string());
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream mf(rep.parent_path() / "metrics.json");
+  const auto metrics = nlohmann::json::parse(mf);
+  double sq = 0;
+  int axes = 0;
+  for (const auto& row : metrics["rows"])
+    if (row["recording"] == "" && row["role"] == "calibrate" && row["segment"] == "all" && row["axis"] != "magnitude") {
+      sq += std::pow(row["rmse_N"].get<double>(), 2);
+      ++axes;
+    }
+  ASSERT_EQ(axes, 3);
+  EXPECT_NEAR(std::sqrt(sq / 3) / fit.metrics["calibration"]["rmse_N"].get<double>(), 1.0, 1e-6);
   if (!HasFailure()) fs::remove_all(dir);
 }
 

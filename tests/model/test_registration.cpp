@@ -89,3 +89,57 @@ TEST(Registration, CheckRotationRejectsReflectionAndScale) {
   EXPECT_THROW(check_rotation(mirror, "f", "r"), InputError);
   EXPECT_THROW(check_rotation(glm::dmat3(1.01), "f", "r"), InputError);
 }
+
+// Fitzpatrick's predicted TRE against Monte Carlo: perturb four fiducials by an isotropic
+// FLE, fit, measure the error at targets near and far from the fiducials' centroid.
+TEST(Registration, PredictedTreMatchesMonteCarlo) {
+  const glm::dmat3 R = rotation(0.65, {0.2, 0.9, -0.4});  // 37° about a tilted axis
+  const glm::dvec3 t{3.0, -7.0, 30.0};
+  const std::vector<glm::dvec3> rig{{0, 0, 0}, {12, 1, 0}, {2, 10, 1}, {3, 4, 8}};
+  std::vector<glm::dvec3> vol;
+  for (const auto& p : rig) vol.push_back(R * p + t);
+  const double fle = 0.005;  // 5 µm RMS (3-D)
+  std::mt19937_64 gen(11);
+  std::normal_distribution<double> n(0.0, fle / std::sqrt(3.0));
+  const std::vector<glm::dvec3> targets_rig{{4, 4, 2}, {20, 15, -5}, {-10, 0, 12}};
+  std::vector<double> ss(targets_rig.size(), 0.0);
+  const int trials = 4000;
+  for (int k = 0; k < trials; ++k) {
+    std::vector<glm::dvec3> noisy = vol;
+    for (auto& p : noisy) p += glm::dvec3(n(gen), n(gen), n(gen));
+    const auto fit = fit_rigid(rig, noisy);
+    for (std::size_t i = 0; i < targets_rig.size(); ++i) {
+      const glm::dvec3 e = fit.transform.apply(targets_rig[i]) - (R * targets_rig[i] + t);
+      ss[i] += glm::dot(e, e);
+    }
+  }
+  for (std::size_t i = 0; i < targets_rig.size(); ++i) {
+    const double measured = std::sqrt(ss[i] / trials);
+    const double predicted = predicted_tre_mm(vol, fle, R * targets_rig[i] + t);
+    EXPECT_NEAR(predicted / measured, 1.0, 0.08) << "target " << i << ": " << predicted << " vs " << measured;
+  }
+}
+
+// Two exchanged rows give an absurd RMS: refused with one line naming the worst fiducial
+// and the swapped pair; a fit within the limit passes.
+TEST(Registration, SwappedFiducialsAreRefusedAndNamed) {
+  const glm::dmat3 R = rotation(0.65, {0.2, 0.9, -0.4});
+  const glm::dvec3 t{3.0, -7.0, 30.0};
+  const std::vector<glm::dvec3> rig{{0, 0, 0}, {12, 1, 0}, {2, 10, 1}, {3, 4, 8}};
+  std::vector<glm::dvec3> vol;
+  for (const auto& p : rig) vol.push_back(R * p + t + glm::dvec3(0.002, -0.001, 0.001));
+  const auto good = fit_rigid(rig, vol);
+  EXPECT_NO_THROW(check_fiducial_fit(good, rig, vol, 3 * 0.005, "m.toml", "fid"));
+  std::swap(vol[1], vol[2]);
+  const auto bad = fit_rigid(rig, vol);
+  try {
+    check_fiducial_fit(bad, rig, vol, 3 * 0.005, "m.toml", "recordings[0].registration.fiducials_vol_mm");
+    FAIL() << "swapped fiducials accepted (RMS " << bad.rms_mm << " mm)";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("m.toml"), std::string::npos) << m;
+    EXPECT_NE(m.find("rows 1 and 2 look swapped"), std::string::npos) << m;
+    EXPECT_NE(m.find("worst fiducial"), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
+}

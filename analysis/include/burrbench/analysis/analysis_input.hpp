@@ -28,6 +28,7 @@ struct RecordingSeries {
   std::string id, sample_id;
   std::string role;               // "calibrate" | "validate"
   std::string path, sha256, notes;
+  std::string registration;  // how the recording was registered: method, RMS, predicted TRE
   std::vector<SegmentSpan> segments;  // empty = whole recording
   // Series (predictions.csv): time from the first sample, measured and predicted force
   // (sensor frame), and whether the sample counted in the fit/metrics (0 = buried,

@@ -45,10 +45,17 @@ struct SensorConfig {
 // Rig → volume, x_vol = rotation·x_rig + translation_mm; either given directly or as
 // ≥ 3 non-collinear fiducial pairs (then rotation/translation stay identity/zero here and
 // the model's registration code fits them).
+// Given directly, the transform is named by its direction: `vol_from_rig` (x_vol = R·x_rig
+// + t; the bare keys rotation/translation_mm mean this too) or `rig_from_vol` (as most lab
+// tools export it; inverted on read). Here it is always stored as vol_from_rig.
 struct Registration {
   glm::dmat3 rotation{1.0};
   glm::dvec3 translation_mm{0, 0, 0};
+  std::string given_as = "vol_from_rig";  // how the file stated it (vol_from_rig | rig_from_vol)
   std::vector<glm::dvec3> fiducials_rig_mm, fiducials_vol_mm;
+  // Localisation accuracy of the beads (RMS, mm): the fit is refused above 3× it, and it
+  // sets the predicted target registration error (TRE). Absent: 0.1 mm.
+  std::optional<double> fiducial_error_mm{};
   bool from_fiducials() const { return !fiducials_rig_mm.empty(); }
 };
 

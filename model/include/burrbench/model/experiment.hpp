@@ -11,6 +11,7 @@
 //                   measures the force on the sample (= −F_on_burr), +1 if on the burr.
 // Lag: the force recorded at t is caused by the burr position at t − lag; positions and
 // rpm are interpolated linearly at t − lag (clamped to the first/last stage sample).
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <glm/glm.hpp>
@@ -42,6 +43,20 @@ struct Series {
 extern template struct Series<double>;
 extern template struct Series<glm::dvec3>;
 
+// How a recording was registered, for the outputs (replay, calibrate, validate print it;
+// prediction and fit.json store it). TRE: Fitzpatrick's predicted target registration
+// error at the burr centre, RMS and largest over the stage samples (fiducials only).
+struct RegistrationSummary {
+  std::string method = "vol_from_rig";  // fiducials | vol_from_rig | rig_from_vol
+  std::size_t fiducials = 0;
+  double rms_mm = NAN, max_mm = NAN;    // residuals at the fiducials
+  int worst = -1;                       // fiducial with the largest residual
+  double fle_mm = NAN;                  // fiducial localisation error used
+  bool fle_given = false;               // from the manifest (else the default)
+  double tre_path_rms_mm = NAN, tre_path_max_mm = NAN;
+  std::string text() const;             // one line
+};
+
 // One recording, aligned and mapped to the volume frame; everything needed to rebuild
 // its trajectory for any lag / depth offset without file I/O.
 struct AlignedRecording {
@@ -62,6 +77,7 @@ struct AlignedRecording {
 
   RigidTransform rig_to_vol;                    // from the manifest or fitted to fiducials
   std::optional<RegistrationFit> fiducial_fit;  // set when fitted (RMS in fiducial_fit->rms_mm)
+  RegistrationSummary registration;
   glm::dvec3 tool_offset_rig_mm{0};
   glm::dvec3 shaft_axis_vol{0, 0, 1};  // unit
   int spin_sign = 1;

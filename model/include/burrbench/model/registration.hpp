@@ -9,6 +9,12 @@
 
 namespace burrbench::model {
 
+// A fiducial fit is refused when its RMS residual exceeds this many fiducial localisation
+// errors (the expected RMS is FLE·√(1 − 2/N) < FLE; docs/replay.md "Registration").
+inline constexpr double kFiducialLimitFactor = 3.0;
+// FLE assumed when the manifest gives no `fiducial_error_mm` (about a CT voxel).
+inline constexpr double kDefaultFiducialErrorMm = 0.1;
+
 struct RigidTransform {
   glm::dmat3 R{1.0};      // proper rotation (glm is column-major: R[col][row])
   glm::dvec3 t{0, 0, 0};  // mm
@@ -35,6 +41,22 @@ RegistrationFit fit_rigid(const std::vector<glm::dvec3>& from_rig_mm,
                           const std::vector<glm::dvec3>& to_vol_mm,
                           const std::string& file_for_messages = {},
                           const std::string& field = "registration.fiducials");
+
+// Fitzpatrick, West & Maurer (IEEE TMI 17:694, 1998): the expected target registration
+// error at `target` of a point-based rigid registration from these fiducials (same frame),
+// for an isotropic fiducial localisation error FLE (RMS, mm):
+//   TRE²(r) ≈ FLE²/N · (1 + ⅓ Σ_k d_k²/f_k²),
+// d_k the target's distance from the k-th principal axis of the fiducial configuration,
+// f_k the fiducials' RMS distance from it. Returns the RMS TRE (mm).
+double predicted_tre_mm(const std::vector<glm::dvec3>& fiducials_mm, double fle_mm,
+                        const glm::dvec3& target_mm);
+
+// A fiducial fit's RMS above `limit_mm` is absurd (mis-paired or mistyped fiducials):
+// InputError naming the worst fiducial, and the two rows that look swapped when exchanging
+// them brings the RMS under the limit.
+void check_fiducial_fit(const RegistrationFit& fit, const std::vector<glm::dvec3>& from_rig_mm,
+                        const std::vector<glm::dvec3>& to_vol_mm, double limit_mm,
+                        const std::string& file, const std::string& field);
 
 // InputError unless R is orthonormal (‖RᵀR − I‖ ≤ 1e-6) with det +1.
 void check_rotation(const glm::dmat3& R, const std::string& file, const std::string& field);
