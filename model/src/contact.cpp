@@ -70,6 +70,7 @@ struct Moments {
   std::array<double, kMaxClasses> mass{};  // Σ ΔV χ per class
   glm::dvec3 m1{0};                         // Σ ΔV χ (r/d) v
   std::size_t lens_count = 0;
+  double inside_chi = 0;                    // Σ χ over fully-inside voxels
 };
 
 // Running sums kept in locals by the hot loops (written back once per segment), so the
@@ -236,7 +237,10 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
       out = lens_span(r, ib + 1, xb, tab, reach2, inner2, S, out);
     }
   }
-  for (int k = 1; k < kMaxClasses; ++k) mo.mass[k] = S.lens_mass[k] + v_in * S.in_mass[k];
+  for (int k = 1; k < kMaxClasses; ++k) {
+    mo.mass[k] = S.lens_mass[k] + v_in * S.in_mass[k];
+    mo.inside_chi += S.in_mass[k];
+  }
   mo.mass[0] = 0;  // label 0 has χ = 0 by construction
   mo.m1 = glm::dvec3(S.mx, S.my, S.mz) + v_in * glm::dvec3(S.ix, S.iy, S.iz);
   mo.lens_count = std::size_t(out - first);
@@ -254,6 +258,13 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   const LensTable& tab = table_for(vol, R);
   Moments mo;
   gather(vol, tab, p, mo);
+  detail::KernelState& st = vol.scratch().state;
+  st = detail::KernelState{};
+  st.p = p;
+  st.mass = mo.mass;
+  st.m1 = mo.m1;
+  st.inside_chi = mo.inside_chi;
+  st.lens_count = mo.lens_count;
   double M = 0;
   for (int k = 1; k < kMaxClasses; ++k) {
     M += mo.mass[k];
@@ -261,6 +272,7 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   }
   if (!(M > 0)) return out;  // no bone in reach: exactly zero force
   out.bone_volume_mm3 = M;
+  st.M = M;
   const double b = immersion_depth(R, M);
   out.depth_b_mm = b;
   const double m1n = glm::length(mo.m1);
@@ -280,6 +292,15 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   const double fe = glm::length(out.elastic_N);
   const double wn = glm::length(omega);
   out.force_N = out.elastic_N;
+  st.force = true;
+  st.m1n = m1n;
+  st.b = b;
+  st.n = n;
+  st.g = g;
+  st.c1_eff = fe / g;
+  st.fe = fe;
+  st.a2 = a2;
+  st.wn = wn;
   if (!(a2 > 0) || !(fe > 0) || !(wn > 0)) return out;
 
   // Second pass over the lens voxels: Hertz pressure on the contact disc, friction and
@@ -302,6 +323,13 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
     // and W = 0, so it would lose nothing anyway.
     if ((out.class_mask >> k) & 1u && std::isfinite(cc.alpha_N_per_mm2))
       kero[k] = dt / (cc.alpha_N_per_mm2 * l3);
+  }
+  st.friction = true;
+  st.w = w;
+  st.p0 = p0;
+  for (int k = 0; k < kMaxClasses; ++k) {
+    st.wmu[std::size_t(k)] = wmu[k];
+    st.kero[std::size_t(k)] = kero[k];
   }
   double power = 0;
   const bool do_erode = erode_vol != nullptr && dt > 0;

@@ -2,10 +2,14 @@
 // Per-Volume scratch space of the contact kernel: the lens table for the current (R, l)
 // and the list of lens voxels collected in the first pass (reused by the friction and
 // erosion pass, so no geometry is computed twice).
+#include <array>
 #include <cstdint>
 #include <vector>
 
+#include <glm/glm.hpp>
+
 #include "burrbench/model/geometry.hpp"
+#include "burrbench/model/model_params.hpp"
 
 namespace burrbench::model::detail {
 
@@ -20,10 +24,23 @@ struct LensVoxel {
 };
 static_assert(sizeof(LensVoxel) == 56);
 
+// What the last contact evaluation derived from the moments, for the tangent pass of the
+// forward sensitivities (sensitivity.cpp), which differentiates the same quantities.
+struct KernelState {
+  bool force = false;     // a contact normal and an elastic force exist
+  bool friction = false;  // the friction pass ran (a² > 0, |F_e| > 0, |ω| > 0)
+  glm::dvec3 p{0}, m1{0}, n{0}, w{0};  // centre, M₁, n̂, ω̂
+  double M = 0, m1n = 0, b = 0, g = 0, c1_eff = 0, fe = 0, a2 = 0, p0 = 0, wn = 0;
+  double inside_chi = 0;  // Σ χ of the fully-inside voxels (× inside volume = their mass)
+  std::array<double, kMaxClasses> mass{}, kero{}, wmu{};
+  std::size_t lens_count = 0;
+};
+
 struct Scratch {
   bool has_table = false;
   LensTable table;
   std::vector<LensVoxel> lens;
+  KernelState state;
 };
 
 }  // namespace burrbench::model::detail

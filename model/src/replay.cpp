@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <string>
 
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "tangent.hpp"
 
 namespace burrbench::model {
 
@@ -61,12 +63,48 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   if (n > 1 && (tr.t_s.back() - tr.t_s.front()) / h > 1e9)
     throw InputError("replay", "step_s", "at most 1e9 internal steps",
                      fmt::format("{} s over {} s", h, tr.t_s.back() - tr.t_s.front()));
+  // Forward sensitivities: a tangent state beside the undo log (it lives for this replay).
+  const bool sens = opt.directions && opt.sensitivities;
+  std::unique_ptr<detail::TangentState> tan;
+  std::vector<glm::dvec3> dp, dF;
+  if (sens) {
+    const auto& dirs = *opt.directions;
+    for (std::size_t j = 0; j < dirs.size(); ++j)
+      if (dirs[j].kind == Direction::Kind::kPath && dirs[j].dcentre_vol_mm.size() != n)
+        throw InputError("replay", fmt::format("directions[{}].dcentre_vol_mm", j),
+                         fmt::format("one entry per trajectory sample ({})", n),
+                         std::to_string(dirs[j].dcentre_vol_mm.size()));
+    if (dirs.size() > kMaxDirections)
+      throw InputError("replay", "directions", fmt::format("at most {}", kMaxDirections),
+                       std::to_string(dirs.size()));
+    tan = std::make_unique<detail::TangentState>(vol, dirs, params);
+    opt.sensitivities->dforce_N.assign(dirs.size(), std::vector<glm::dvec3>(n, glm::dvec3(0)));
+    dp.assign(dirs.size(), glm::dvec3(0));
+    dF.assign(dirs.size(), glm::dvec3(0));
+  }
+  // ∂p/∂θ_j at a fraction f of interval k (linear, like the centre).
+  auto path_at = [&](std::size_t k, double f) {
+    const auto& dirs = *opt.directions;
+    for (std::size_t j = 0; j < dirs.size(); ++j) {
+      if (dirs[j].kind != Direction::Kind::kPath) continue;
+      const auto& d = dirs[j].dcentre_vol_mm;
+      dp[j] = f == 0 ? d[k] : d[k] + f * (d[k + 1] - d[k]);
+    }
+  };
+  auto record = [&](std::size_t k) {
+    for (std::size_t j = 0; j < dF.size(); ++j) opt.sensitivities->dforce_N[j][k] = dF[j];
+  };
   if (restore) vol.begin_undo();
   try {
     for (std::size_t k = 0; k < n; ++k) {
       if (k + 1 == n || !opt.erosion) {
         res.samples[k].contact =
             evaluate(vol, tr.centre_vol_mm[k], tr.omega_vol_rad_s[k], radius_mm, params);
+        if (sens) {
+          path_at(k, 0);
+          tan->differentiate(vol, res.samples[k].contact, dp.data(), false, dF.data());
+          record(k);
+        }
       }
       if (k + 1 == n) break;
       if (!opt.erosion) continue;
@@ -75,12 +113,17 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
       const double T = tr.t_s[k + 1] - tr.t_s[k];
       const std::size_t m = std::max<std::size_t>(1, std::size_t(std::ceil(T / h - 1e-9)));
       const double dt = T / double(m);
-      const glm::dvec3 p0 = tr.centre_vol_mm[k], dp = tr.centre_vol_mm[k + 1] - p0;
+      const glm::dvec3 p0 = tr.centre_vol_mm[k], dpk = tr.centre_vol_mm[k + 1] - p0;
       const glm::dvec3 w0 = tr.omega_vol_rad_s[k], dw = tr.omega_vol_rad_s[k + 1] - w0;
       for (std::size_t j = 0; j < m; ++j) {
         const double f = double(j) / double(m);
-        ContactResult c = step(vol, p0 + f * dp, w0 + f * dw, radius_mm, params, dt,
+        ContactResult c = step(vol, p0 + f * dpk, w0 + f * dw, radius_mm, params, dt,
                                res.removed_mm3, &res.friction_energy_mJ);
+        if (sens) {
+          path_at(k, f);
+          tan->differentiate(vol, c, dp.data(), true, dF.data());
+          if (j == 0) record(k);
+        }
         if (j == 0) res.samples[k].contact = c;
         ++res.steps;
       }
@@ -90,6 +133,10 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   } catch (...) {
     if (restore) vol.rollback();
     throw;
+  }
+  if (sens) {
+    opt.sensitivities->dremoved_mm3 = tan->dremoved_mm3();
+    opt.sensitivities->tangent_voxels = tan->tangent_voxels();
   }
   if (restore) vol.rollback();
   res.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();

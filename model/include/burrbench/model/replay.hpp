@@ -9,6 +9,7 @@
 
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/model/contact.hpp"
+#include "burrbench/model/sensitivity.hpp"
 
 namespace burrbench::model {
 
@@ -21,6 +22,11 @@ struct Trajectory {                          // the burr's path in the VOLUME fr
 struct ReplayOptions {
   double step_s = 0;     // internal step; 0 → half the median sample period
   bool erosion = true;   // false: forces only (as α = ∞ for every class)
+  // Forward sensitivities (sensitivity.hpp): with both set, the replay also fills
+  // `sensitivities` with ∂F/∂θ_j for every direction. Null: a plain replay, bit-identical
+  // to one without them.
+  const std::vector<Direction>* directions = nullptr;
+  Sensitivities* sensitivities = nullptr;
 };
 
 struct ReplaySample { ContactResult contact; };  // at each trajectory time

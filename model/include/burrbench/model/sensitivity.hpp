@@ -1,0 +1,35 @@
+#pragma once
+// Forward sensitivities of a replay (docs/model.md "Sensitivities"): the exact derivative of
+// the replayed force in several directions θ_j at once — ln α_k, ln C1_k, ln μ_k of a class,
+// or a shift of the burr's path (lag, depth offset, registration pose). The replay carries
+// ∂χ/∂θ_j for every voxel that erosion has touched (sparse; zero where χ clamps at 0) and
+// differentiates the contact kernel in χ, in the burr centre and in the constants.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "burrbench/model/model_params.hpp"
+
+namespace burrbench::model {
+
+struct Direction {  // one parameter θ_j the replay is differentiated in
+  enum class Kind { kLogAlpha, kLogC1, kLogMu, kPath };
+  Kind kind = Kind::kLogC1;
+  std::uint8_t label = 0;  // class label for kLogAlpha / kLogC1 / kLogMu
+  // kPath: ∂p/∂θ of the burr centre (volume frame, mm per unit θ) at every trajectory
+  // sample; between samples it is interpolated linearly like the centre itself.
+  std::vector<glm::dvec3> dcentre_vol_mm;
+};
+
+struct Sensitivities {  // filled by replay when directions are given
+  std::vector<std::vector<glm::dvec3>> dforce_N;  // [direction][sample]: ∂F/∂θ_j (burr force, volume frame)
+  std::vector<std::array<double, kMaxClasses>> dremoved_mm3;  // [direction]: ∂(removed volume per class)/∂θ_j
+  std::size_t tangent_voxels = 0;  // voxels that carried a tangent (bench, docs)
+};
+
+inline constexpr std::size_t kMaxDirections = 64;
+
+}  // namespace burrbench::model

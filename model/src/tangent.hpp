@@ -1,0 +1,48 @@
+#pragma once
+// Tangent-linear pass of the contact kernel (forward sensitivities, sensitivity.hpp). After
+// the kernel has evaluated (and possibly eroded) at a burr position, `differentiate` uses
+// the lens voxels and the derived quantities the kernel left in the Volume's scratch
+// (KernelState) to compute ∂F/∂θ_j, and, for an erosion step, advances the voxels'
+// tangents ∂χ/∂θ_j through χ ← max(0, χ − dt·W/(α l³)).
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "burrbench/model/contact.hpp"
+#include "burrbench/model/sensitivity.hpp"
+#include "burrbench/model/volume.hpp"
+
+namespace burrbench::model::detail {
+
+class TangentState {
+ public:
+  TangentState(const Volume& vol, const std::vector<Direction>& dirs, const ModelParams& prm);
+  std::size_t directions() const { return P_; }
+  // `c`: the contact just evaluated on `vol` (by evaluate or step); `dp`: ∂p/∂θ_j at this
+  // position (P entries; zero for physics directions); `eroded`: the kernel eroded with
+  // this step (then the voxel tangents advance). Writes ∂F/∂θ_j to dF (P entries).
+  void differentiate(const Volume& vol, const ContactResult& c, const glm::dvec3* dp,
+                     bool eroded, glm::dvec3* dF);
+  const std::vector<std::array<double, kMaxClasses>>& dremoved_mm3() const { return drem_; }
+  std::size_t tangent_voxels() const { return touched_.size(); }
+
+ private:
+  double* tangent(std::uint32_t voxel);          // existing or null
+  double* tangent_or_new(std::uint32_t voxel);   // allocates a zero tangent
+  std::size_t P_;
+  std::vector<std::int8_t> kind_;   // per direction: 0 ln α, 1 ln C1, 2 ln μ, 3 path
+  std::vector<std::uint8_t> label_;
+  ModelParams prm_;
+  std::size_t nx_, ny_;
+  std::vector<std::int32_t> slot_;   // per voxel: tangent slot or −1
+  std::vector<std::uint8_t> row_;    // per row (y, z): 1 when a voxel of it has a tangent
+  std::vector<double> dchi_;         // slot × P
+  std::vector<std::uint32_t> stamp_; // per slot: evaluation that saw it as a lens voxel
+  std::vector<std::uint32_t> touched_;  // voxel of each slot
+  std::uint32_t eval_ = 0;
+  std::vector<std::array<double, kMaxClasses>> drem_;
+};
+
+}  // namespace burrbench::model::detail
