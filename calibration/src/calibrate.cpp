@@ -12,10 +12,6 @@
 
 namespace burrbench::calibration {
 
-const char* to_string(Derivatives d) {
-  return d == Derivatives::kSensitivities ? "sensitivities" : "fd";
-}
-
 void validate(const CalibrateOptions& o) {
   const std::string cl = "command line";
   if (o.threads < 1 || o.threads > 64) throw InputError(cl, "--threads", "1..64", std::to_string(o.threads));

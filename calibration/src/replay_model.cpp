@@ -78,8 +78,18 @@ ReplayRecordingModel::ReplayRecordingModel(const model::AlignedRecording& rec, R
                                            model::ReplayOptions options)
     : rec_(rec), pool_(pool), options_(options) {}
 
+const char* to_string(Derivatives d) {
+  return d == Derivatives::kSensitivities ? "sensitivities" : "fd";
+}
+
 void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column>& columns,
                                    Prediction& out) const {
+  // Exact forward sensitivities (one replay) for the full Jacobian; the fixed-geometry
+  // pre-fit (geometry_terms = false) and plain evaluations need no replay derivatives.
+  if (derivatives_ == Derivatives::kSensitivities && at.geometry_terms && !columns.empty()) {
+    predict_sensitivities(at, columns, out);
+    return;
+  }
   const double lag_s = at.lag_ms * 1e-3;
   auto job = [&](const PhysicsValues& v, double lag, double depth) {
     return ReplayPool::Job{&rec_.sample_id, rec_.radius_mm, to_model_params(v),
@@ -163,6 +173,61 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
         case ColumnKind::kDepthMm: col[j] = central(depth_pair, steps_.depth_mm, j); break;
       }
     }
+    out.columns.push_back(std::move(col));
+  }
+}
+
+void ReplayRecordingModel::predict_sensitivities(const EvalPoint& at, const std::vector<Column>& columns,
+                                                 Prediction& out) const {
+  const double lag_s = at.lag_ms * 1e-3;
+  std::vector<model::Direction> dirs;
+  std::vector<int> dir_of(columns.size(), -1);
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    const auto& col = columns[c];
+    model::Direction d;
+    d.label = col.label;
+    switch (col.kind) {
+      case ColumnKind::kLogAlpha: d.kind = model::Direction::Kind::kLogAlpha; break;
+      case ColumnKind::kLogC1: d.kind = model::Direction::Kind::kLogC1; break;
+      case ColumnKind::kLogMu: d.kind = model::Direction::Kind::kLogMu; break;
+      case ColumnKind::kLagMs:
+        d.kind = model::Direction::Kind::kPath;
+        d.dcentre_vol_mm = rec_.dcentre_dlag_ms(lag_s);
+        break;
+      case ColumnKind::kDepthMm:
+        d.kind = model::Direction::Kind::kPath;
+        d.dcentre_vol_mm.assign(size(), -rec_.shaft_axis_vol);  // centre − depth·axis
+        break;
+    }
+    dir_of[c] = int(dirs.size());
+    dirs.push_back(std::move(d));
+  }
+  model::Sensitivities sens;
+  std::vector<ReplayPool::Job> jobs;
+  jobs.push_back(ReplayPool::Job{&rec_.sample_id, rec_.radius_mm, to_model_params(at.physics),
+                                 rec_.trajectory(lag_s, at.depth_mm), options_, {}});
+  jobs[0].options.directions = &dirs;
+  jobs[0].options.sensitivities = &sens;
+  pool_.run(jobs);
+  out.replays = 1;
+  const std::size_t n = size();
+  const auto& base = jobs[0].result;
+  BURRBENCH_CHECK(base.samples.size() == n, "replay returned one contact per force sample");
+  out.force_sensor_N.resize(n);
+  out.buried.resize(n);
+  out.class_mask.resize(n);
+  for (std::size_t k = 0; k < std::size_t(kLabels); ++k) out.removed_mm3[k] = base.removed_mm3[k];
+  for (std::size_t j = 0; j < n; ++j) {
+    const auto& c = base.samples[j].contact;
+    out.force_sensor_N[j] = rec_.sensor_force_from_burr_force(c.force_N);
+    out.buried[j] = c.buried ? 1 : 0;
+    out.class_mask[j] = c.class_mask;
+  }
+  out.columns.clear();
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    std::vector<glm::dvec3> col(n);
+    const auto& d = sens.dforce_N[std::size_t(dir_of[c])];
+    for (std::size_t j = 0; j < n; ++j) col[j] = rec_.sensor_force_from_burr_force(d[j]);
     out.columns.push_back(std::move(col));
   }
 }

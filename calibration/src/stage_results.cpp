@@ -138,9 +138,11 @@ CalibrationOutput results(Run& run) {
                        p.profile.empty() ? "" : ", profile " + interval_text(p.profile_ci95_low, p.profile_ci95_high),
                        p.reason);
     } else {
-      s += fmt::format("  {:<12} {:<5} = {:.6g} {} profile 95 % {}; covariance [{:.6g}, {:.6g}]{}\n",
+      s += fmt::format("  {:<12} {:<5} = {:.6g} {} {}covariance [{:.6g}, {:.6g}]{}\n",
                        p.class_name, p.name, p.estimate, p.unit,
-                       interval_text(p.profile_ci95_low, p.profile_ci95_high), p.ci95_low, p.ci95_high,
+                       p.profile.empty() ? std::string("95 % ")
+                                         : "profile 95 % " + interval_text(p.profile_ci95_low, p.profile_ci95_high) + "; ",
+                       p.ci95_low, p.ci95_high,
                        std::isfinite(p.bootstrap_ci95_low)
                            ? fmt::format("; bootstrap [{:.6g}, {:.6g}]", p.bootstrap_ci95_low, p.bootstrap_ci95_high)
                            : "");

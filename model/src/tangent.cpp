@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "burrbench/data_schema/error.hpp"
@@ -25,7 +26,10 @@ TangentState::TangentState(const Volume& vol, const std::vector<Direction>& dirs
     label_.push_back(d.label);
   }
   slot_.assign(vol.voxel_count(), -1);
-  row_.assign(vol.dims()[1] * vol.dims()[2], 0);
+  row_lo_.assign(vol.dims()[1] * vol.dims()[2], std::numeric_limits<std::int32_t>::max());
+  row_hi_.assign(vol.dims()[1] * vol.dims()[2], -1);
+  for (std::size_t j = 0; j < P_; ++j)
+    if (kind_[j] == kPath) path_.push_back(j);
   drem_.assign(P_, std::array<double, kMaxClasses>{});
 }
 
@@ -40,7 +44,10 @@ double* TangentState::tangent_or_new(std::uint32_t v) {
     touched_.push_back(v);
     stamp_.push_back(eval_);
     dchi_.resize(dchi_.size() + P_, 0.0);
-    row_[v / nx_] = 1;
+    const std::size_t row = v / nx_;
+    const std::int32_t x = std::int32_t(v % nx_);
+    row_lo_[row] = std::min(row_lo_[row], x);
+    row_hi_[row] = std::max(row_hi_[row], x);
   }
   return &dchi_[std::size_t(slot_[v]) * P_];
 }
@@ -61,8 +68,13 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   const LensVoxel* lv = vol.scratch().lens.data();
 
   // ---- first moments: ∂mass_k, ∂M₁ ----
-  std::array<std::array<double, kMaxClasses>, kMaxDirections> dmass{};
-  std::array<glm::dvec3, kMaxDirections> dm1{};
+  // Per-direction accumulators, zeroed for the P directions only (not kMaxDirections).
+  auto& dmass = dmass_;
+  auto& dm1 = dm1_;
+  for (std::size_t j = 0; j < P; ++j) {
+    dmass[j].fill(0.0);
+    dm1[j] = glm::dvec3(0);
+  }
   for (std::size_t i = 0; i < st.lens_count; ++i) {
     const LensVoxel& v = lv[i];
     const glm::dvec3 vv(v.vx, v.vy, v.vz);
@@ -75,16 +87,17 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     const double chi = v.chi, w = dV * chi, rd = v.rd;
     const double* tg = tangent(v.index);
     if (tg) stamp_[std::size_t(slot_[v.index])] = eval_;
-    for (std::size_t j = 0; j < P; ++j) {
-      double dw = tg ? dV * tg[j] : 0.0;
-      glm::dvec3 dmv(0);
-      if (kind_[j] == kPath) {
-        const double dd2 = -2.0 * glm::dot(vv, dp[j]);
-        dw += chi * sV * dd2;
-        dmv = w * (sR * dd2 * vv - rd * dp[j]);
+    if (tg)
+      for (std::size_t j = 0; j < P; ++j) {
+        const double dw = dV * tg[j];
+        dmass[j][v.label] += dw;
+        dm1[j] += dw * rd * vv;
       }
+    for (std::size_t j : path_) {
+      const double dd2 = -2.0 * glm::dot(vv, dp[j]);
+      const double dw = chi * sV * dd2;
       dmass[j][v.label] += dw;
-      dm1[j] += dw * rd * vv + dmv;
+      dm1[j] += dw * rd * vv + w * (sR * dd2 * vv - rd * dp[j]);
     }
   }
   // Fully-inside voxels: their mass moves with p as a block (∂M₁ = −v_in·Σχ·δp), and
@@ -106,8 +119,8 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     for (long z = z0; z <= z1; ++z)
       for (long y = y0; y <= y1; ++y) {
         const std::size_t row = std::size_t(y) + ny_ * std::size_t(z);
-        if (!row_[row]) continue;
-        for (long x = x0; x <= x1; ++x) {
+        const long xa = std::max(x0, long(row_lo_[row])), xb = std::min(x1, long(row_hi_[row]));
+        for (long x = xa; x <= xb; ++x) {
           const std::size_t idx = std::size_t(x) + nx_ * row;
           const std::int32_t s = slot_[idx];
           if (s < 0 || stamp_[std::size_t(s)] == eval_) continue;  // none, or a lens voxel
@@ -128,8 +141,8 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   const double M = st.M, b = st.b, g = st.g, cbar = st.c1_eff;
   const double a2 = st.a2;
   const bool full = M >= 4.0 / 3.0 * kPi * R * R * R;  // b clamped at 2R
-  std::array<double, kMaxDirections> ddb{}, dfe{}, da2{}, dp0{};
-  std::array<glm::dvec3, kMaxDirections> dn{};
+  auto &dfe = dfe_, &da2 = da2_, &dp0 = dp0_;
+  auto& dn = dn_;
   for (std::size_t j = 0; j < P; ++j) {
     double dM = 0, dc = 0;
     for (int k = 1; k < kMaxClasses; ++k) {
@@ -143,7 +156,6 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     const double dg = 1.5 * g / b * db;
     dn[j] = -(dm1[j] - n * glm::dot(n, dm1[j])) / st.m1n;
     dF[j] = (dc * g + cbar * dg) * n + cbar * g * dn[j];
-    ddb[j] = db;
     dfe[j] = dc * g + cbar * dg;
     da2[j] = 2 * (R - b) * db;
     dp0[j] = st.friction ? st.p0 * (dfe[j] / st.fe - da2[j] / a2) : 0.0;
@@ -153,9 +165,9 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   // ---- friction and friction power ----
   const glm::dvec3 w = st.w;
   const double p0 = st.p0, inv_a2 = 1.0 / a2;
-  std::array<std::array<glm::dvec3, kMaxClasses>, kMaxDirections> dG{};
-  std::array<glm::dvec3, kMaxClasses> G{};
-  std::array<double, kMaxDirections> dW{}, tnew{};
+  auto& dG = dG_;
+  for (std::size_t j = 0; j < P; ++j) dG[j].fill(glm::dvec3(0));
+  auto &dW = dW_, &tnew = tnew_;
   for (std::size_t i = 0; i < st.lens_count; ++i) {
     const LensVoxel& v = lv[i];
     const glm::dvec3 vv(v.vx, v.vy, v.vz);
@@ -175,7 +187,6 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     const double sq = std::sqrt(1.0 - xi2 * inv_a2);
     const double P0 = p0 * sq;
     const double s = chi * area * P0 * inv_d;
-    G[std::size_t(k)] += s * vv;
     const double wmu = st.wmu[std::size_t(k)];
     const double r = rd * d2 * inv_d, vwr = glm::dot(vv, w), vw = vwr * inv_d, q = 1.0 - vw * vw;
     const double W = wmu * chi * P0 * r * q * area;

@@ -37,11 +37,17 @@ class TangentState {
   ModelParams prm_;
   std::size_t nx_, ny_;
   std::vector<std::int32_t> slot_;   // per voxel: tangent slot or −1
-  std::vector<std::uint8_t> row_;    // per row (y, z): 1 when a voxel of it has a tangent
+  std::vector<std::int32_t> row_lo_, row_hi_;  // per row (y, z): x-range of its tangent voxels (lo > hi: none)
+  std::vector<std::size_t> path_;    // directions that move the burr
   std::vector<double> dchi_;         // slot × P
   std::vector<std::uint32_t> stamp_; // per slot: evaluation that saw it as a lens voxel
   std::vector<std::uint32_t> touched_;  // voxel of each slot
   std::uint32_t eval_ = 0;
+  // Scratch of differentiate(), kept to avoid zeroing kMaxDirections entries per call.
+  std::array<std::array<double, kMaxClasses>, kMaxDirections> dmass_;
+  std::array<glm::dvec3, kMaxDirections> dm1_, dn_;
+  std::array<double, kMaxDirections> dfe_, da2_, dp0_, dW_, tnew_;
+  std::array<std::array<glm::dvec3, kMaxClasses>, kMaxDirections> dG_;
   std::vector<std::array<double, kMaxClasses>> drem_;
 };
 

@@ -81,6 +81,8 @@ class ReplayRecordingModel final : public RecordingModel {
   const DiffSteps& steps() const { return steps_; }
 
  private:
+  void predict_sensitivities(const EvalPoint& at, const std::vector<Column>& columns,
+                             Prediction& out) const;
   const model::AlignedRecording& rec_;
   ReplayPool& pool_;
   model::ReplayOptions options_;
