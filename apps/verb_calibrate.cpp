@@ -63,8 +63,10 @@ void setup(CLI::App& root) {
   cmd->add_option("--starts", a->options.starts,
                   "global search starts (0: the manifest's fit.multistart, default 16)")
       ->capture_default_str();
+  cmd->add_option("--solve-starts", a->options.solve_starts,
+                  "starts with the lowest pre-fit cost that get a local solve")->capture_default_str();
   cmd->add_option("--start-iterations", a->options.start_iterations,
-                  "local iterations of each start")->capture_default_str();
+                  "local iterations of each solved start")->capture_default_str();
   cmd->add_option("--derivatives", a->derivatives,
                   "Jacobian: exact forward sensitivities or central finite differences")
       ->check(CLI::IsMember({"sensitivities", "fd"}))

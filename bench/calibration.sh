@@ -1,8 +1,13 @@
 #!/usr/bin/env bash
-# Calibration figures: wall time / replays per second / iterations on the synthetic
-# reference experiment (R/l = 10, two classes, plunge + sweep + polish, all nuisances
-# free except depth offset, ≈ 15 s at 1 kHz), and the coverage of the 95 % intervals over
-# seeded repetitions. Usage: calibration.sh BUILD_DIR [REPS]
+# Calibration figures (issue 10) on the synthetic reference experiment (R/l = 10, two
+# classes, plunge + sweep + polish, bias and lag free; ≈ 15 s at 1 kHz at time scale 3):
+#  1. one single-start fit (--starts 1 --no-profiles) with --derivatives fd against the
+#     forward sensitivities: wall time and replays;
+#  2. the default calibration (16 starts, profiles, no cross-validation): wall time;
+#  3. the same experiment calibrated on the sample resampled to 0.05 mm voxels (R/l = 20);
+#  4. coverage of the profile (and covariance) 95 % intervals of the six constants over
+#     REPS seeds (time scale 0.5, default calibration).
+# Usage: calibration.sh BUILD_DIR [REPS]
 set -euo pipefail
 build=$(cd "${1:-build}" && pwd)
 reps=${2:-20}
@@ -13,61 +18,73 @@ cmake --build "$build" --target burrbench bench_calibration_reference -j 2 > /de
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
-# 1. speed on the reference experiment (time scale 3 ≈ 15 s of recordings)
-m=$("$G" "$work/ref" "$B" 1 3)
-t0=$(date +%s.%N)
-/usr/bin/time -f "%U %S" -o "$work/ref.cpu" \
-  "$B" calibrate --experiment "$m" --out "$work/ref/out" --no-cross-validation > "$work/ref.log" 2>&1
-t1=$(date +%s.%N)
-cpu=$($PY -c "u,s=open('$work/ref.cpu').read().split()[-2:]; print(f'{float(u)+float(s):.1f}')")
-load=$(cut -d' ' -f1 /proc/loadavg)
-read -r wall iters replays dur <<<"$($PY - "$work/ref/out/fit.json" "$t0" "$t1" "$work/ref" <<'PY'
-import json, sys, glob
+# Runs `burrbench calibrate` and prints "wall_s replays iterations".
+calib() {  # OUT MANIFEST ARGS...
+  local out=$1 m=$2; shift 2
+  local t0 t1
+  t0=$(date +%s.%N)
+  "$B" calibrate --experiment "$m" --out "$out" --no-cross-validation "$@" > "$out.log" 2>&1
+  t1=$(date +%s.%N)
+  $PY - "$out/fit.json" "$t0" "$t1" <<'PY'
+import json, sys
 f = json.load(open(sys.argv[1]))
-wall = float(sys.argv[3]) - float(sys.argv[2])
-dur = 0.0
-for t in glob.glob(sys.argv[4] + "/*.truth.json"):
-    dur += json.load(open(t)).get("samples", 0) / 1000.0
-print(f"{wall:.1f} {f['solver']['iterations']} {f['solver']['replays']} {dur:.1f}")
+print(f"{float(sys.argv[3]) - float(sys.argv[2]):.1f} {f['solver']['replays']} {f['solver']['iterations']}")
 PY
-)"
-rps=$($PY -c "print(f'{$replays/$wall:.1f}')")
+}
 
-# 2. coverage of the 95 % intervals of the physics constants (and lags) over seeds
-hits=0; total=0; lag_hits=0; lag_total=0
-for seed in $(seq 1 "$reps"); do
-  m=$("$G" "$work/cov$seed" "$B" "$seed" "${COVERAGE_TIME_SCALE:-0.5}")
-  "$B" calibrate --experiment "$m" --out "$work/cov$seed/out" --no-cross-validation > /dev/null 2>&1 || { total=$((total+6)); lag_total=$((lag_total+5)); continue; }  # a failed fit covers nothing
-  read -r h t lh lt <<<"$($PY - "$work/cov$seed/out/fit.json" "$work/cov$seed/truth.toml" <<'PY'
+m=$("$G" "$work/ref" "$B" 1 3 fine)
+mc="$work/ref/experiment.toml"
+read -r fd_wall fd_rep fd_it <<<"$(calib "$work/ref/fd" "$mc" --starts 1 --no-profiles --derivatives fd)"
+read -r se_wall se_rep se_it <<<"$(calib "$work/ref/se" "$mc" --starts 1 --no-profiles)"
+read -r def_wall def_rep def_it <<<"$(calib "$work/ref/def" "$mc")"
+read -r fine_wall fine_rep fine_it <<<"$(calib "$work/ref/fine" "$m")"
+fine_err=$($PY - "$work/ref/fine/fit.json" "$work/ref/truth.toml" <<'PY'
 import json, sys, tomllib
-f = json.load(open(sys.argv[1]))
-truth = tomllib.load(open(sys.argv[2], "rb"))["classes"]
-h = t = 0
+f = json.load(open(sys.argv[1])); t = tomllib.load(open(sys.argv[2], "rb"))["classes"]
+key = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}
+print(" ".join(f"{p['class_name'][0]}.{p['name']}{100*(p['held']/t[p['class_name']][key[p['name']]]-1):+.1f}%"
+               for p in f["parameters"] if not p["fixed"]))
+PY
+)
+
+# Coverage over seeds.
+hits=0; chits=0; total=0; idf=0
+for seed in $(seq 1 "$reps"); do
+  ms=$("$G" "$work/cov$seed" "$B" "$seed" "${COVERAGE_TIME_SCALE:-0.5}")
+  if ! "$B" calibrate --experiment "$ms" --out "$work/cov$seed/out" --no-cross-validation > /dev/null 2>&1; then
+    total=$((total+6)); continue  # a failed fit covers nothing
+  fi
+  read -r h ch t i <<<"$($PY - "$work/cov$seed/out/fit.json" "$work/cov$seed/truth.toml" <<'PY'
+import json, sys, tomllib
+f = json.load(open(sys.argv[1])); truth = tomllib.load(open(sys.argv[2], "rb"))["classes"]
+key = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}
+h = ch = t = i = 0
 for p in f["parameters"]:
     if p["fixed"]:
         continue
-    tv = truth[p["class_name"]][{"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}[p["name"]]]
+    tv = truth[p["class_name"]][key[p["name"]]]
     t += 1
-    if p["identifiable"] and p["ci95_low"] <= tv <= p["ci95_high"]:
-        h += 1
-lh = lt = 0
-for n in f["nuisance"]:
-    if n["name"] == "lag" and not n["fixed"]:
-        lt += 1
-        lh += n["ci95_low"] <= 4.0 <= n["ci95_high"]
-print(h, t, lh, lt)
+    lo = p["profile_ci95_low"] if p["profile_ci95_low"] is not None else 0.0
+    hi = p["profile_ci95_high"] if p["profile_ci95_high"] is not None else float("inf")
+    h += lo <= tv <= hi   # an open side holds the truth on that side
+    i += p["identifiable"]
+    ch += bool(p["identifiable"]) and p["ci95_low"] <= tv <= p["ci95_high"]
+print(h, ch, t, i)
 PY
 )"
-  hits=$((hits+h)); total=$((total+t)); lag_hits=$((lag_hits+lh)); lag_total=$((lag_total+lt))
+  hits=$((hits+h)); chits=$((chits+ch)); total=$((total+t)); idf=$((idf+i))
   rm -rf "$work/cov$seed"
 done
-cov=$($PY -c "print(f'{100*$hits/max(1,$total):.1f}')")
-lcov=$($PY -c "print(f'{100*$lag_hits/max(1,$lag_total):.1f}')")
-ok() { $PY -c "import sys; print('ok' if $1 else 'FAIL')"; }
-printf '%-52s %-14s %-14s %s\n' figure value target ok?
-printf '%-52s %-14s %-14s %s\n' "calibrate reference (${dur} s of data) wall time" "${wall} s" "<= 60 s" "$(ok "$wall <= 60")"
-printf '%-52s %-14s %-14s %s\n' "  CPU time (user+sys; load avg $load)" "${cpu} s" "-" "-"
-printf '%-52s %-14s %-14s %s\n' "  replays per second" "$rps" "-" "-"
-printf '%-52s %-14s %-14s %s\n' "  solver iterations" "$iters" "-" "-"
-printf '%-52s %-14s %-14s %s\n' "95 % interval coverage, physics ($reps seeds)" "$cov % ($hits/$total)" ">= 90 %" "$(ok "$cov >= 90")"
-printf '%-52s %-14s %-14s %s\n' "95 % interval coverage, lag ($reps seeds)" "$lcov % ($lag_hits/$lag_total)" ">= 90 %" "$(ok "$lcov >= 90")"
+pct() { $PY -c "print(f'{100*$1/max(1,$2):.1f}')"; }
+ok() { $PY -c "print('ok' if $1 else 'MISSED')"; }
+ratio=$($PY -c "print(f'{$fd_wall/$se_wall:.2f}')")
+printf '%-62s %-22s %-10s %s\n' figure value goal ok?
+printf '%-62s %-22s %-10s %s\n' "single start, --derivatives fd: wall / replays / iterations" "${fd_wall} s / $fd_rep / $fd_it" - -
+printf '%-62s %-22s %-10s %s\n' "single start, sensitivities: wall / replays / iterations" "${se_wall} s / $se_rep / $se_it" - -
+printf '%-62s %-22s %-10s %s\n' "  wall time fd / sensitivities" "${ratio}x" ">= 8x" "$(ok "$ratio >= 8")"
+printf '%-62s %-22s %-10s %s\n' "default calibration (16 starts, profiles), R/l = 10: wall" "${def_wall} s ($def_rep replays)" "<= 60 s" "$(ok "$def_wall <= 60")"
+printf '%-62s %-22s %-10s %s\n' "same on the sample resampled to 0.05 mm (R/l = 20): wall" "${fine_wall} s ($fine_rep replays)" "report" -
+printf '%-62s %s\n' "  0.05 mm: held values against the truth" "$fine_err"
+printf '%-62s %-22s %-10s %s\n' "profile 95 % interval coverage, 6 constants, $reps seeds" "$(pct $hits $total) % ($hits/$total)" ">= 90 %" "$(ok "$hits >= 0.9*$total")"
+printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(pct $chits $total) % ($chits/$total)" - -
+printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$idf/$total" - -

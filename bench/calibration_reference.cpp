@@ -1,22 +1,27 @@
 // Writes the synthetic calibration experiments the calibration benchmarks run on (see
-// bench/calibration.sh): `bench_calibration_reference DIR BURRBENCH SEED TIME_SCALE [layered]`
-// (layered: the held-out case of tests/calibration/layered_fixture.hpp; TIME_SCALE unused).
+// bench/calibration.sh): `bench_calibration_reference DIR BURRBENCH SEED TIME_SCALE [MODE]`.
+// MODE layered: the held-out case of tests/calibration/layered_fixture.hpp (TIME_SCALE
+// unused); MODE fine: also writes the same sample at 0.05 mm voxels (sample_fine.h5, the
+// same geometry: every 0.1 mm voxel split into 8) and experiment_fine.toml using it.
 // Not a Google Benchmark timing loop: the figures (wall time, replays/s, iterations,
 // interval coverage) come from running `burrbench calibrate` on what this writes.
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include "../tests/calibration/layered_fixture.hpp"
 
 int main(int argc, char** argv) {
-  if (argc != 5 && !(argc == 6 && std::string(argv[5]) == "layered")) {
-    std::fprintf(stderr, "usage: %s DIR BURRBENCH SEED TIME_SCALE [layered]\n", argv[0]);
+  const std::string mode = argc == 6 ? argv[5] : "";
+  if (argc != 5 && !(argc == 6 && (mode == "layered" || mode == "fine"))) {
+    std::fprintf(stderr, "usage: %s DIR BURRBENCH SEED TIME_SCALE [layered|fine]\n", argv[0]);
     return 2;
   }
   try {
-    if (argc == 6) {
+    if (mode == "layered") {
       burrbench::calibration::testing::LayeredSpec s;
       s.seed = std::strtoull(argv[3], nullptr, 10);
       const auto m = burrbench::calibration::testing::make_layered_experiment(argv[1], s, argv[2]);
@@ -27,6 +32,22 @@ int main(int argc, char** argv) {
     s.seed = std::strtoull(argv[3], nullptr, 10);
     s.time_scale = std::atof(argv[4]);
     const auto m = burrbench::calibration::testing::make_reference_experiment(argv[1], s, argv[2]);
+    if (mode == "fine") {
+      namespace fs = std::filesystem;
+      auto fine = s;
+      fine.voxel_mm = 0.05;
+      burrbench::data_schema::write_sample(fs::path(argv[1]) / "sample_fine.h5",
+                                           burrbench::calibration::testing::reference_sample(fine));
+      std::ifstream in(m);
+      std::stringstream ss;
+      ss << in.rdbuf();
+      std::string t = ss.str();
+      t.replace(t.find("path = \"sample.h5\""), 18, "path = \"sample_fine.h5\"");
+      const fs::path mf = fs::path(argv[1]) / "experiment_fine.toml";
+      burrbench::calibration::testing::write_text(mf, t);
+      std::printf("%s\n", mf.c_str());
+      return 0;
+    }
     std::printf("%s\n", m.c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "%s\n", e.what());

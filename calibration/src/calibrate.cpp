@@ -19,6 +19,8 @@ void validate(const CalibrateOptions& o) {
     throw InputError(cl, "--max-iterations", "1..1000", std::to_string(o.max_iterations));
   if (o.starts < 0 || o.starts > 1000)
     throw InputError(cl, "--starts", "1..1000 (0: the manifest's fit.multistart)", std::to_string(o.starts));
+  if (o.solve_starts < 1 || o.solve_starts > 1000)
+    throw InputError(cl, "--solve-starts", "1..1000", std::to_string(o.solve_starts));
   if (o.start_iterations < 1 || o.start_iterations > 1000)
     throw InputError(cl, "--start-iterations", "1..1000", std::to_string(o.start_iterations));
   if (o.profile_points < 2 || o.profile_points > 100)

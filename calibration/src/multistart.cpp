@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <exception>
+#include <functional>
 #include <mutex>
 #include <numeric>
 #include <random>
@@ -51,51 +52,82 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
     if (r.lag >= 0) prefit_hold[std::size_t(r.lag)] = true;
     if (r.depth >= 0) prefit_hold[std::size_t(r.depth)] = true;
   }
-  std::atomic<std::size_t> next{0}, done{0};
   std::mutex mu;
   std::exception_ptr error;
-  auto worker = [&] {
-    for (;;) {
-      const std::size_t s = next++;
-      if (s >= starts.size()) return;
-      try {
-        StartEnd e;
-        e.index = int(s);
-        e.start = starts[s];
-        SolveOptions pre;
-        pre.max_iterations = opt.prefit_iterations;
-        pre.geometry_terms = false;
-        pre.threads = 1;
-        pre.hold = prefit_hold;
-        const SolveOutcome warm = obj.solve(e.start, w, pre);
-        e.prefit_cost = warm.final_cost;
-        SolveOptions full;
-        full.max_iterations = opt.iterations;
-        full.threads = 1;
-        const SolveOutcome r = obj.solve(warm.usable ? warm.x : e.start, w, full);
-        e.end = r.x;
-        e.cost = r.usable ? r.final_cost : INFINITY;
-        e.iterations = warm.iterations + r.iterations;
-        e.termination = r.termination;
-        e.usable = r.usable;
-        std::lock_guard lk(mu);
-        out.ends[s] = std::move(e);
-        const std::size_t d = ++done;
-        if (opt.progress)
-          opt.progress->update(double(d) / double(starts.size()),
-                               fmt::format("multistart {}/{}: cost {:.6g}", d, starts.size(),
-                                           out.ends[s].cost));
-      } catch (...) {
-        std::lock_guard lk(mu);
-        if (!error) error = std::current_exception();
-        next = starts.size();
+  std::size_t done = 0;
+  const std::size_t total = starts.size();
+  // Runs job(i) for i in [0, n) on opt.concurrent threads; the first error is rethrown.
+  auto parallel = [&](std::size_t n, const std::function<void(std::size_t)>& job) {
+    std::atomic<std::size_t> next{0};
+    auto worker = [&] {
+      for (;;) {
+        const std::size_t i = next++;
+        if (i >= n) return;
+        try {
+          job(i);
+        } catch (...) {
+          std::lock_guard lk(mu);
+          if (!error) error = std::current_exception();
+          next = n;
+        }
       }
-    }
+    };
+    std::vector<std::thread> threads;
+    for (int t = 0; t < std::max(1, opt.concurrent); ++t) threads.emplace_back(worker);
+    for (auto& t : threads) t.join();
+    if (error) std::rethrow_exception(error);
   };
-  std::vector<std::thread> threads;
-  for (int t = 0; t < std::max(1, opt.concurrent); ++t) threads.emplace_back(worker);
-  for (auto& t : threads) t.join();
-  if (error) std::rethrow_exception(error);
+  std::size_t of = total;
+  auto report = [&](const char* what, double cost) {
+    std::lock_guard lk(mu);
+    ++done;
+    if (opt.progress)
+      opt.progress->update(-1, fmt::format("multistart {} {}/{}: cost {:.6g}", what, done, of, cost));
+  };
+  // 1. Pre-fit every start.
+  parallel(total, [&](std::size_t s) {
+    StartEnd e;
+    e.index = int(s);
+    e.start = starts[s];
+    SolveOptions pre;
+    pre.max_iterations = opt.prefit_iterations;
+    pre.geometry_terms = false;
+    pre.threads = 1;
+    pre.hold = prefit_hold;
+    const SolveOutcome warm = obj.solve(e.start, w, pre);
+    e.prefit_cost = warm.usable ? warm.final_cost : INFINITY;
+    e.end = warm.usable ? warm.x : e.start;
+    e.cost = e.prefit_cost;
+    e.iterations = warm.iterations;
+    e.termination = "screened by pre-fit cost (not solved further)";
+    e.usable = warm.usable;
+    out.ends[s] = std::move(e);
+    report("pre-fit", out.ends[s].cost);
+  });
+  // 2. Local solves of the most promising starts.
+  std::vector<std::size_t> order(total);
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return out.ends[a].prefit_cost < out.ends[b].prefit_cost;
+  });
+  const std::size_t solved = opt.solved > 0 ? std::min(total, std::size_t(opt.solved)) : total;
+  done = 0;
+  of = solved;
+  out.solved = int(solved);
+  parallel(solved, [&](std::size_t k) {
+    StartEnd& e = out.ends[order[k]];
+    SolveOptions full;
+    full.max_iterations = opt.iterations;
+    full.threads = 1;
+    const SolveOutcome r = obj.solve(e.end, w, full);
+    if (!r.usable) return;
+    e.end = r.x;
+    e.cost = r.final_cost;
+    e.iterations += r.iterations;
+    e.termination = r.termination;
+    e.usable = true;
+    report("local solve", e.cost);
+  });
   std::stable_sort(out.ends.begin(), out.ends.end(),
                    [](const StartEnd& a, const StartEnd& b) { return a.cost < b.cost; });
   const double best = out.ends.empty() ? INFINITY : out.ends.front().cost;

@@ -135,7 +135,7 @@ void assess(Run& run) {
   run.search.reached_best = 0;
   for (const auto& e : run.search.ends)
     run.search.reached_best += e.usable && e.cost <= run.fit.final_cost + run.threshold;
-  if (run.starts > 1 && run.search.reached_best <= 1)
+  if (run.search.solved > 1 && run.search.reached_best <= 1)
     run.warnings.push_back(fmt::format("the best optimum was reached by only {} of {} starts: it may "
                                        "not be the global one (more starts: --starts)",
                                        run.search.reached_best, run.starts));

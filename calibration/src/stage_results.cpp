@@ -73,6 +73,7 @@ CalibrationOutput results(Run& run) {
   st["global_search"] = {{"starts", run.starts},
                          {"design", "manifest start + Latin hypercube in ln(theta) over the bounds"},
                          {"start_iterations", run.opt.start_iterations},
+                         {"solved_locally", run.search.solved},
                          {"reached_best", run.search.reached_best},
                          {"tolerance_cost", run.search.tolerance},
                          {"seed", run.exp.manifest.fit.seed}};
@@ -124,8 +125,8 @@ CalibrationOutput results(Run& run) {
                               "σ = {:.4g} N\n", run.models.size(), ev.samples_used, ev.samples_buried,
                               ev.samples_excluded, run.settings.sigma_N);
   for (const auto* r : run.recs) s += fmt::format("  {}: {}\n", r->id, r->registration.text());
-  s += fmt::format("global search: best optimum reached by {} of {} starts\n", run.search.reached_best,
-                   run.starts);
+  s += fmt::format("global search: best optimum reached by {} of {} starts ({} solved locally after the "
+                   "pre-fit)\n", run.search.reached_best, run.starts, run.search.solved);
   s += fmt::format("solver: {} iterations, cost {:.6g} → {:.6g}, {} replays ({} derivatives), {}\n",
                    run.fit.iterations, run.fit.initial_cost, run.fit.final_cost, out.solver.replays,
                    to_string(run.opt.derivatives), run.fit.termination);

@@ -69,6 +69,7 @@ void global_search(Run& run) {
   run.say(fmt::format("global search: {} starts (Latin hypercube in ln θ)", points.size()));
   MultistartOptions mo;
   mo.iterations = run.opt.start_iterations;
+  mo.solved = run.opt.solve_starts;
   mo.concurrent = run.opt.threads;
   mo.progress = run.opt.progress;
   run.search = multistart(*run.obj, points, run.w_all, mo, 0.0);

@@ -39,9 +39,10 @@ inline data_schema::SampleVolume layered_sample() {
   return v;
 }
 
-// Segment times (s from the first sample), from the protocol's moves at R = 1 mm:
-// plunge 1.1 + dwell 0.2 + retract 0.55 = 1.85; free move 0.5; sweep 0.35 + 1.5 + 0.175
-// (2.35..4.375); free move 0.6; polish 0.35 + 1.2 + 0.175 (4.975..6.7).
+// Segment times (s from the first sample), from the protocol's moves at R = 1 mm: plunge
+// 1.6 (0.1 mm approach + 1.5 mm: through the 0.5 mm compact layer, 1 mm into trabecular
+// bone) + dwell 0.2 + retract 0.8 = 2.6; free move 0.5; sweep 0.35 + 1.5 + 0.175
+// (3.1..5.125); free move 0.6; polish 0.35 + 1.2 + 0.175 (5.725..7.45).
 inline std::filesystem::path make_layered_experiment(const std::filesystem::path& dir,
                                                      const LayeredSpec& s,
                                                      const std::string& burrbench) {
@@ -55,7 +56,7 @@ inline std::filesystem::path make_layered_experiment(const std::filesystem::path
   write_text(dir / "session.protocol.toml", protocol_head("session", 1.0, 1.5, 1.8, 2.0) + R"(
 [[moves]]
 type = "plunge"
-depth_mm = 1.0
+depth_mm = 1.5
 feed_mm_s = 1.0
 [[moves]]
 type = "dwell"
@@ -141,15 +142,15 @@ role = "calibrate"
   [[recordings.segments]]
   label = "plunge"
   start_s = 0.0
-  end_s = 1.85
+  end_s = 2.6
   [[recordings.segments]]
   label = "sweep"
-  start_s = 2.35
-  end_s = 4.375
+  start_s = 3.1
+  end_s = 5.125
   [[recordings.segments]]
   label = "polish"
-  start_s = 4.975
-  end_s = 6.7
+  start_s = 5.725
+  end_s = 7.45
   role = "validate"
 )" + fit);
   return manifest;

@@ -17,7 +17,8 @@ struct CalibrateOptions {
   int threads = 2;              // replay workers (each holds its own copy of every sample)
   int max_iterations = 30;      // refinement of the best start
   int starts = 0;               // global search starts; 0: the manifest's fit.multistart
-  int start_iterations = 12;    // local iterations of each start (after its pre-fit)
+  int solve_starts = 4;         // starts with the lowest pre-fit cost that are solved locally
+  int start_iterations = 12;    // local iterations of each solved start
   bool profiles = true;         // profile likelihood of every free physics parameter
   int profile_points = 8;       // per side, at most
   Derivatives derivatives = Derivatives::kSensitivities;

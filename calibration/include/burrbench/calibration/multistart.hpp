@@ -1,8 +1,8 @@
 #pragma once
 // Global search: many local fits from a Latin hypercube of starts (docs/calibration.md
-// "Global search"). Each start is first warmed by the cheap fixed-geometry pre-fit (C1, μ
-// and bias at fixed α, lag and depth), then solved locally for a few iterations with every
-// parameter free; the starts run concurrently on the shared replay pool. Every end point is
+// "Global search"). Every start is first warmed by the cheap fixed-geometry pre-fit (C1, μ
+// and bias at fixed α, lag and depth); the most promising ones are then solved locally
+// with every parameter free; the starts run concurrently on the shared replay pool. Every end point is
 // kept: sorted by cost they are the waterfall plot.
 #include <cstdint>
 #include <string>
@@ -31,6 +31,9 @@ struct StartEnd {
 struct MultistartOptions {
   int prefit_iterations = 4;  // C1, μ, bias at fixed α / lag / depth
   int iterations = 6;         // local solve with everything free
+  // Only the `solved` starts with the lowest pre-fit cost get the local solve; the others
+  // end at their pre-fit (termination "screened by pre-fit cost"). ≤ 0: all of them.
+  int solved = 0;
   int concurrent = 2;         // starts solved at once
   Progress* progress = nullptr;
 };
@@ -40,6 +43,7 @@ struct MultistartOutcome {
   // Ends whose cost lies within `tolerance` of the best: "best optimum reached by k of N".
   int reached_best = 0;
   double tolerance = 0;
+  int solved = 0;  // starts that got the local solve
 };
 
 // `tolerance` (cost units): ends within it of the best count as reaching the best optimum.
