@@ -102,7 +102,27 @@
          [rec.t, mag(rec.m), mag(rec.p)]);
   }
 
+  function searchPlots() {
+    var el = document.getElementById("plot-waterfall");
+    if (el && data.waterfall && data.waterfall.length) {
+      var c = data.waterfall.slice().sort(function (a, b) { return a - b; });
+      var rank = c.map(function (_, i) { return i + 1; });
+      plot(el, "Waterfall: final cost of every start", "start (sorted)", "cost", [
+        { label: "cost", stroke: MEAS[0], width: 0, points: { show: true, size: 7 } }],
+        [rank, c], function (o) { o.scales.y = { distr: 3 }; });
+    }
+    (data.profiles || []).forEach(function (p, i) {
+      var e = document.getElementById("plot-profile-" + i);
+      if (!e) return;
+      var thr = p.value.map(function () { return p.threshold; });
+      plot(e, "Profile: " + p.name, p.name + " (" + p.unit + ")", "cost rise", [
+        { label: "profile", stroke: PRED[0], width: 1.5, points: { show: true, size: 6 } },
+        { label: "95 % threshold", stroke: "#777", dash: [6, 4] }], [p.value, p.delta, thr]);
+    });
+  }
+
   overview();
+  searchPlots();
   data.recordings.forEach(function (rec, i) { forcePlots(rec, i); residualPlots(rec, i); });
   histograms();
   document.body.setAttribute("data-plots-done", "1");

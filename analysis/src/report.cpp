@@ -155,21 +155,46 @@ std::string parameter_section(const AnalysisInput& in, const json* fit) {
   std::string h;
   if (fit && fit->contains("parameters")) {
     h += "<table><tr><th>class</th><th>parameter</th><th>unit</th><th>estimate</th>"
-         "<th>std. error</th><th>95 % interval</th><th>bootstrap 95 %</th><th>fixed</th>"
-         "<th>identifiable</th></tr>";
+         "<th>held at the optimum</th><th>profile 95 %</th><th>std. error</th>"
+         "<th>covariance 95 %</th><th>bootstrap 95 %</th><th>fixed</th><th>verdict</th></tr>";
     for (const auto& p : fit->at("parameters")) {
       const auto n = [&](const char* k) {
         return p.contains(k) && p.at(k).is_number() ? num(p.at(k).get<double>()) : std::string("—");
       };
       const bool ident = p.value("identifiable", false);
+      // An open side of a profile interval (null) means: not closed within the bounds.
+      const auto side = [&](const char* k) {
+        return p.contains(k) && p.at(k).is_number() ? num(p.at(k).get<double>()) : std::string("open");
+      };
+      const std::string prof = p.contains("profile") && p.at("profile").is_array() && !p.at("profile").empty()
+                                   ? "[" + side("profile_ci95_low") + ", " + side("profile_ci95_high") + "]"
+                                   : std::string("—");
+      const std::string verdict = p.value("verdict", std::string(ident ? "identifiable" : "non_identifiable"));
       h += "<tr>" + td(esc(p.value("class_name", std::string()))) + td(esc(p.value("name", std::string()))) +
-           td(esc(p.value("unit", std::string()))) + td(n("estimate"), true) + td(n("std_error"), true) +
+           td(esc(p.value("unit", std::string()))) + td(n("estimate"), true) + td(n("held"), true) +
+           td(prof, true) + td(n("std_error"), true) +
            td("[" + n("ci95_low") + ", " + n("ci95_high") + "]", true) +
            td("[" + n("bootstrap_ci95_low") + ", " + n("bootstrap_ci95_high") + "]", true) +
            td(p.value("fixed", false) ? "yes" : "no") +
-           td(ident ? "yes" : "<b>no</b>: " + esc(p.value("reason", std::string()))) + "</tr>";
+           td(ident ? esc(verdict) : "<b>" + esc(verdict) + "</b>: " + esc(p.value("reason", std::string()))) +
+           "</tr>";
     }
     h += "</table>";
+    // Global search (waterfall) and profile likelihoods, drawn by report.js.
+    if (fit->contains("multistart") && fit->at("multistart").is_array() && !fit->at("multistart").empty())
+      h += "<h3>Global search: waterfall</h3><p class=\"muted\">Final cost of every start, sorted "
+           "(log scale). A flat first step = the best optimum found repeatedly; distinct levels = "
+           "local optima (docs/calibration.md).</p><div class=\"plot\" id=\"plot-waterfall\"></div>";
+    int k = 0;
+    for (const auto& p : fit->at("parameters"))
+      if (p.contains("profile") && p.at("profile").is_array() && !p.at("profile").empty()) {
+        if (k == 0)
+          h += "<h3>Profile likelihoods</h3><p class=\"muted\">Cost rise with every other parameter "
+               "re-optimised; the dashed line is the 95 % threshold, the interval is where the curve "
+               "lies below it.</p><div class=\"plotrow\">";
+        h += fmt::format("<div class=\"plot\" id=\"plot-profile-{}\"></div>", k++);
+      }
+    if (k > 0) h += "</div>";
     if (fit->contains("correlation") && fit->at("correlation").contains("names")) {
       const auto& c = fit->at("correlation");
       const auto& names = c.at("names");
@@ -478,6 +503,30 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
                                                      {"analysis input created", in.provenance.created_utc}});
 
   json data = {{"recordings", json::array()}, {"histograms", hists}, {"overview", overview}};
+  if (has_fit) {
+    json costs = json::array();
+    if (fit.contains("multistart") && fit.at("multistart").is_array())
+      for (const auto& e : fit.at("multistart"))
+        if (e.contains("cost") && e.at("cost").is_number()) costs.push_back(e.at("cost"));
+    data["waterfall"] = costs;
+    json profiles = json::array();
+    const double thr = fit.contains("settings") && fit.at("settings").contains("profiles")
+                           ? fit.at("settings").at("profiles").value("threshold_cost", 0.0)
+                           : 0.0;
+    if (fit.contains("parameters"))
+      for (const auto& p : fit.at("parameters"))
+        if (p.contains("profile") && p.at("profile").is_array() && !p.at("profile").empty()) {
+          json v = json::array(), d = json::array();
+          for (const auto& q : p.at("profile")) {
+            v.push_back(q.value("value", 0.0));
+            d.push_back(q.contains("delta_cost") && q.at("delta_cost").is_number() ? q.at("delta_cost") : json(nullptr));
+          }
+          profiles.push_back({{"name", p.value("class_name", std::string()) + "." + p.value("name", std::string())},
+                              {"unit", p.value("unit", std::string())}, {"value", v}, {"delta", d},
+                              {"threshold", thr}});
+        }
+    data["profiles"] = profiles;
+  }
   for (const auto& r : in.recordings) data["recordings"].push_back(decimated(r));
 
   std::string html = tmpl;

@@ -44,6 +44,48 @@ double sample_weight(const ObjectiveSettings& s, double w, bool buried) {
   return s.buried == data_schema::BuriedPolicy::kExclude ? 0.0 : w * s.buried_weight;
 }
 
+// The point a recording is evaluated at: physics, its lag, depth offset and pose.
+EvalPoint eval_point(const Layout& L, const double* x, std::size_t rec, bool geometry_terms) {
+  const auto& nz = L.recordings()[rec];
+  EvalPoint at{L.physics_values(x), nz.lag >= 0 ? x[nz.lag] : nz.lag_fixed_ms,
+               nz.depth >= 0 ? x[nz.depth] : 0.0, geometry_terms};
+  if (nz.pose >= 0) {
+    at.has_pose = true;
+    for (int k = 0; k < 6; ++k) at.pose[std::size_t(k)] = x[nz.pose + k];
+    at.pose_centre_vol_mm = L.mountings()[std::size_t(nz.mounting)].centre_vol_mm;
+  }
+  return at;
+}
+
+// The Gaussian prior of a mounting's pose correction: r = L·x_pose, ½|r|² = ½ xᵀ(info)x.
+class PriorCost final : public ceres::SizedCostFunction<6, 6> {
+ public:
+  explicit PriorCost(const std::array<double, 36>& sqrt_info) : L_(sqrt_info) {}
+  bool Evaluate(double const* const* p, double* r, double** jac) const override {
+    for (int i = 0; i < 6; ++i) {
+      r[i] = 0;
+      for (int j = 0; j < 6; ++j) r[i] += L_[std::size_t(6 * i + j)] * p[0][j];
+    }
+    if (jac && jac[0])
+      for (int i = 0; i < 36; ++i) jac[0][i] = L_[std::size_t(i)];
+    return true;
+  }
+
+ private:
+  std::array<double, 36> L_;
+};
+
+double prior_cost(const Layout& L, const std::vector<double>& x) {
+  double c = 0;
+  for (const auto& m : L.mountings())
+    for (int i = 0; i < 6; ++i) {
+      double r = 0;
+      for (int j = 0; j < 6; ++j) r += m.sqrt_information[std::size_t(6 * i + j)] * x[std::size_t(m.offset + j)];
+      c += 0.5 * r * r;
+    }
+  return c;
+}
+
 // One residual block per recording: 3 residuals per force sample, parameter blocks =
 // the free physics entries followed by this recording's free nuisances.
 class RecordingCost final : public ceres::CostFunction {
@@ -64,6 +106,7 @@ class RecordingCost final : public ceres::CostFunction {
     if (n.bias >= 0) { bias_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.bias), 3}); cols_.push_back({}); }
     if (n.lag >= 0) { blocks_.push_back({std::size_t(n.lag), 1}); cols_.push_back({ColumnKind::kLagMs, 0}); }
     if (n.depth >= 0) { blocks_.push_back({std::size_t(n.depth), 1}); cols_.push_back({ColumnKind::kDepthMm, 0}); }
+    if (n.pose >= 0) { pose_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.pose), 6}); cols_.push_back({ColumnKind::kPose, 0}); }
     for (const auto& b : blocks_) mutable_parameter_block_sizes()->push_back(int(b.size));
     set_num_residuals(int(3 * obj.models()[rec]->size()));
   }
@@ -76,15 +119,17 @@ class RecordingCost final : public ceres::CostFunction {
     for (std::size_t b = 0; b < blocks_.size(); ++b)
       for (std::size_t k = 0; k < blocks_[b].size; ++k) x[blocks_[b].offset + k] = params[b][k];
     const auto& nz = L.recordings()[rec_];
-    EvalPoint at{L.physics_values(x.data()), nz.lag >= 0 ? x[std::size_t(nz.lag)] : nz.lag_fixed_ms,
-                 nz.depth >= 0 ? x[std::size_t(nz.depth)] : 0.0, geometry_terms_};
+    const EvalPoint at = eval_point(L, x.data(), rec_, geometry_terms_);
     std::vector<Column> want;
     std::vector<int> col_of_block(blocks_.size(), -1);
     if (jac)
       for (std::size_t b = 0; b < blocks_.size(); ++b)
         if (jac[b] && int(b) != bias_block_) {
           col_of_block[b] = int(want.size());
-          want.push_back(cols_[b]);
+          if (int(b) == pose_block_)
+            for (std::uint8_t k = 0; k < 6; ++k) want.push_back({ColumnKind::kPose, k});
+          else
+            want.push_back(cols_[b]);
         }
     Prediction pred;
     const auto* model = obj_.models()[rec_];
@@ -115,6 +160,9 @@ class RecordingCost final : public ceres::CostFunction {
           double* J = jac[b] + row * bs;
           if (int(b) == bias_block_) {
             for (std::size_t k = 0; k < 3; ++k) J[k] = (int(k) == a) ? g : 0.0;
+          } else if (int(b) == pose_block_) {
+            for (std::size_t k = 0; k < 6; ++k)
+              J[k] = g * pred.columns[std::size_t(col_of_block[b]) + k][j][a];
           } else {
             J[0] = g * pred.columns[std::size_t(col_of_block[b])][j][a];
           }
@@ -132,7 +180,7 @@ class RecordingCost final : public ceres::CostFunction {
   bool geometry_terms_;
   std::vector<Layout::Block> blocks_;
   std::vector<Column> cols_;
-  int bias_block_ = -1;
+  int bias_block_ = -1, pose_block_ = -1;
 };
 
 struct BuiltProblem {
@@ -150,6 +198,10 @@ void build(const Objective& obj, std::vector<double>& x, const SampleWeights& w,
     std::vector<double*> ptrs;
     for (const auto& b : cost->blocks()) ptrs.push_back(x.data() + b.offset);
     bp.problem.AddResidualBlock(cost, nullptr, ptrs);
+  }
+  for (const auto& m : L.mountings()) {
+    double* p = x.data() + m.offset;
+    if (bp.problem.HasParameterBlock(p)) bp.problem.AddResidualBlock(new PriorCost(m.sqrt_information), nullptr, p);
   }
   for (const auto& b : L.blocks()) {
     double* p = x.data() + b.offset;
@@ -243,11 +295,7 @@ Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights
     if (only >= 0 && std::size_t(only) != r) continue;
     threads.emplace_back([&, r] {
       try {
-        const auto& nz = layout_.recordings()[r];
-        EvalPoint at{layout_.physics_values(x.data()),
-                     nz.lag >= 0 ? x[std::size_t(nz.lag)] : nz.lag_fixed_ms,
-                     nz.depth >= 0 ? x[std::size_t(nz.depth)] : 0.0};
-        models_[r]->predict(at, {}, ev.predictions[r]);
+        models_[r]->predict(eval_point(layout_, x.data(), r, true), {}, ev.predictions[r]);
       } catch (...) {
         errors[r] = std::current_exception();
       }
@@ -257,6 +305,7 @@ Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights
   for (auto& e : errors)
     if (e) std::rethrow_exception(e);
   const Robust robust{settings_.loss, settings_.loss_scale * settings_.loss_scale};
+  if (only < 0) ev.cost += prior_cost(layout_, x);
   for (std::size_t r = 0; r < models_.size(); ++r) {
     if (only >= 0 && std::size_t(only) != r) continue;
     const auto& pred = ev.predictions[r];

@@ -79,6 +79,26 @@ Layout::Layout(
       }
 }
 
+void Layout::add_mounting(Mounting m, const std::vector<std::size_t>& recs) {
+  m.offset = int(n_);
+  static const char* kNames[6] = {"pose_rx", "pose_ry", "pose_rz", "pose_tx", "pose_ty", "pose_tz"};
+  blocks_.push_back({n_, 6});
+  for (int k = 0; k < 6; ++k) {
+    names_.push_back(m.name + "." + kNames[k]);
+    init_.push_back(0.0);
+    const double b = k < 3 ? 0.05 : 1.0;  // rad, mm: far beyond any fiducial fit worth using
+    lower_.push_back(-b);
+    upper_.push_back(b);
+    log_.push_back(false);
+  }
+  n_ += 6;
+  for (std::size_t r : recs) {
+    recordings_.at(r).pose = m.offset;
+    recordings_.at(r).mounting = int(mountings_.size());
+  }
+  mountings_.push_back(std::move(m));
+}
+
 std::vector<std::uint8_t> Layout::labels() const {
   std::vector<std::uint8_t> out;
   for (const auto& p : physics_)

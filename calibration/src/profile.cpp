@@ -20,7 +20,9 @@ ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double 
   std::vector<bool> hold = hold_in;
   if (hold.empty()) hold.assign(L.size(), false);
   hold[i] = true;
-  const double lower_tol = std::max(0.05 * threshold, 1e-9 * std::abs(cost_hat));
+  // Cheaper by less than a quarter of the threshold is the same optimum for every verdict
+  // (flat valleys wobble by that much); more than that restarts the fit from there.
+  const double lower_tol = std::max(0.25 * threshold, 1e-9 * std::abs(cost_hat));
   // Bracket: [h_in, Δ_in] below the threshold (starts at the optimum), [h_out, Δ_out] above.
   double h_in = 0, d_in = 0, h_out = -1, d_out = 0;
   std::vector<double> x_in = x_hat;

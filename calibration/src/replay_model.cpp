@@ -78,6 +78,17 @@ ReplayRecordingModel::ReplayRecordingModel(const model::AlignedRecording& rec, R
                                            model::ReplayOptions options)
     : rec_(rec), pool_(pool), options_(options) {}
 
+namespace {
+model::PoseCorrection pose_of(const EvalPoint& at) {
+  model::PoseCorrection p;
+  p.rotation_rad = {at.pose[0], at.pose[1], at.pose[2]};
+  p.translation_mm = {at.pose[3], at.pose[4], at.pose[5]};
+  p.centre_vol_mm = at.pose_centre_vol_mm;
+  return p;
+}
+constexpr double kPoseStep[6] = {1e-4, 1e-4, 1e-4, 1e-3, 1e-3, 1e-3};  // rad, mm (fd only)
+}  // namespace
+
 const char* to_string(Derivatives d) {
   return d == Derivatives::kSensitivities ? "sensitivities" : "fd";
 }
@@ -91,9 +102,12 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
     return;
   }
   const double lag_s = at.lag_ms * 1e-3;
-  auto job = [&](const PhysicsValues& v, double lag, double depth) {
+  const model::PoseCorrection pose = pose_of(at);
+  auto job = [&](const PhysicsValues& v, double lag, double depth,
+                 const model::PoseCorrection* shifted = nullptr) {
+    const model::PoseCorrection* p = shifted ? shifted : (at.has_pose ? &pose : nullptr);
     return ReplayPool::Job{&rec_.sample_id, rec_.radius_mm, to_model_params(v),
-                           rec_.trajectory(lag, depth), options_, {}};
+                           rec_.trajectory(lag, depth, p), options_, {}};
   };
   std::vector<ReplayPool::Job> jobs;
   jobs.push_back(job(at.physics, lag_s, at.depth_mm));
@@ -102,6 +116,8 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
   std::array<int, kLabels> alpha_pair;
   alpha_pair.fill(-1);
   int lag_pair = -1, depth_pair = -1;
+  std::array<int, 6> pose_pair;
+  pose_pair.fill(-1);
   for (const auto& c : columns) {
     const bool physics = c.kind == ColumnKind::kLogAlpha ||
                          ((c.kind == ColumnKind::kLogC1 || c.kind == ColumnKind::kLogMu) &&
@@ -124,6 +140,15 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
       depth_pair = int(jobs.size());
       for (double s : {+1.0, -1.0})
         jobs.push_back(job(at.physics, lag_s, at.depth_mm + s * steps_.depth_mm));
+    }
+    if (c.kind == ColumnKind::kPose && pose_pair[c.label] < 0) {
+      pose_pair[c.label] = int(jobs.size());
+      for (double s : {+1.0, -1.0}) {
+        model::PoseCorrection q = pose;
+        if (c.label < 3) q.rotation_rad[c.label] += s * kPoseStep[c.label];
+        else q.translation_mm[c.label - 3] += s * kPoseStep[c.label];
+        jobs.push_back(job(at.physics, lag_s, at.depth_mm, &q));
+      }
     }
   }
   pool_.run(jobs);
@@ -171,6 +196,7 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
           break;
         case ColumnKind::kLagMs: col[j] = central(lag_pair, steps_.lag_ms, j); break;
         case ColumnKind::kDepthMm: col[j] = central(depth_pair, steps_.depth_mm, j); break;
+        case ColumnKind::kPose: col[j] = central(pose_pair[k], kPoseStep[k], j); break;
       }
     }
     out.columns.push_back(std::move(col));
@@ -180,6 +206,7 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
 void ReplayRecordingModel::predict_sensitivities(const EvalPoint& at, const std::vector<Column>& columns,
                                                  Prediction& out) const {
   const double lag_s = at.lag_ms * 1e-3;
+  const model::PoseCorrection pose = pose_of(at);
   std::vector<model::Direction> dirs;
   std::vector<int> dir_of(columns.size(), -1);
   for (std::size_t c = 0; c < columns.size(); ++c) {
@@ -198,14 +225,26 @@ void ReplayRecordingModel::predict_sensitivities(const EvalPoint& at, const std:
         d.kind = model::Direction::Kind::kPath;
         d.dcentre_vol_mm.assign(size(), -rec_.shaft_axis_vol);  // centre − depth·axis
         break;
+      case ColumnKind::kPose: {
+        d.kind = model::Direction::Kind::kPath;
+        const auto tr0 = rec_.trajectory(lag_s, at.depth_mm);  // uncorrected centres
+        d.dcentre_vol_mm.resize(size());
+        for (std::size_t k = 0; k < size(); ++k)
+          d.dcentre_vol_mm[k] = pose.derivative(int(col.label), tr0.centre_vol_mm[k]);
+        break;
+      }
     }
+    // Lag and depth move the uncorrected centre; the pose maps that move by its rotation.
+    if ((col.kind == ColumnKind::kLagMs || col.kind == ColumnKind::kDepthMm) && at.has_pose)
+      for (auto& v : d.dcentre_vol_mm) v = pose.apply(v + pose.centre_vol_mm) - pose.apply(pose.centre_vol_mm);
     dir_of[c] = int(dirs.size());
     dirs.push_back(std::move(d));
   }
   model::Sensitivities sens;
   std::vector<ReplayPool::Job> jobs;
   jobs.push_back(ReplayPool::Job{&rec_.sample_id, rec_.radius_mm, to_model_params(at.physics),
-                                 rec_.trajectory(lag_s, at.depth_mm), options_, {}});
+                                 rec_.trajectory(lag_s, at.depth_mm, at.has_pose ? &pose : nullptr),
+                                 options_, {}});
   jobs[0].options.directions = &dirs;
   jobs[0].options.sensitivities = &sens;
   pool_.run(jobs);

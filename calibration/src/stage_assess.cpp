@@ -104,7 +104,7 @@ void assess(Run& run) {
     const double dof = double(run.ev.residuals_used) - double(L.size());
     const double s2 = dof > 0 ? std::max(2.0 * run.ev.cost / dof, 1e-12) : 1.0;
     run.threshold = 0.5 * kChi2_1_95 * s2;
-    flags = contact_checks(*run.obj, run.w_all, run.ev);
+    flags = contact_checks(*run.obj, run.x, run.w_all, run.ev);
     run.profiles.clear();
     run.warnings.clear();
     if (!run.opt.profiles) break;

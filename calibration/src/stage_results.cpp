@@ -83,13 +83,57 @@ CalibrationOutput results(Run& run) {
                     {"restarts_from_profile", run.restarts}};
   st["warnings"] = run.warnings;
   nlohmann::json reg = nlohmann::json::object();
-  for (const auto* r : run.recs) {
+  std::string reg_text;
+  for (std::size_t q = 0; q < run.recs.size(); ++q) {
+    const auto* r = run.recs[q];
     const auto& g = r->registration;
     auto n = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
     reg[r->id] = {{"method", g.method}, {"fiducials", g.fiducials}, {"rms_mm", n(g.rms_mm)},
                   {"max_mm", n(g.max_mm)}, {"worst_fiducial", g.worst}, {"fle_mm", n(g.fle_mm)},
                   {"fle_given", g.fle_given}, {"tre_path_rms_mm", n(g.tre_path_rms_mm)},
                   {"tre_path_max_mm", n(g.tre_path_max_mm)}};
+    const auto& nz = L.recordings()[q];
+    if (nz.pose < 0) continue;
+    // TRE after the fit: the pose correction's posterior covariance mapped to the burr
+    // centre along the path, √trace(J Σ Jᵀ), J = [e_k × (p − c) | I].
+    const auto& m = L.mountings()[std::size_t(nz.mounting)];
+    std::array<int, 6> at{};
+    bool all = true;
+    for (int k = 0; k < 6; ++k) {
+      at[std::size_t(k)] = -1;
+      for (std::size_t a = 0; a < out.covariance.names.size(); ++a)
+        if (out.covariance.names[a] == L.name(std::size_t(m.offset + k))) at[std::size_t(k)] = int(a);
+      all &= at[std::size_t(k)] >= 0;
+    }
+    double ss = 0, mx = 0;
+    const auto tr = r->trajectory(nz.lag >= 0 ? run.x[std::size_t(nz.lag)] * 1e-3 : nz.lag_fixed_ms * 1e-3);
+    if (all)
+      for (const auto& p : tr.centre_vol_mm) {
+        glm::dvec3 col[6];
+        for (int k = 0; k < 6; ++k) {
+          glm::dvec3 e(0);
+          e[k % 3] = 1;
+          col[k] = k < 3 ? glm::cross(e, p - m.centre_vol_mm) : e;
+        }
+        double v = 0;
+        for (int a = 0; a < 6; ++a)
+          for (int b = 0; b < 6; ++b)
+            v += glm::dot(col[a], col[b]) * out.covariance.at(std::size_t(at[std::size_t(a)]), std::size_t(at[std::size_t(b)]));
+        ss += std::max(0.0, v);
+        mx = std::max(mx, std::sqrt(std::max(0.0, v)));
+      }
+    const double rms = all && !tr.centre_vol_mm.empty() ? std::sqrt(ss / double(tr.centre_vol_mm.size())) : NAN;
+    auto val = [&](int k) { return run.x[std::size_t(m.offset + k)]; };
+    reg[r->id]["pose_correction"] = {{"mounting", m.name},
+                                     {"rotation_rad", {val(0), val(1), val(2)}},
+                                     {"translation_mm", {val(3), val(4), val(5)}},
+                                     {"centre_vol_mm", {m.centre_vol_mm.x, m.centre_vol_mm.y, m.centre_vol_mm.z}},
+                                     {"tre_after_fit_rms_mm", n(rms)},
+                                     {"tre_after_fit_max_mm", all ? n(mx) : nlohmann::json(nullptr)}};
+    reg_text += fmt::format("  {}: pose correction of {}: rotation ({:.3g}, {:.3g}, {:.3g}) mrad, translation "
+                            "({:.3g}, {:.3g}, {:.3g}) um; TRE after the fit along the path RMS {:.3g} um\n",
+                            r->id, m.name, 1e3 * val(0), 1e3 * val(1), 1e3 * val(2), 1e3 * val(3), 1e3 * val(4),
+                            1e3 * val(5), 1e3 * rms);
   }
   st["registration"] = reg;
   st["depth_offset_bound_mm"] = 0.5 * run.exp.manifest.burr.radius_mm;
@@ -125,6 +169,7 @@ CalibrationOutput results(Run& run) {
                               "σ = {:.4g} N\n", run.models.size(), ev.samples_used, ev.samples_buried,
                               ev.samples_excluded, run.settings.sigma_N);
   for (const auto* r : run.recs) s += fmt::format("  {}: {}\n", r->id, r->registration.text());
+  s += reg_text;
   s += fmt::format("global search: best optimum reached by {} of {} starts ({} solved locally after the "
                    "pre-fit)\n", run.search.reached_best, run.starts, run.search.solved);
   s += fmt::format("solver: {} iterations, cost {:.6g} → {:.6g}, {} replays ({} derivatives), {}\n",

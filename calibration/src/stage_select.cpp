@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <array>
 
+#include <Eigen/Dense>
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/model/registration.hpp"
 #include "pipeline.hpp"
 
 namespace burrbench::calibration::detail {
@@ -119,6 +121,43 @@ void select_recordings(Run& run) {
   std::vector<std::pair<std::string, double>> rec_lags;
   for (std::size_t i : rec_index) rec_lags.emplace_back(run.exp.recordings[i].id, M.recordings[i].lag_ms);
   run.layout = std::make_unique<Layout>(classes, rec_lags, M.fit.nuisance, 0.5 * M.burr.radius_mm);
+  // Mountings registered by fiducials (same sample, same fiducials) share a pose correction.
+  if (M.fit.nuisance.pose) {
+    std::vector<std::vector<std::size_t>> groups;
+    for (std::size_t q = 0; q < rec_index.size(); ++q) {
+      const auto& ref = M.recordings[rec_index[q]];
+      if (!ref.registration.from_fiducials()) continue;
+      bool placed = false;
+      for (auto& g : groups) {
+        const auto& first = M.recordings[rec_index[g.front()]];
+        if (first.sample == ref.sample && first.registration.fiducials_vol_mm == ref.registration.fiducials_vol_mm &&
+            first.registration.fiducials_rig_mm == ref.registration.fiducials_rig_mm) {
+          g.push_back(q);
+          placed = true;
+          break;
+        }
+      }
+      if (!placed) groups.push_back({q});
+    }
+    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+      const auto& ref = M.recordings[rec_index[groups[gi].front()]];
+      const auto& fid = ref.registration.fiducials_vol_mm;
+      Mounting m;
+      m.name = ref.sample;
+      for (std::size_t gj = 0; gj < gi; ++gj)
+        if (M.recordings[rec_index[groups[gj].front()]].sample == ref.sample) m.name = fmt::format("{}#{}", ref.sample, gi);
+      for (const auto& p : fid) m.centre_vol_mm += p / double(fid.size());
+      const auto info = model::fiducial_fit_information(
+          fid, ref.registration.fiducial_error_mm.value_or(model::kDefaultFiducialErrorMm));
+      Eigen::Matrix<double, 6, 6> I;
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) I(i, j) = info[std::size_t(6 * i + j)];
+      const Eigen::Matrix<double, 6, 6> U = Eigen::LLT<Eigen::Matrix<double, 6, 6>>(I).matrixU();  // UᵀU = I
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) m.sqrt_information[std::size_t(6 * i + j)] = U(i, j);
+      run.layout->add_mounting(std::move(m), groups[gi]);
+    }
+  }
   for (const auto* r : run.recs) run.used_samples.emplace(r->sample_id, run.exp.samples.at(r->sample_id));
   run.pool = std::make_unique<ReplayPool>(run.used_samples, run.opt.threads);
   for (const auto* r : run.recs) {

@@ -44,7 +44,8 @@ bool alpha_bound_not_excluded(const Objective& obj, const std::vector<double>& x
 
 }  // namespace
 
-Flags contact_checks(const Objective& obj, const SampleWeights& w, const Evaluation& at_x) {
+Flags contact_checks(const Objective& obj, const std::vector<double>& x, const SampleWeights& w,
+                     const Evaluation& at_x) {
   const Layout& L = obj.layout();
   Flags f;
   f.held.assign(L.size(), false);
@@ -59,6 +60,27 @@ Flags contact_checks(const Objective& obj, const SampleWeights& w, const Evaluat
       f.held[i] = true;
       f.reason[i] = fmt::format("no '{}' bone is removed in the replay: alpha has no effect on "
                                 "the predicted force", p.class_name);
+    } else if (p.kind == PhysKind::kAlpha) {
+      // Erosion at the estimate against (almost) none: α at its upper bound. When that
+      // changes no used sample's predicted force by as much as the sensor noise σ, the
+      // erosion is invisible sample by sample and α is not identifiable, whatever a fit to
+      // the noise may suggest (erosion-free data settle at ~1e5 N/mm² this way).
+      std::vector<double> far = x;
+      far[i] = L.upper(i);
+      const Evaluation ev = obj.evaluate(far, w);
+      double largest = 0;
+      for (std::size_t r = 0; r < ev.predictions.size(); ++r)
+        for (std::size_t j = 0; j < ev.predictions[r].force_sensor_N.size(); ++j)
+          if (w[r][j] > 0 && (at_x.predictions[r].class_mask[j] >> p.label & 1u))
+            largest = std::max(largest, glm::length(ev.predictions[r].force_sensor_N[j] -
+                                                    at_x.predictions[r].force_sensor_N[j]));
+      if (largest < obj.settings().sigma_N) {
+        f.held[i] = true;
+        f.reason[i] = fmt::format("the erosion of '{}' bone at this alpha changes no predicted force by "
+                                  "as much as the sensor noise (largest {:.3g} N < sigma {:.3g} N against "
+                                  "no erosion): alpha is not seen in these data",
+                                  p.class_name, largest, obj.settings().sigma_N);
+      }
     }
   }
   return f;
@@ -172,6 +194,21 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     }
     rep.parameters.push_back(std::move(f));
   }
+  auto add_to = [&](const std::string& owner, const char* name, const char* unit, int i, double fixed_value) {
+    data_schema::FitNuisance n;
+    n.recording_id = owner;
+    n.name = name;
+    n.unit = unit;
+    n.fixed = i < 0;
+    n.estimate = i < 0 ? fixed_value : x[std::size_t(i)];
+    if (i >= 0) {
+      const double se = std::sqrt(std::max(0.0, var(pos(std::size_t(i)))));
+      n.std_error = se;
+      n.ci95_low = n.estimate - kZ95 * se;
+      n.ci95_high = n.estimate + kZ95 * se;
+    }
+    rep.nuisance.push_back(std::move(n));
+  };
   for (const auto& r : L.recordings()) {
     auto add = [&](const char* name, const char* unit, int i, double fixed_value) {
       data_schema::FitNuisance n;
@@ -194,6 +231,10 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     add("lag", "ms", r.lag, r.lag_fixed_ms);
     add("depth_offset", "mm", r.depth, 0.0);
   }
+  // A mounting's pose correction, listed under the mounting's name (its sample id).
+  static const char* kPose[6] = {"pose_rx", "pose_ry", "pose_rz", "pose_tx", "pose_ty", "pose_tz"};
+  for (const auto& m : L.mountings())
+    for (int k = 0; k < 6; ++k) add_to(m.name, kPose[k], k < 3 ? "rad" : "mm", m.offset + k, 0.0);
   // Natural-unit covariance of the identifiable free entries (delta method) and correlation.
   if (cov.ok) {
     std::vector<double> g(m);

@@ -400,6 +400,7 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
         nu->use("lag_bounds_ms");
       }
       f.nuisance.depth_offset = nu->opt_boolean("depth_offset").value_or(false);
+      f.nuisance.pose = nu->opt_boolean("pose").value_or(true);
       nu->done();
     }
     fit->done();
@@ -479,7 +480,8 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
                   {"nuisance", toml::table{{"bias", nu.bias},
                                            {"lag", nu.lag},
                                            {"lag_bounds_ms", toml::array{nu.lag_bounds_ms[0], nu.lag_bounds_ms[1]}},
-                                           {"depth_offset", nu.depth_offset}}}};
+                                           {"depth_offset", nu.depth_offset},
+                                           {"pose", nu.pose}}}};
   const toml::table root{
       {"format", kManifestFormat},
       {"format_version", detail::version_string(kManifestVersionMajor, kManifestVersionMinor)},

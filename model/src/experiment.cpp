@@ -46,7 +46,8 @@ glm::dvec3 AlignedRecording::omega_vol_rad_s(double rpm) const {
   return (2 * M_PI * rpm / 60.0 * double(spin_sign)) * shaft_axis_vol;
 }
 
-Trajectory AlignedRecording::trajectory(double lag, double depth_offset_mm) const {
+Trajectory AlignedRecording::trajectory(double lag, double depth_offset_mm,
+                                        const PoseCorrection* pose) const {
   Trajectory tr;
   tr.t_s = t_s;
   tr.centre_vol_mm.resize(t_s.size());
@@ -54,6 +55,7 @@ Trajectory AlignedRecording::trajectory(double lag, double depth_offset_mm) cons
   for (std::size_t k = 0; k < t_s.size(); ++k) {
     const double tau = t_s[k] - lag;  // the force at t_k answers the position at t_k − lag
     tr.centre_vol_mm[k] = centre_vol_mm(stage_rig_mm.at(tau), depth_offset_mm);
+    if (pose) tr.centre_vol_mm[k] = pose->apply(tr.centre_vol_mm[k]);
     tr.omega_vol_rad_s[k] = omega_vol_rad_s(spindle_rpm.at(tau));
   }
   return tr;

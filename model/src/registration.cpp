@@ -206,4 +206,34 @@ void check_fiducial_fit(const RegistrationFit& fit, const std::vector<glm::dvec3
                                fit.residual_mm[worst], swapped));
 }
 
+glm::dvec3 PoseCorrection::apply(const glm::dvec3& p) const {
+  const double a = glm::length(rotation_rad);
+  glm::dvec3 r = p - centre_vol_mm;
+  if (a > 0) {  // Rodrigues
+    const glm::dvec3 k = rotation_rad / a;
+    r = r * std::cos(a) + glm::cross(k, r) * std::sin(a) + k * glm::dot(k, r) * (1 - std::cos(a));
+  }
+  return centre_vol_mm + r + translation_mm;
+}
+
+glm::dvec3 PoseCorrection::derivative(int k, const glm::dvec3& p) const {
+  glm::dvec3 e(0);
+  e[k % 3] = 1;
+  if (k >= 3) return e;
+  return glm::cross(e, apply(p) - translation_mm - centre_vol_mm);
+}
+
+std::array<double, 36> fiducial_fit_information(const std::vector<glm::dvec3>& fid, double fle_mm) {
+  std::array<double, 36> info{};
+  const double s2 = fle_mm * fle_mm / 3.0;
+  const glm::dvec3 c = centroid(fid);
+  for (const auto& p : fid) {
+    const glm::dvec3 x = p - c;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) info[std::size_t(6 * i + j)] += ((i == j) * glm::dot(x, x) - x[i] * x[j]) / s2;
+  }
+  for (int i = 3; i < 6; ++i) info[std::size_t(6 * i + i)] = double(fid.size()) / s2;
+  return info;
+}
+
 }  // namespace burrbench::model

@@ -49,6 +49,7 @@ class AnalyticModel final : public RecordingModel {
           case ColumnKind::kLogMu: e.physics.mu[c.label] *= std::exp(s); break;
           case ColumnKind::kLagMs: e.lag_ms += s; break;
           case ColumnKind::kDepthMm: e.depth_mm += s; break;
+          case ColumnKind::kPose: e.pose[c.label] += s; break;  // no effect in this model
         }
       };
       bump(a, h);

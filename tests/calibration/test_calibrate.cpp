@@ -128,6 +128,21 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
     }
   ASSERT_EQ(axes, 3);
   EXPECT_NEAR(std::sqrt(sq / 3) / fit.metrics["calibration"]["rmse_N"].get<double>(), 1.0, 1e-6);
+  // The report draws the waterfall and every profile in a real browser (headless Chromium).
+  const char* src = std::getenv("BURRBENCH_SOURCE_DIR");
+  ASSERT_NE(src, nullptr);
+  const fs::path bc = dir / "browser.json";
+  const std::string check = fmt::format("/usr/bin/python3 '{}/tests/analysis/browser_check.py' '{}' '{}' > '{}' 2>/dev/null",
+                                        src, rep.string(), (dir / "chromium").string(), bc.string());
+  ASSERT_EQ(std::system(check.c_str()), 0) << check;
+  std::ifstream bf(bc);
+  const auto browser = nlohmann::json::parse(bf);
+  EXPECT_TRUE(browser["console_errors"].empty()) << browser["console_errors"].dump();
+  const std::string dom = browser["dom"].get<std::string>();
+  EXPECT_NE(dom.find("id=\"plot-waterfall\" data-rendered=\"1\""), std::string::npos);
+  for (int k = 0; k < 6; ++k)
+    EXPECT_NE(dom.find(fmt::format("id=\"plot-profile-{}\" data-rendered=\"1\"", k)), std::string::npos) << k;
+  EXPECT_NE(dom.find("held at the optimum"), std::string::npos);
   if (!HasFailure()) fs::remove_all(dir);
 }
 

@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include <glm/glm.hpp>
+
 #include "burrbench/data_schema/manifest.hpp"
 
 namespace burrbench::calibration {
@@ -51,9 +53,21 @@ struct PhysicsValues {
 struct RecordingNuisance {
   std::string recording_id;
   int bias = -1, lag = -1, depth = -1;  // offsets in x (bias: 3 consecutive), -1 = fixed
+  int pose = -1;  // registration pose correction of its mounting: 6 consecutive (ω rad, τ mm), shared
+  int mounting = -1;                    // index into Layout::mountings(), -1 = none
   double lag_fixed_ms = 0;              // value used when the lag is fixed (and start value)
   std::array<double, 2> lag_bounds_ms{-20, 20};
   double depth_bound_mm = 0;            // |offset| ≤ this
+};
+
+// A sample mounting registered by fiducials: its recordings share one pose correction
+// (3 small rotations about the fiducials' centroid, 3 translations; volume frame) whose
+// Gaussian prior is the fiducial fit's covariance (docs/calibration.md "Registration").
+struct Mounting {
+  std::string name;                  // the sample id (and the fiducial set) it stands for
+  int offset = -1;                   // first of its 6 entries in x
+  glm::dvec3 centre_vol_mm{0};       // rotation centre: the fiducials' centroid
+  std::array<double, 36> sqrt_information{};  // L (row-major, upper), LᵀL = prior information
 };
 
 // Every parameter of one calibration and its place in the free vector x.
@@ -70,6 +84,11 @@ class Layout {
   const std::vector<RecordingNuisance>& recordings() const { return recordings_; }
   std::size_t size() const { return n_; }  // free values
   std::vector<std::uint8_t> labels() const;
+
+  // Adds a mounting's pose block (6 entries, start 0, bounds ±0.05 rad / ±1 mm) shared by
+  // the given recordings (indices into recordings()).
+  void add_mounting(Mounting m, const std::vector<std::size_t>& recordings);
+  const std::vector<Mounting>& mountings() const { return mountings_; }
 
   std::vector<double> initial() const;     // start values of x (scaled)
   double lower(std::size_t i) const { return lower_[i]; }
@@ -88,6 +107,7 @@ class Layout {
  private:
   std::vector<PhysicsParam> physics_;
   std::vector<RecordingNuisance> recordings_;
+  std::vector<Mounting> mountings_;
   std::size_t n_ = 0;
   std::vector<double> init_, lower_, upper_;
   std::vector<bool> log_;

@@ -3,6 +3,7 @@
 // force sample and a way to predict it (and its derivatives) for given parameters.
 // ReplayRecordingModel (replay_model.hpp) implements it with the voxel model; tests can
 // implement it with a closed-form model to check the solver machinery alone.
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -21,10 +22,10 @@ enum class Derivatives {
 const char* to_string(Derivatives d);  // "sensitivities" | "fd"
 
 // A derivative the solver asks for: d(predicted sensor force)/d(column).
-enum class ColumnKind { kLogAlpha, kLogC1, kLogMu, kLagMs, kDepthMm };
+enum class ColumnKind { kLogAlpha, kLogC1, kLogMu, kLagMs, kDepthMm, kPose };
 struct Column {
   ColumnKind kind = ColumnKind::kLogC1;
-  std::uint8_t label = 0;  // class label for the physics columns
+  std::uint8_t label = 0;  // class label for the physics columns; 0..5 (ωx ωy ωz τx τy τz) for kPose
 };
 
 struct EvalPoint {
@@ -34,6 +35,10 @@ struct EvalPoint {
   // false: C1/μ columns at fixed geometry only (no erosion-coupling term; cheaper, used
   // by the starting-value scan).
   bool geometry_terms = true;
+  // Registration pose correction of the recording's mounting (ω rad, τ mm, about the centre).
+  bool has_pose = false;
+  std::array<double, 6> pose{};
+  glm::dvec3 pose_centre_vol_mm{0};
 };
 
 struct Prediction {

@@ -34,8 +34,10 @@ struct Flags {
   std::vector<std::string> reason;
 };
 
-// Rules 1 and 2 (no contact; α without removed bone): checks of the data, not of the cost.
-Flags contact_checks(const Objective& obj, const SampleWeights& w, const Evaluation& at_x);
+// Rules 1 and 2 (no contact; α without removed bone, or whose erosion changes no used
+// sample's force by σ against no erosion): checks of the data, not of the cost.
+Flags contact_checks(const Objective& obj, const std::vector<double>& x, const SampleWeights& w,
+                     const Evaluation& at_x);
 
 // `initial`: parameters already flagged (held, with reasons), e.g. by contact_checks or by
 // their profiles. `covariance_rules`: also apply the α slice check and rules 3–5 (used
@@ -46,7 +48,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
 // Every rule, 1–5 (no profiles).
 inline UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
                                             const SampleWeights& w, const Evaluation& at_x) {
-  return assess_uncertainty(obj, x, w, at_x, contact_checks(obj, w, at_x), true);
+  return assess_uncertainty(obj, x, w, at_x, contact_checks(obj, x, w, at_x), true);
 }
 
 }  // namespace burrbench::calibration

@@ -104,6 +104,9 @@ struct NuisanceSpec {
   bool lag = true;
   std::array<double, 2> lag_bounds_ms{-20.0, 20.0};
   bool depth_offset = false;
+  // Registration pose correction per sample mounting registered by fiducials (6 values,
+  // prior from the fiducial fit; docs/calibration.md "Registration").
+  bool pose = true;
 };
 
 struct FitSpec {

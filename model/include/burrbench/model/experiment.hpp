@@ -93,7 +93,9 @@ struct AlignedRecording {
 
   // The trajectory at the force timestamps for a lag (s) and depth offset (mm): cheap
   // re-interpolation, no file I/O. Use this in fits.
-  Trajectory trajectory(double lag_s, double depth_offset_mm = 0) const;
+  // With `pose`, every centre is corrected by it (the registration's pose nuisance).
+  Trajectory trajectory(double lag_s, double depth_offset_mm = 0,
+                        const PoseCorrection* pose = nullptr) const;
   Trajectory trajectory() const { return trajectory(lag_s, 0); }
   // ∂(burr centre, volume frame)/∂lag in mm per ms at each force sample, for the replay's
   // forward sensitivities (Series::slope of the stage path; ω's dependence on the lag

@@ -3,6 +3,8 @@
 // The fit is Horn's closed-form quaternion method (least squares, always a proper
 // rotation, never a reflection); GLM has no eigen/SVD routine, so a small Jacobi
 // eigen-solver lives in registration.cpp.
+#include <array>
+
 #include <glm/glm.hpp>
 #include <string>
 #include <vector>
@@ -26,6 +28,23 @@ struct RigidTransform {
     return {Rt, -(Rt * t)};
   }
 };
+
+// A small correction of a registration, about a centre (the fiducials' centroid, volume
+// frame): p' = c + R(ω)·(p − c) + τ, R(ω) the rotation by the vector ω (rad, Rodrigues).
+// The calibration fits it as a nuisance per sample mounting (docs/calibration.md).
+struct PoseCorrection {
+  glm::dvec3 rotation_rad{0}, translation_mm{0}, centre_vol_mm{0};
+  glm::dvec3 apply(const glm::dvec3& p) const;
+  // ∂p'/∂θ_k at p for θ = (ωx, ωy, ωz, τx, τy, τz): e_k × (p' − c) for the rotations (exact
+  // at ω = 0, first order in ω), e_k for the translations.
+  glm::dvec3 derivative(int k, const glm::dvec3& p) const;
+};
+
+// Covariance information of a rigid fit to N fiducials with isotropic localisation error
+// FLE (RMS, 3-D), about their centroid: translation N/σ²·I, rotation (Σᵢ |xᵢ|²I − xᵢxᵢᵀ)/σ²,
+// σ² = FLE²/3 per axis; no cross terms about the centroid. Row-major 6×6 (ω, τ).
+std::array<double, 36> fiducial_fit_information(const std::vector<glm::dvec3>& fiducials_vol_mm,
+                                                double fle_mm);
 
 struct RegistrationFit {
   RigidTransform transform;         // rig → volume
