@@ -129,8 +129,7 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   ASSERT_EQ(axes, 3);
   EXPECT_NEAR(std::sqrt(sq / 3) / fit.metrics["calibration"]["rmse_N"].get<double>(), 1.0, 1e-6);
   // The report draws the waterfall and every profile in a real browser (headless Chromium).
-  const char* src = std::getenv("BURRBENCH_SOURCE_DIR");
-  ASSERT_NE(src, nullptr);
+  const std::string src = BURRBENCH_SOURCE_DIR;
   const fs::path bc = dir / "browser.json";
   const std::string check = fmt::format("/usr/bin/python3 '{}/tests/analysis/browser_check.py' '{}' '{}' > '{}' 2>/dev/null",
                                         src, rep.string(), (dir / "chromium").string(), bc.string());

@@ -102,8 +102,8 @@ TEST(FormatsFit, BadFilesAreRejected) {
     burrbench::test::write_text(dir / "F.json", text);
     burrbench::test::expect_rejected_unchanged(dir / "F.json", [&] { bb::read_fit(dir / "F.json"); }, frags);
   };
-  bad("\"format_version\": \"1.0\"", "\"format_version\": \"2.0\"", {"F.json: format_version", "unknown major version"});
-  bad("\"format_version\": \"1.0\"", "\"format_version\": \"1.0\", \"extra\": 1", {"F.json: extra: expected a known key"});
+  bad("\"format_version\": \"1.1\"", "\"format_version\": \"2.0\"", {"F.json: format_version", "unknown major version"});
+  bad("\"format_version\": \"1.1\"", "\"format_version\": \"1.1\", \"extra\": 1", {"F.json: extra: expected a known key"});
   bad("\"samples_used\": 1000", "\"samples_used\": 1000, \"x\": 2", {"residuals_summary.x", "known key"});
   bad("\"samples_used\": 1000", "\"samples_used\": -5", {"residuals_summary.samples_used", "non-negative integer"});
   bad("\"name\": \"c1\"", "\"name\": \"c2\"", {"parameters[0].name: expected alpha | c1 | mu"});
