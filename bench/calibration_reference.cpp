@@ -2,7 +2,10 @@
 // bench/calibration.sh): `bench_calibration_reference DIR BURRBENCH SEED TIME_SCALE [MODE]`.
 // MODE layered: the held-out case of tests/calibration/layered_fixture.hpp (TIME_SCALE
 // unused); MODE fine: also writes the same sample at 0.05 mm voxels (sample_fine.h5, the
-// same geometry: every 0.1 mm voxel split into 8) and experiment_fine.toml using it.
+// same geometry: every 0.1 mm voxel split into 8) and experiment_fine.toml using it;
+// MODE registration: the reference case seen from a rig frame rotated 37° and offset,
+// registered from four fiducials with 5 µm of noise drawn from SEED
+// (tests/calibration/registration_fixture.hpp).
 // Not a Google Benchmark timing loop: the figures (wall time, replays/s, iterations,
 // interval coverage) come from running `burrbench calibrate` on what this writes.
 #include <cstdio>
@@ -13,11 +16,12 @@
 #include <string>
 
 #include "../tests/calibration/layered_fixture.hpp"
+#include "../tests/calibration/registration_fixture.hpp"
 
 int main(int argc, char** argv) {
   const std::string mode = argc == 6 ? argv[5] : "";
-  if (argc != 5 && !(argc == 6 && (mode == "layered" || mode == "fine"))) {
-    std::fprintf(stderr, "usage: %s DIR BURRBENCH SEED TIME_SCALE [layered|fine]\n", argv[0]);
+  if (argc != 5 && !(argc == 6 && (mode == "layered" || mode == "fine" || mode == "registration"))) {
+    std::fprintf(stderr, "usage: %s DIR BURRBENCH SEED TIME_SCALE [layered|fine|registration]\n", argv[0]);
     return 2;
   }
   try {
@@ -31,6 +35,14 @@ int main(int argc, char** argv) {
     burrbench::calibration::testing::ReferenceSpec s;
     s.seed = std::strtoull(argv[3], nullptr, 10);
     s.time_scale = std::atof(argv[4]);
+    if (mode == "registration") {
+      burrbench::calibration::testing::RegistrationSpec r;
+      r.reference = s;
+      r.fiducial_seed = s.seed;
+      const auto c = burrbench::calibration::testing::make_registration_experiment(argv[1], r, argv[2]);
+      std::printf("%s\n", c.manifest.c_str());
+      return 0;
+    }
     const auto m = burrbench::calibration::testing::make_reference_experiment(argv[1], s, argv[2]);
     if (mode == "fine") {
       namespace fs = std::filesystem;
