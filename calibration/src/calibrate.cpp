@@ -80,15 +80,25 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path, const Ca
   validate(opt);
   const auto t_start = std::chrono::steady_clock::now();
   detail::Run run(opt, manifest_path);
-  detail::select_recordings(run);
-  detail::choose_steps(run);
-  detail::global_search(run);
-  detail::refine(run);
-  detail::assess(run);
+  // Each stage's wall time and replays go to fit.json (solver.stages) and the summary.
+  auto stage = [&run](const char* name, void (*fn)(detail::Run&)) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::uint64_t r0 = run.obj ? run.replays_before + run.obj->replays() : run.replays_before;
+    fn(run);
+    const std::uint64_t r1 = run.obj ? run.replays_before + run.obj->replays() : run.replays_before;
+    run.stages.push_back({{"stage", name},
+                          {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()},
+                          {"replays", r1 - r0}});
+  };
+  stage("select", detail::select_recordings);
+  stage("steps", detail::choose_steps);
+  stage("global_search", detail::global_search);
+  stage("refine", detail::refine);
+  stage("assess", detail::assess);
   run.calibration_metrics = detail::metrics(*run.obj, run.ev, run.x, run.w_all);
-  detail::bootstrap(run);
-  detail::cross_validate(run);
-  detail::score_validation(run);
+  stage("bootstrap", detail::bootstrap);
+  stage("cross_validation", detail::cross_validate);
+  stage("validation", detail::score_validation);
   run.out.solver.wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return detail::results(run);

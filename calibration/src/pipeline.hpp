@@ -48,6 +48,7 @@ struct Run {
   std::string sigma_source = "manifest (sensor.sigma_N)";
   std::unique_ptr<Objective> obj;
   std::uint64_t replays_before = 0;
+  nlohmann::json stages = nlohmann::json::array();  // {"stage", "wall_s", "replays"} in order
 
   // search
   DiffSteps steps;

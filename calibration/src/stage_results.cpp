@@ -47,6 +47,7 @@ CalibrationOutput results(Run& run) {
   out.solver.initial_cost = run.fit.initial_cost;
   out.solver.final_cost = run.fit.final_cost;
   out.solver.replays = run.replays_before + run.obj->replays();
+  out.solver.stages = run.stages;
   out.solver.termination = run.fit.termination;
   out.solver.multistart = std::uint64_t(run.starts);
   out.metrics["calibration"] = run.calibration_metrics.json();
@@ -175,6 +176,14 @@ CalibrationOutput results(Run& run) {
   s += fmt::format("solver: {} iterations, cost {:.6g} → {:.6g}, {} replays ({} derivatives), {}\n",
                    run.fit.iterations, run.fit.initial_cost, run.fit.final_cost, out.solver.replays,
                    to_string(run.opt.derivatives), run.fit.termination);
+  {
+    std::string t;
+    for (const auto& st : run.stages)
+      if (st["wall_s"].get<double>() >= 0.05)
+        t += fmt::format("{}{} {:.1f} s ({} replays)", t.empty() ? "" : ", ", st["stage"].get<std::string>(),
+                         st["wall_s"].get<double>(), st["replays"].get<std::uint64_t>());
+    s += "time by stage: " + t + "\n";
+  }
   for (const auto& p : out.parameters) {
     if (p.fixed) {
       s += fmt::format("  {:<12} {:<5} = {:.6g} {} (fixed)\n", p.class_name, p.name, p.estimate, p.unit);

@@ -228,7 +228,7 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
                              {"rms_normalised", num(r.rms_normalised)}}},
       {"solver", {{"iterations", s.iterations}, {"initial_cost", num(s.initial_cost)},
                   {"final_cost", num(s.final_cost)}, {"wall_s", num(s.wall_s)}, {"replays", s.replays},
-                  {"termination", s.termination}, {"multistart", s.multistart}}},
+                  {"termination", s.termination}, {"multistart", s.multistart}, {"stages", s.stages}}},
       {"cross_validation", cv},
       {"multistart", f.multistart},
       {"metrics", f.metrics},
@@ -330,6 +330,7 @@ FitResult read_fit(const std::filesystem::path& path) {
     ss2.replays = s.count("replays");
     ss2.termination = s.str("termination");
     ss2.multistart = s.count("multistart");
+    if (s.has("stages")) ss2.stages = s.array("stages");
     s.done();
   }
   const json& cv = root.array("cross_validation");

@@ -70,6 +70,9 @@ struct SolverSummary {
   std::uint64_t replays = 0;
   std::string termination;  // Ceres termination type / message
   std::uint64_t multistart = 1;
+  // Per pipeline stage, in order: {"stage", "wall_s", "replays"} (format 1.1, optional on
+  // reading): where the time went.
+  nlohmann::json stages = nlohmann::json::array();
 };
 
 struct CrossValidationFold {
