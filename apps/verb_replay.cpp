@@ -32,6 +32,7 @@ void run(const Args& a) {
   const model::Experiment e = model::load_experiment(a.experiment);
   const auto params = data_schema::read_params(a.params);
   const model::ModelParams mp = model::ModelParams::from(params);
+  model::check_covers(params, e.samples, a.params);
   std::vector<fs::path> inputs{a.experiment, a.params};
   for (const auto& s : e.manifest.samples) inputs.push_back(s.path);
   for (const auto& r : e.manifest.recordings) inputs.push_back(r.path);

@@ -1,5 +1,8 @@
-// `burrbench report DIR --out report.html`: the self-contained validation report of an
-// analysis directory (written by calibrate or validate; layout in docs/report.md).
+// `burrbench report DIR [--out FILE]`: the self-contained validation report of an analysis
+// directory (written by calibrate or validate; layout in docs/report.md). Without --out it
+// goes to DIR/report/report.html, never into the current folder (whose fit.json or
+// metrics.json might be a user's).
+#include <filesystem>
 #include <iostream>
 #include <memory>
 
@@ -10,7 +13,7 @@
 namespace {
 
 struct Options {
-  std::string dir, out = "report.html", assets;
+  std::string dir, out, assets;
   std::string context;
 };
 
@@ -19,8 +22,8 @@ void setup(CLI::App& root) {
   auto o = std::make_shared<Options>();
   cmd->add_option("DIR", o->dir, "analysis directory (analysis.json, predictions.csv, fit.json, criteria.toml)")
       ->required();
-  cmd->add_option("--out", o->out, "report file; CSVs, metrics.json and fit.json go beside it")
-      ->capture_default_str();
+  cmd->add_option("--out", o->out,
+                  "report file; CSVs, metrics.json and fit.json go beside it (default: DIR/report/report.html)");
   cmd->add_option("--assets", o->assets,
                   "report assets folder (template, JS, CSS, node_modules/uplot); default: "
                   "$BURRBENCH_REPORT_ASSETS, <bin>/../share/burrbench/report, or the source tree's analysis/report");
@@ -29,7 +32,8 @@ void setup(CLI::App& root) {
   cmd->callback([o] {
     using namespace burrbench::analysis;
     burrbench::TerminalProgress progress("report");
-    const auto s = write_report(o->dir, o->out, {o->assets, o->context, &progress});
+    const std::string out = o->out.empty() ? (std::filesystem::path(o->dir) / "report" / "report.html").string() : o->out;
+    const auto s = write_report(o->dir, out, {o->assets, o->context, &progress});
     std::cout << "report: " << s.html.string() << " (" << s.recordings << " recordings, " << s.samples
               << " samples)\n";
     if (s.has_criteria) std::cout << "acceptance criteria: " << (s.pass ? "PASS" : "FAIL") << "\n";

@@ -40,7 +40,7 @@ void run(const Args& a) {
 
   TerminalProgress progress("validate");
   auto in = analysis::replay_experiment(a.experiment, params, nullptr,
-                                        {!a.no_tare, a.context, &progress});
+                                        {!a.no_tare, a.context, &progress, a.params});
   // A criterion that selects data this experiment lacks is bad input, named by its file.
   (void)analysis::evaluate_criteria(criteria, analysis::compute_metric_rows(in), a.criteria);
   in.params_path = fs::absolute(a.params).string();

@@ -35,6 +35,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
                                 const ds::FitResult* fit, const ReplayInputOptions& opt) {
   const model::Experiment ex = model::load_experiment(manifest);
   const model::ModelParams mp = model::ModelParams::from(params);
+  model::check_covers(params, ex.samples, opt.params_file);
   const bool exclude_buried = ex.manifest.fit.buried == ds::BuriedPolicy::kExclude;
 
   AnalysisInput in;

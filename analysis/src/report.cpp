@@ -327,7 +327,9 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     const auto params = fs::exists(dir / "params.toml")
                             ? data_schema::read_params(dir / "params.toml")
                             : data_schema::parameter_set_from(f, (dir / "fit.json").string());
-    in = replay_experiment(f.experiment_path, params, &f, {true, opt.context_of_use, opt.progress});
+    in = replay_experiment(f.experiment_path, params, &f,
+                           {true, opt.context_of_use, opt.progress,
+                            (dir / (fs::exists(dir / "params.toml") ? "params.toml" : "fit.json")).string()});
     if (fs::exists(dir / "params.toml")) {
       in.params_path = fs::absolute(dir / "params.toml").string();
       in.params_sha256 = sha256_file(dir / "params.toml");

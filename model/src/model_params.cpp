@@ -1,6 +1,9 @@
 #include "burrbench/model/model_params.hpp"
 
+#include <set>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 
@@ -26,6 +29,34 @@ ModelParams ModelParams::from(const data_schema::ParameterSet& p) {
     out.by_label[label] = {c.alpha_N_per_mm2, c.c1_N_per_mm2, c.mu};
   }
   return out;
+}
+
+void check_covers(const data_schema::ParameterSet& p,
+                  const std::map<std::string, data_schema::SampleVolume>& samples,
+                  const std::string& params_file) {
+  for (const auto& [id, s] : samples) {
+    std::set<std::uint8_t> present(s.labels.begin(), s.labels.end());
+    present.erase(0);
+    for (const std::uint8_t label : present) {
+      const auto sn = s.classes.find(label);
+      const std::string sname = sn == s.classes.end() ? "" : sn->second;
+      const auto c = p.classes.find(label);
+      if (c == p.classes.end())
+        throw InputError(params_file, "classes",
+                         fmt::format("a class with id = {}{}, present in sample {}", int(label),
+                                     sname.empty() ? "" : " (" + sname + ")", id),
+                         "none (that bone would be inert)");
+      if (!sname.empty() && !c->second.name.empty() && c->second.name != sname) {
+        // Say which id the sample gives this name, if any: the usual mistake is a swap.
+        std::string other;
+        for (const auto& [l, n] : s.classes)
+          if (n == c->second.name) other = fmt::format("; sample {} gives {} id = {}", id, n, int(l));
+        throw InputError(params_file, "classes." + c->second.name + ".id",
+                         fmt::format("the class sample {} names {} to have id = {}{}", id, sname, int(label), other),
+                         fmt::format("{} with id = {}", c->second.name, int(label)));
+      }
+    }
+  }
 }
 
 }  // namespace burrbench::model

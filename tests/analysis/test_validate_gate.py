@@ -127,6 +127,51 @@ def test_missing_and_broken_files_exit_2(exp, tmp_path):
     assert r.returncode == 2
 
 
+def params_without_trabecular(exp, tmp_path):
+    text = open(exp / "params_true.toml").read()
+    p = tmp_path / "partial.toml"
+    p.write_text(text[:text.index("[classes.trabecular]")])
+    return p
+
+
+def test_a_parameter_set_missing_a_class_of_the_sample_is_refused(exp, tmp_path):
+    # Without constants the trabecular bone would be inert (no force) and the gate could
+    # still pass: validate and replay refuse it, naming the params file and the class.
+    p = params_without_trabecular(exp, tmp_path)
+    for r in (validate(exp, tmp_path / "gate", params=p),
+              run("replay", "--experiment", str(exp / "experiment.toml"), "--params", str(p),
+                  "--out", str(tmp_path / "p.h5"))):
+        assert r.returncode == 2, r.stdout + r.stderr
+        errors = [l for l in r.stderr.splitlines() if l.strip()]
+        assert len(errors) == 1, r.stderr
+        assert str(p) in errors[0] and "id = 2 (trabecular)" in errors[0], errors[0]
+        assert "PASS" not in r.stdout
+    assert not (tmp_path / "gate" / "report.html").exists() and not (tmp_path / "p.h5").exists()
+
+
+def test_class_names_contradicting_the_sample_are_refused(exp, tmp_path):
+    text = open(exp / "params_true.toml").read()
+    swapped = (text.replace("[classes.compact]", "[classes.X]").replace("[classes.trabecular]", "[classes.compact]")
+               .replace("[classes.X]", "[classes.trabecular]"))
+    p = tmp_path / "swapped.toml"
+    p.write_text(swapped)
+    r = validate(exp, tmp_path / "gate", params=p)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert "swapped.toml: classes.trabecular.id" in r.stderr and "gives trabecular id = 2" in r.stderr, r.stderr
+
+
+def test_report_without_out_writes_inside_the_directory_not_the_current_folder(exp, tmp_path):
+    gate = tmp_path / "gate"
+    assert validate(exp, gate).returncode == 0
+    cwd = tmp_path / "cwd"
+    cwd.mkdir()
+    (cwd / "fit.json").write_text("a user's file")
+    r = subprocess.run([BURRBENCH, "report", str(gate)], capture_output=True, text=True, timeout=300, cwd=cwd)
+    assert r.returncode == 0, r.stderr
+    assert sorted(os.listdir(cwd)) == ["fit.json"] and (cwd / "fit.json").read_text() == "a user's file"
+    assert (gate / "report" / "report.html").exists() and (gate / "report" / "metrics.json").exists()
+
+
 def test_report_of_a_calibrate_directory(exp, tmp_path):
     """`burrbench report` on calibrate's output (fit.json + params.toml only) replays the
     experiment with the fitted constants and nuisances and reports the fit's intervals,

@@ -19,6 +19,7 @@ struct ReplayInputOptions {
   bool tare = true;
   std::string context_of_use;
   Progress* progress = nullptr;
+  std::string params_file = "parameter set";  // named in errors about the parameter set
 };
 
 AnalysisInput replay_experiment(const std::filesystem::path& manifest,

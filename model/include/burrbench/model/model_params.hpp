@@ -5,7 +5,11 @@
 #include <cmath>
 #include <cstdint>
 
+#include <map>
+#include <string>
+
 #include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/data_schema/sample_volume.hpp"
 
 namespace burrbench::model {
 
@@ -22,5 +26,12 @@ struct ModelParams {
   // Labels ≥ kMaxClasses or 0, negative/NaN constants → InputError (file "parameter set").
   static ModelParams from(const data_schema::ParameterSet& p);
 };
+
+// A parameter set must give constants for every class label present in each sample (a
+// missing class would make that bone inert: α = ∞, C1 = μ = 0) and, where both name a
+// class, the same name for the same label. Else InputError(params_file, "classes", …).
+void check_covers(const data_schema::ParameterSet& p,
+                  const std::map<std::string, data_schema::SampleVolume>& samples,
+                  const std::string& params_file);
 
 }  // namespace burrbench::model
