@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/nesting.hpp"
 #include "csv.hpp"
 
 namespace burrbench::analysis {
@@ -156,9 +157,11 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
   const std::string file = meta_path.string();
   std::ifstream mf(meta_path);
   if (!mf) throw InputError(file, "file", "a readable burrbench.analysis JSON file", "cannot open");
+  const std::string text((std::istreambuf_iterator<char>(mf)), std::istreambuf_iterator<char>());
+  data_schema::check_json_nesting(text, file);  // before nlohmann::json recurses
   json j;
   try {
-    j = json::parse(mf);
+    j = json::parse(text);
   } catch (const json::exception& e) {
     throw InputError(file, "file", "valid JSON", e.what());
   }

@@ -18,6 +18,7 @@
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/nesting.hpp"
 #include "burrbench/data_schema/version.hpp"
 
 extern "C" int H5get_libversion(unsigned* majnum, unsigned* minnum, unsigned* relnum);
@@ -358,8 +359,10 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   json fit;
   if (has_fit) {
     std::ifstream f(dir / "fit.json");
+    const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    data_schema::check_json_nesting(text, (dir / "fit.json").string());  // before nlohmann::json recurses
     try {
-      fit = json::parse(f);
+      fit = json::parse(text);
     } catch (const json::exception& e) {
       throw InputError((dir / "fit.json").string(), "file", "valid JSON", e.what());
     }

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/nesting.hpp"
 #include "format_common.hpp"
 
 namespace burrbench::data_schema {
@@ -256,9 +257,11 @@ FitResult read_fit(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream ss;
   ss << in.rdbuf();
+  const std::string text = ss.str();
+  check_json_nesting(text, file);  // before nlohmann::json recurses
   json j;
   try {
-    j = json::parse(ss.str());
+    j = json::parse(text);
   } catch (const json::parse_error& e) {
     throw InputError(file, fmt::format("byte {}", e.byte), "valid JSON", e.what());
   }

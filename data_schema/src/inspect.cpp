@@ -12,6 +12,7 @@
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/manifest.hpp"
+#include "burrbench/data_schema/nesting.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/prediction.hpp"
 #include "burrbench/data_schema/recording.hpp"
@@ -200,7 +201,9 @@ FileFormat detect_format(const std::filesystem::path& path) {
   }
   if (c == '{') {
     std::ifstream all(path, std::ios::binary);
-    nlohmann::json j = nlohmann::json::parse(all, nullptr, false);
+    const std::string text((std::istreambuf_iterator<char>(all)), std::istreambuf_iterator<char>());
+    check_json_nesting(text, file);  // before nlohmann::json recurses
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
     if (j.is_discarded() || !j.is_object())
       throw InputError(file, "<file>", "an HDF5, TOML or JSON burrbench file", "unparsable JSON");
     if (!j.contains("format") || !j["format"].is_string())

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/nesting.hpp"
 
 namespace burrbench::data_schema {
 
@@ -30,6 +31,7 @@ toml::table parse_toml_file(const std::filesystem::path& path) {
 toml::table parse_toml_text(std::string_view text, const std::string& file) {
   if (text.size() > kMaxTomlBytes)
     throw InputError(file, "<file>", "a TOML file of at most 16 MiB", std::to_string(text.size()) + " bytes");
+  check_toml_nesting(text, file);  // before toml++ recurses
   try {
     return toml::parse(text, file);
   } catch (const toml::parse_error& e) {
