@@ -24,4 +24,12 @@ inline void refuse_output_over_inputs(const std::string& out, const std::string&
       throw InputError(out, option, "a path different from the inputs (inputs are never written)", in);
 }
 
+// InputError when two outputs of one command name the same file (one would replace the
+// other: `replay --out X --csv X`).
+inline void refuse_same_outputs(const std::string& a, const std::string& option_a, const std::string& b,
+                                const std::string& option_b) {
+  if (!a.empty() && !b.empty() && same_file(a, b))
+    throw InputError(b, option_b, "a file other than " + option_a + " (one output would replace the other)", a);
+}
+
 }  // namespace burrbench::apps

@@ -40,6 +40,7 @@ void run(const Args& a) {
     const std::vector<std::string> ins(inputs.begin(), inputs.end());
     apps::refuse_output_over_inputs(a.out, "--out", ins);
     apps::refuse_output_over_inputs(a.csv, "--csv", ins);
+    apps::refuse_same_outputs(a.out, "--out", a.csv, "--csv");
   }
   const Provenance prov = make_provenance(inputs);
   model::ReplayOptions opt;

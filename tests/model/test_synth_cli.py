@@ -160,3 +160,15 @@ def test_bad_manifest_and_arguments_exit_2(exp, tmp_path):
     p = run("synth", "--sample", exp / "sample.h5", "--protocol", PROTOCOLS / "plunge.toml", "--params",
             exp / "params_true.toml", "--out", tmp_path / "r.h5", "--truth", exp / "params_true.toml", check=False)
     assert p.returncode == 2 and (exp / "params_true.toml").read_bytes() == before
+
+
+def test_replay_refuses_one_file_for_both_outputs(exp, tmp_path):
+    # `--out X --csv X` would write the CSV over the prediction file: refused before the
+    # replay, nothing written.
+    out = tmp_path / "p.h5"
+    p = run("replay", "--experiment", exp / "experiment.toml", "--params", exp / "params_true.toml", "--out", out,
+            "--csv", tmp_path / "." / "p.h5", check=False)
+    assert p.returncode == 2, p.stdout + p.stderr
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1 and "--csv" in lines[0] and "--out" in lines[0], p.stderr
+    assert not out.exists()
