@@ -14,6 +14,20 @@ constexpr double kPi = std::numbers::pi;
 constexpr std::int8_t kAlpha = 0, kC1 = 1, kMu = 2, kPath = 3;
 }  // namespace
 
+void Sym3::add(double c, const glm::dvec3& v) {
+  const glm::dvec3 cv = c * v;
+  xx += cv.x * v.x;
+  xy += cv.x * v.y;
+  xz += cv.x * v.z;
+  yy += cv.y * v.y;
+  yz += cv.y * v.z;
+  zz += cv.z * v.z;
+}
+
+glm::dvec3 Sym3::operator*(const glm::dvec3& u) const {
+  return {xx * u.x + xy * u.y + xz * u.z, xy * u.x + yy * u.y + yz * u.z, xz * u.x + yz * u.y + zz * u.z};
+}
+
 TangentState::TangentState(const Volume& vol, const std::vector<Direction>& dirs,
                            const ModelParams& prm)
     : P_(dirs.size()), prm_(prm), nx_(vol.dims()[0]), ny_(vol.dims()[1]) {
@@ -66,15 +80,24 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   const double reach2 = tab.d2_outer(), v_in = tab.inside_volume(), R = tab.radius();
   const double l = vol.voxel_mm(), l3 = l * l * l;
   const LensVoxel* lv = vol.scratch().lens.data();
+  const bool moves = !path_.empty();
+  // ∂p per direction, zero for the constants (they do not move the burr).
+  auto& dpj = dpj_;
+  for (std::size_t j = 0; j < P; ++j) dpj[j] = kind_[j] == kPath ? dp[j] : glm::dvec3(0);
 
   // ---- first moments: ∂mass_k, ∂M₁ ----
-  // Per-direction accumulators, zeroed for the P directions only (not kMaxDirections).
+  // A path direction changes every lens voxel's d² by −2 v·∂p, so its terms are linear in
+  // ∂p: their coefficients are summed once over the lens (a vector per class, one matrix)
+  // and applied per direction. Only voxels with a χ tangent need work per direction.
   auto& dmass = dmass_;
   auto& dm1 = dm1_;
   for (std::size_t j = 0; j < P; ++j) {
     dmass[j].fill(0.0);
     dm1[j] = glm::dvec3(0);
   }
+  std::array<glm::dvec3, kMaxClasses> amass{};  // Σ −2χ s_V v: ∂mass_k = amass_k·∂p
+  Sym3 B;                                       // Σ (χ s_V r/d + w s_R) v vᵀ
+  double swr = 0;                               // Σ w r/d
   for (std::size_t i = 0; i < st.lens_count; ++i) {
     const LensVoxel& v = lv[i];
     const glm::dvec3 vv(v.vx, v.vy, v.vz);
@@ -82,28 +105,30 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     const int ti = std::min(std::max(int(u), 0), t_last);
     const double f = u - ti;
     const double* a = T + 4 * ti;
-    const double dV = a[0] + f * (a[4] - a[0]), sV = (a[4] - a[0]) * t_ih;  // ΔV, dΔV/dd²
-    const double sR = (a[6] - a[2]) * t_ih;                                  // d(r/d)/dd²
-    const double chi = v.chi, w = dV * chi, rd = v.rd;
-    const double* tg = tangent(v.index);
-    if (tg) stamp_[std::size_t(slot_[v.index])] = eval_;
-    if (tg)
+    const double dV = a[0] + f * (a[4] - a[0]);
+    const double chi = v.chi, rd = v.rd;
+    if (const double* tg = tangent(v.index)) {
+      stamp_[std::size_t(slot_[v.index])] = eval_;
+      const glm::dvec3 vr = dV * rd * vv;
       for (std::size_t j = 0; j < P; ++j) {
-        const double dw = dV * tg[j];
-        dmass[j][v.label] += dw;
-        dm1[j] += dw * rd * vv;
+        dmass[j][v.label] += dV * tg[j];
+        dm1[j] += tg[j] * vr;
       }
-    for (std::size_t j : path_) {
-      const double dd2 = -2.0 * glm::dot(vv, dp[j]);
-      const double dw = chi * sV * dd2;
-      dmass[j][v.label] += dw;
-      dm1[j] += dw * rd * vv + w * (sR * dd2 * vv - rd * dp[j]);
     }
+    if (!moves) continue;
+    const double sV = (a[4] - a[0]) * t_ih;  // dΔV/dd²
+    const double sR = (a[6] - a[2]) * t_ih;  // d(r/d)/dd²
+    const double w = dV * chi;
+    amass[v.label] += (-2.0 * chi * sV) * vv;
+    B.add(chi * sV * rd + w * sR, vv);
+    swr += w * rd;
   }
-  // Fully-inside voxels: their mass moves with p as a block (∂M₁ = −v_in·Σχ·δp), and
-  // those with a tangent (eroded earlier, now inside) add v_in·∂χ.
-  for (std::size_t j = 0; j < P; ++j)
-    if (kind_[j] == kPath) dm1[j] += -v_in * st.inside_chi * dp[j];
+  // Fully-inside voxels move with p as a block: ∂M₁ = −v_in·Σχ·∂p.
+  for (std::size_t j : path_) {
+    for (int k = 1; k < kMaxClasses; ++k) dmass[j][std::size_t(k)] += glm::dot(amass[std::size_t(k)], dp[j]);
+    dm1[j] += -2.0 * (B * dp[j]) - (swr + v_in * st.inside_chi) * dp[j];
+  }
+  // Inside voxels with a tangent (eroded earlier, now inside) add v_in·∂χ.
   if (!touched_.empty()) {
     const glm::dvec3 o = vol.origin_mm(), p = st.p;
     const double reach = std::sqrt(reach2);
@@ -163,21 +188,30 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   if (!st.friction) return;
 
   // ---- friction and friction power ----
+  // Per disc voxel, ∂s (friction weight) and ∂W (power) are linear in the direction's
+  // (∂p, ∂n̂, ∂p₀, ∂a²) and its own ∂χ. The friction sum Σ ∂s v − s ∂p takes the geometric
+  // part as per-class sums applied once per direction; ∂W, which each eroding voxel's
+  // tangent needs, is one 8-term dot product per direction.
   const glm::dvec3 w = st.w;
   const double p0 = st.p0, inv_a2 = 1.0 / a2;
-  auto& dG = dG_;
+  auto& dG = dG_;  // ∂χ part of Σ ∂s v, per direction and class
   for (std::size_t j = 0; j < P; ++j) dG[j].fill(glm::dvec3(0));
-  auto &dW = dW_, &tnew = tnew_;
+  std::array<Sym3, kMaxClasses> D2, VN;             // Σ c_d² v vᵀ, Σ c_vn v vᵀ
+  std::array<glm::dvec3, kMaxClasses> uvn{}, up0{}, ua2{};  // Σ c_vn v, Σ c_p₀ v, Σ c_a² v
+  std::array<double, kMaxClasses> ssum{};           // Σ s
+  auto& z = z_;  // per direction: (∂p, ∂n̂, ∂p₀, ∂a²)
+  for (std::size_t j = 0; j < P; ++j)
+    z[j] = {dpj[j].x, dpj[j].y, dpj[j].z, dn[j].x, dn[j].y, dn[j].z, dp0[j], da2[j]};
+  auto& tnew = tnew_;
   for (std::size_t i = 0; i < st.lens_count; ++i) {
     const LensVoxel& v = lv[i];
     const glm::dvec3 vv(v.vx, v.vy, v.vz);
     const double vn = glm::dot(n, vv), d2 = v.d2, rd = v.rd;
     const double t2 = d2 - vn * vn, xi2 = rd * rd * t2;
-    const int k = v.label;
+    if (xi2 >= a2) continue;  // off the disc: neither force nor power
+    const std::size_t k = v.label;
     double* tg = tangent(v.index);
     const double chi = v.chi;
-    const bool erodes = eroded && st.kero[std::size_t(k)] > 0 && st.wmu[std::size_t(k)] != 0;
-    if (xi2 >= a2) continue;  // off the disc: neither force nor power
     const double u = (d2 - t_lo) * t_ih;
     const int ti = std::min(std::max(int(u), 0), t_last);
     const double f = u - ti;
@@ -186,43 +220,57 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     const double s_area = (a[5] - a[1]) * t_ih, s_invd = (a[7] - a[3]) * t_ih, s_rd = (a[6] - a[2]) * t_ih;
     const double sq = std::sqrt(1.0 - xi2 * inv_a2);
     const double P0 = p0 * sq;
-    const double s = chi * area * P0 * inv_d;
-    const double wmu = st.wmu[std::size_t(k)];
+    const double A = area * inv_d;
+    // ∂P = sq ∂p₀ + e_xi ∂ξ² + e_a2 ∂a²,  ∂ξ² = h_d2 ∂d² + h_vn ∂(n̂·v)
+    const double e_xi = -p0 / (2 * sq * a2), e_a2 = p0 * xi2 / (2 * sq * a2 * a2);
+    const double h_d2 = 2 * rd * s_rd * t2 + rd * rd, h_vn = -2 * rd * rd * vn;
+    // ∂s = A P₀ ∂χ + c_d2 ∂d² + c_vn ∂(n̂·v) + c_p0 ∂p₀ + c_a2 ∂a²
+    const double c_chi = A * P0;
+    const double c_d2 = chi * ((s_area * inv_d + area * s_invd) * P0 + A * e_xi * h_d2);
+    const double c_vn = chi * A * e_xi * h_vn;
+    VN[k].add(c_vn, vv);
+    up0[k] += (chi * A * sq) * vv;
+    ua2[k] += (chi * A * e_a2) * vv;
+    if (moves) {
+      D2[k].add(c_d2, vv);
+      uvn[k] += c_vn * vv;
+      ssum[k] += chi * c_chi;
+    }
+    if (tg) {
+      const glm::dvec3 cv = c_chi * vv;
+      for (std::size_t j = 0; j < P; ++j) dG[j][k] += tg[j] * cv;
+    }
+    const bool erodes = eroded && st.kero[k] > 0 && st.wmu[k] != 0;
+    if (!erodes) continue;
+    // ∂W = w_chi ∂χ + K1 ∂P + K2 ∂d² + K3 ∂(v·ω̂/d), with ∂d² = −2 v·∂p, ∂(n̂·v) = v·∂n̂ − n̂·∂p
+    // and ∂(v·ω̂/d) = −ω̂·∂p/d + (v·ω̂) s_invd ∂d².
+    const double wmu = st.wmu[k];
     const double r = rd * d2 * inv_d, vwr = glm::dot(vv, w), vw = vwr * inv_d, q = 1.0 - vw * vw;
     const double W = wmu * chi * P0 * r * q * area;
-    for (std::size_t j = 0; j < P; ++j) {
-      const bool path = kind_[j] == kPath;
-      const glm::dvec3 dv = path ? -dp[j] : glm::dvec3(0);
-      const double dd2 = path ? -2.0 * glm::dot(vv, dp[j]) : 0.0;
-      const double dvn = glm::dot(dn[j], vv) + glm::dot(n, dv);
-      const double dt2 = dd2 - 2 * vn * dvn;
-      const double drd = s_rd * dd2;
-      const double dxi2 = 2 * rd * drd * t2 + rd * rd * dt2;
-      const double dP = dp0[j] * sq + p0 * (-(dxi2 * a2 - xi2 * da2[j]) * inv_a2 * inv_a2) / (2 * sq);
-      const double darea = s_area * dd2, dinvd = s_invd * dd2;
-      const double dchi = tg ? tg[j] : 0.0;
-      const double ds = dchi * area * P0 * inv_d +
-                        chi * (darea * P0 * inv_d + area * dP * inv_d + area * P0 * dinvd);
-      dG[j][std::size_t(k)] += ds * vv + s * dv;
-      if (!erodes) continue;
-      const double dr = drd * d2 * inv_d + rd * dd2 * inv_d + rd * d2 * dinvd;
-      const double dvw = glm::dot(dv, w) * inv_d + vwr * dinvd;
-      const double dq = -2 * vw * dvw;
-      double dw = wmu * (dchi * P0 * r * q * area +
-                         chi * (dP * r * q * area + P0 * dr * q * area + P0 * r * dq * area + P0 * r * q * darea));
-      if (kind_[j] == kMu && label_[j] == k) dw += W;
-      dW[j] = dw;
-    }
-    if (!erodes) continue;
+    const double r_d2 = s_rd * d2 * inv_d + rd * inv_d + rd * d2 * s_invd;
+    const double w_chi = wmu * P0 * r * q * area;
+    const double K1 = wmu * chi * r * q * area;
+    const double K2 = wmu * chi * P0 * (q * area * r_d2 + r * q * s_area);
+    const double K3 = wmu * chi * P0 * r * area * (-2 * vw);
+    const double E_d2 = K1 * e_xi * h_d2 + K2 + K3 * vwr * s_invd, E_vn = K1 * e_xi * h_vn;
+    const glm::dvec3 gp = -2 * E_d2 * vv - E_vn * n - K3 * inv_d * w, gn = E_vn * vv;
+    const double cw[8] = {gp.x, gp.y, gp.z, gn.x, gn.y, gn.z, K1 * sq, K1 * e_a2};
     // χ ← max(0, χ − W·kero), kero = dt/(α l³): ∂χ' = ∂χ − kero·∂W (+ W·kero for ln α_k).
-    const double kero = st.kero[std::size_t(k)];
+    const double kero = st.kero[k];
     const bool clamped = vol.chi(v.index) == 0.0;
     for (std::size_t j = 0; j < P; ++j) {
       const double old = tg ? tg[j] : 0.0;
-      double t = clamped ? 0.0 : old - kero * dW[j];
-      if (!clamped && kind_[j] == kAlpha && label_[j] == k) t += W * kero;
+      double t = 0.0;
+      if (!clamped) {
+        const auto& zj = z[j];
+        double dW = w_chi * old;
+        for (int m = 0; m < 8; ++m) dW += cw[m] * zj[std::size_t(m)];
+        if (kind_[j] == kMu && label_[j] == k) dW += W;
+        t = old - kero * dW;
+        if (kind_[j] == kAlpha && label_[j] == k) t += W * kero;
+      }
       tnew[j] = t;
-      drem_[j][std::size_t(k)] += l3 * (old - t);
+      drem_[j][k] += l3 * (old - t);
     }
     if (!tg) {
       bool any = false;
@@ -235,9 +283,14 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   }
   for (std::size_t j = 0; j < P; ++j) {
     glm::dvec3 dfm(0);
+    const double ndp = glm::dot(n, dpj[j]);
     for (int k = 1; k < kMaxClasses; ++k) {
-      const double mu = prm_.by_label[std::size_t(k)].mu;
-      if (mu != 0) dfm += mu * glm::cross(dG[j][std::size_t(k)], w);
+      const std::size_t kk = std::size_t(k);
+      const double mu = prm_.by_label[kk].mu;
+      if (mu == 0) continue;
+      glm::dvec3 g_k = dG[j][kk] + VN[kk] * dn[j] + dp0[j] * up0[kk] + da2[j] * ua2[kk];
+      if (kind_[j] == kPath) g_k += -2.0 * (D2[kk] * dpj[j]) - ndp * uvn[kk] - ssum[kk] * dpj[j];
+      dfm += mu * glm::cross(g_k, w);
     }
     if (kind_[j] == kMu) dfm += prm_.by_label[label_[j]].mu * c.dFmu_dmu[label_[j]];
     dF[j] += dfm;

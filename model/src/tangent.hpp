@@ -16,6 +16,14 @@
 
 namespace burrbench::model::detail {
 
+// Σ c v vᵀ over voxels, symmetric (six sums): the tangent pass sums the geometric part of a
+// path direction's terms once and applies it to each direction's ∂p.
+struct Sym3 {
+  double xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
+  void add(double c, const glm::dvec3& v);
+  glm::dvec3 operator*(const glm::dvec3& u) const;
+};
+
 class TangentState {
  public:
   TangentState(const Volume& vol, const std::vector<Direction>& dirs, const ModelParams& prm);
@@ -46,7 +54,9 @@ class TangentState {
   // Scratch of differentiate(), kept to avoid zeroing kMaxDirections entries per call.
   std::array<std::array<double, kMaxClasses>, kMaxDirections> dmass_;
   std::array<glm::dvec3, kMaxDirections> dm1_, dn_;
-  std::array<double, kMaxDirections> dfe_, da2_, dp0_, dW_, tnew_;
+  std::array<double, kMaxDirections> dfe_, da2_, dp0_, tnew_;
+  std::array<glm::dvec3, kMaxDirections> dpj_;
+  std::array<std::array<double, 8>, kMaxDirections> z_;
   std::array<std::array<glm::dvec3, kMaxClasses>, kMaxDirections> dG_;
   std::vector<std::array<double, kMaxClasses>> drem_;
 };
