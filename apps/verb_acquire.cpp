@@ -31,6 +31,7 @@ struct Options {
   std::string rig, out, journal, sample_id, notes, tare;
   double duration_s = 0;
   bool keep_journal = false;
+  bool overwrite = false;
 };
 
 std::string live_line(const burrbench::rig::SessionStatus& s) {
@@ -61,6 +62,9 @@ void run(const Options& o) {
   // Refused before the session, not after it: neither output may replace the map or tare.
   apps::refuse_output_over_inputs(o.out, "--out", {o.rig, o.tare});
   apps::refuse_output_over_inputs(journal.string(), "--journal", {o.rig, o.tare, o.out});
+  // A recording is the one copy of a session: never replaced unless asked.
+  if (!o.overwrite && std::filesystem::exists(out))
+    throw InputError(o.out, "--out", "a file that does not exist yet (--overwrite replaces it)", "exists");
   if (std::filesystem::exists(journal))
     throw InputError(journal.string(), "(journal)", "no journal left from an earlier session (run `burrbench recover` on it, or remove it)", "exists");
   if (o.duration_s < 0) throw InputError("--duration", "value", "seconds ≥ 0");
@@ -116,6 +120,25 @@ void run(const Options& o) {
                                          "run `burrbench recover` on it.", *f, journal.string()));
 
   const auto contents = rig::read_journal(journal);
+  if (contents.samples.empty()) {
+    // Nothing was acquired: no recording is written (an empty one would pass for data)
+    // and the journal, holding only events, goes. Say why, from the devices' own events.
+    std::string why = "no fault was logged";
+    for (const auto& e : contents.events)
+      if (e.kind != "start" && e.kind != "stop" && e.kind != "realtime") {
+        why = e.kind + ": " + e.detail;
+        break;
+      }
+    if (!o.keep_journal) std::filesystem::remove(journal);
+    std::cerr << fmt::format("burrbench: acquire: no device delivered a sample in {:.1f} s ({}); "
+                             "nothing was written\n", status.elapsed_s, why);
+    apps::set_exit_code(1);
+    return;
+  }
+  // The --out check ran before the session; a file that appeared since is not replaced.
+  if (!o.overwrite && std::filesystem::exists(out))
+    throw std::runtime_error(fmt::format("{} appeared during the session and is kept; the session is in the journal {}: "
+                                         "run `burrbench recover {} --out OTHER.h5`", o.out, journal.string(), journal.string()));
   rig::FinaliseReport rep;
   auto rec = rig::recording_from_journal(contents, journal.string(), &rep);
   for (const auto& p : rep.problems) std::cerr << "warning: " << p << "\n";
@@ -146,6 +169,7 @@ void setup(CLI::App& root) {
   cmd->add_option("--tare", o->tare, "tare file from `burrbench rig tare` (stored as the sensor bias)");
   cmd->add_option("--journal", o->journal, "journal path (default: OUT.journal)");
   cmd->add_flag("--keep-journal", o->keep_journal, "keep the journal after the recording is written");
+  cmd->add_flag("--overwrite", o->overwrite, "replace an existing --out recording (refused otherwise)");
   cmd->callback([o] { run(*o); });
 }
 BURRBENCH_VERB("acquire", setup);

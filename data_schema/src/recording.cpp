@@ -30,14 +30,6 @@ bool valid_name(const std::string& n) {
   return !n.empty() && n != "." && n != ".." && n.find('/') == std::string::npos;
 }
 
-struct Canonical {
-  const char* name;
-  std::size_t width;
-  const char* unit;
-};
-constexpr Canonical kCanonical[] = {
-    {kForce, 3, "N"}, {kTorque, 3, "N*mm"}, {kPosition, 3, "mm"}, {kSpindle, 1, "rpm"}};
-
 void validate_stream(const Stream& s, const std::string& file) {
   const std::string base = "/streams/" + s.name;
   if (!valid_name(s.name)) throw InputError(file, "/streams/" + s.name, "a stream name without '/'");
@@ -78,7 +70,7 @@ void validate_stream(const Stream& s, const std::string& file) {
     if (c.unit.empty()) throw InputError(file, cb + "/@unit", "a unit", "empty");
     if (c.values.size() != n * c.width)
       throw InputError(file, cb, fmt::format("{}×{} values", n, c.width), std::to_string(c.values.size()));
-    for (const auto& k : kCanonical)
+    for (const auto& k : kCanonicalChannels)
       if (c.name == k.name && (c.width != k.width || c.unit != k.unit))
         throw InputError(file, cb, fmt::format("width {} and unit \"{}\"", k.width, k.unit),
                          fmt::format("width {} and unit \"{}\"", c.width, c.unit));

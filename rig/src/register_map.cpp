@@ -3,6 +3,7 @@
 #include <cctype>
 #include <algorithm>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -10,6 +11,7 @@
 #include <toml++/toml.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/recording.hpp"
 #include "burrbench/data_schema/toml_input.hpp"
 #include "burrbench/data_schema/toml_view.hpp"
 
@@ -121,6 +123,33 @@ void check_inside(const TomlView& r, const std::string& what, int addr, int n, i
            fmt::format("[{}, {})", addr, addr + n));
 }
 
+// A canonical channel (force_N, ...) must decode to the width and unit a recording
+// holds, or the session would be recorded in full and then refused when written.
+void check_canonical(const TomlView& r, const ChannelSpec& c) {
+  for (const auto& k : data_schema::kCanonicalChannels) {
+    if (c.name != k.name) continue;
+    if (c.registers.size() != k.width)
+      r.fail("registers", fmt::format("{} start address(es) for {} (width {})", k.width, k.name, k.width),
+             std::to_string(c.registers.size()));
+    if (c.unit != k.unit)
+      r.fail("unit", fmt::format("\"{}\" for {} (scale converts the device's unit)", k.unit, k.name),
+             "\"" + c.unit + "\"");
+  }
+}
+
+// No register is read into two channels, or twice into one: overlapping fields decode
+// the same bits as two values, which is always a typo in the map.
+void check_disjoint(const TomlView& r, const ChannelSpec& c, std::map<int, std::string>& owner) {
+  const int n = register_count(c.type);
+  for (std::size_t k = 0; k < c.registers.size(); ++k)
+    for (int a = c.registers[k]; a < c.registers[k] + n; ++a) {
+      const auto [it, fresh] = owner.emplace(a, fmt::format("{}.registers[{}]", c.name, k));
+      if (!fresh)
+        r.fail(fmt::format("registers[{}]", k), "registers no other channel field reads",
+               fmt::format("register {} read by {} too", a, it->second));
+    }
+}
+
 DeviceSpec parse_device(const TomlView& r) {
   r.allow({"name", "transport", "host", "port", "serial", "baud", "parity", "data_bits", "stop_bits",
            "slave", "rate_hz", "timeout_ms", "late_reply_ms", "mode", "function", "start", "count", "counter", "fifo",
@@ -207,6 +236,7 @@ DeviceSpec parse_device(const TomlView& r) {
   const auto chans = r.tables("channels");
   if (chans.empty()) r.fail("channels", "at least one channel", "none");
   std::set<std::string> names;
+  std::map<int, std::string> owner;  // register → the channel that reads it
   const int base = d.mode == Mode::Fifo ? 0 : d.start;
   const int span = d.mode == Mode::Fifo ? d.fifo->record_registers : d.count;
   for (const auto& cr : chans) {
@@ -215,6 +245,8 @@ DeviceSpec parse_device(const TomlView& r) {
     for (std::size_t k = 0; k < c.registers.size(); ++k)
       check_inside(cr, fmt::format("registers[{}]", k), c.registers[k], register_count(c.type), base, span);
     if (c.negate_if_register) check_inside(cr, "negate_if_register", *c.negate_if_register, 1, base, span);
+    check_canonical(cr, c);
+    check_disjoint(cr, c, owner);
     d.channels.push_back(std::move(c));
   }
   if (r.has("calibration")) {

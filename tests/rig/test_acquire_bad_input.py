@@ -57,8 +57,12 @@ def test_existing_journal_is_not_overwritten(tmp_path):
 
 def test_nan_and_out_of_range_values_are_flagged(tmp_path):
     with start_virtual_rig(["--pattern", "nonfinite", "--rate-hz", "50"]) as (proc, host, port):
-        chans = rh.FT_CHANNELS + [{"name": "fz_checked_N", "unit": "N", "type": "int16", "registers": [182],
-                                   "scale": 0.01, "min": -10.0, "max": 10.0}]
+        # A register is read into one channel only (the map refuses overlaps): Fz's int16
+        # register goes into the range-checked channel.
+        chans = rh.FT_CHANNELS[:2] + [
+            {"name": "force_int16_N", "unit": "N", "type": "int16", "registers": [180, 181], "scale": 0.01},
+            {"name": "fz_checked_N", "unit": "N", "type": "int16", "registers": [182],
+             "scale": 0.01, "min": -10.0, "max": 10.0}]
         body = (rh.tcp_device("ft_sensor", port, 9, 180, 42, 100, chans, counter=220)
                 + rh.tcp_device("stage", port, 1, 0, 8, 100, rh.STAGE_CHANNELS, counter=6))
         out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), 1.0)
@@ -73,7 +77,7 @@ def test_nan_and_out_of_range_values_are_flagged(tmp_path):
     assert np.all(np.isnan(ft["channels"]["force_N"]))
     # The int16 registers of the same sample hold the rig's substitutes (NaN → 0, ±Inf →
     # limit), decoded as served; a configured range catches the one beyond it.
-    np.testing.assert_array_equal(ft["channels"]["force_int16_N"][0], [0.0, 327.67, -327.67])
+    np.testing.assert_array_equal(ft["channels"]["force_int16_N"][0], [0.0, 327.67])  # -327.67 is Fz
     assert np.all(np.isnan(ft["channels"]["fz_checked_N"]))
     # Raw registers are kept, so the flagged values can be inspected.
     assert ft["raw_registers"].size == n * 42
@@ -100,3 +104,67 @@ def test_outputs_never_replace_inputs(tmp_path):
         assert p.returncode == 2, (args, p.stdout + p.stderr)
         assert "different from the inputs" in p.stderr and victim in p.stderr, p.stderr
         assert open(victim, "rb").read() == before, args
+
+
+@pytest.mark.parametrize("channel,key,value,field", [
+    # Canonical channels that a recording could not hold (issue 11, fault 2) ...
+    (0, "unit", "kN", "devices[0].channels[0].unit"),
+    (0, "registers", [200, 202], "devices[0].channels[0].registers"),
+    # ... and a register read into two channels (fault 6).
+    (1, "registers", [204, 208, 210], "devices[0].channels[1].registers[0]"),
+])
+def test_rig_check_refuses_bad_maps_before_connecting(tmp_path, channel, key, value, field):
+    # No server listens on the map's port: the map must be refused before any connect.
+    chans = [dict(c) for c in rh.FT_CHANNELS]
+    chans[channel][key] = value
+    rig_map = rh.write_map(tmp_path, rh.tcp_device("ft_sensor", rh.free_port(), 9, 180, 42, 100, chans))
+    p = rh.run(["rig", "check", "--rig", rig_map], timeout=20)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert f"{rig_map}: {field}: expected" in p.stderr and "connect" not in p.stderr, p.stderr
+    p = rh.run(["acquire", "--rig", rig_map, "--out", os.path.join(str(tmp_path), "r.h5"), "--duration", "1"], timeout=20)
+    assert p.returncode == 2 and f"{rig_map}: {field}" in p.stderr, p.stderr
+    assert not os.path.exists(os.path.join(str(tmp_path), "r.h5.journal"))
+
+
+def test_position_in_micrometres_is_refused(tmp_path):
+    chans = [dict(rh.STAGE_CHANNELS[0], unit="um")]
+    rig_map = rh.write_map(tmp_path, rh.tcp_device("stage", rh.free_port(), 1, 0, 8, 100, chans))
+    p = rh.run(["rig", "check", "--rig", rig_map], timeout=20)
+    assert p.returncode == 2 and f"{rig_map}: devices[0].channels[0].unit: expected \"mm\"" in p.stderr, p.stderr
+
+
+def test_existing_recording_is_never_replaced(tmp_path):
+    # Issue 11, fault 1: `acquire --out EXISTING.h5` with no device answering replaced the
+    # recording with an empty one, exit 0.
+    rig_map = rh.write_map(tmp_path, rh.tcp_device("ft_sensor", rh.free_port(), 9, 180, 42, 100, rh.FT_CHANNELS))
+    out = os.path.join(str(tmp_path), "r.h5")
+    with open(out, "wb") as f:
+        f.write(b"the lab's only copy of yesterday's session")
+    p = rh.run(["acquire", "--rig", rig_map, "--out", out, "--duration", "1"], timeout=20)
+    assert p.returncode == 2 and f"{out}: --out: expected" in p.stderr and "--overwrite" in p.stderr, p.stderr
+    assert open(out, "rb").read() == b"the lab's only copy of yesterday's session"
+    assert not os.path.exists(out + ".journal")
+
+
+def test_a_session_without_samples_fails_and_writes_nothing(tmp_path):
+    # Even with --overwrite, a session in which no device answered writes no recording
+    # (an empty file would pass for data) and exits non-zero, saying why.
+    rig_map = rh.write_map(tmp_path, rh.tcp_device("ft_sensor", rh.free_port(), 9, 180, 42, 100, rh.FT_CHANNELS))
+    out = os.path.join(str(tmp_path), "r.h5")
+    with open(out, "wb") as f:
+        f.write(b"kept")
+    p = rh.run(["acquire", "--rig", rig_map, "--out", out, "--duration", "1", "--overwrite"], timeout=30)
+    assert p.returncode == 1, p.stdout + p.stderr
+    assert "no device delivered a sample" in p.stderr and "fault" in p.stderr, p.stderr
+    assert open(out, "rb").read() == b"kept"
+    assert sorted(os.listdir(str(tmp_path))) == ["r.h5", "rig.toml"]
+
+
+def test_overwrite_replaces_a_recording_with_a_whole_session(tmp_path):
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "200"]) as (proc, host, port):
+        rig_map = rh.write_map(tmp_path, rh.tcp_device("ft_sensor", port, 9, 180, 42, 100, rh.FT_CHANNELS, counter=220))
+        out = os.path.join(str(tmp_path), "r.h5")
+        with open(out, "wb") as f:
+            f.write(b"old")
+        rh.acquire(tmp_path, rig_map, 0.5, extra=["--overwrite"])
+    assert rh.read_recording(out)["ft_sensor"]["t_ns"].size > 10

@@ -118,6 +118,15 @@ TEST(RegisterMap, DefectsNameFileFieldAndExpectation) {
       {with("unit = \"N\"", "unit = \"N\"\nword_order = \"ACBD\""), "devices[0].channels[0].word_order"},
       {with("format = \"burrbench.rig\"", "format = \"other\""), "format"},
       {with("scale = 0.01", "scale = 0.01\nscale = 2"), "line"},
+      // Canonical channels must decode to what a recording holds (issue 11, fault 2).
+      {with("unit = \"N\"", "unit = \"kN\""), "devices[0].channels[0].unit"},
+      {with("registers = [180, 181, 182]", "registers = [180, 181]"), "devices[0].channels[0].registers"},
+      // No register is read twice (fault 6): within a channel, or by a second channel.
+      {with("registers = [180, 181, 182]", "registers = [180, 181, 181]"), "devices[0].channels[0].registers[2]"},
+      {kDevice + "  [[devices.channels]]\n  name = \"fz_copy\"\n  unit = \"N\"\n  type = \"int16\"\n"
+                 "  registers = [182]\n", "devices[0].channels[1].registers[0]"},
+      {with("type = \"int16\"\n  registers = [180, 181, 182]", "type = \"int32\"\n  registers = [180, 181, 183]"),
+       "devices[0].channels[0].registers[1]"},
   };
   for (const auto& c : cases) {
     const auto msg = message_of(c.text);

@@ -23,6 +23,16 @@ inline constexpr const char* kTorque = "torque_Nmm";    // n×3, sensor frame
 inline constexpr const char* kPosition = "position_mm"; // n×3, rig frame, burr centre
 inline constexpr const char* kSpindle = "spindle_rpm";  // n×1
 
+// The width and unit a canonical channel must have (a recording with another is refused,
+// and so is a register map that would produce one).
+struct CanonicalChannel {
+  const char* name;
+  std::size_t width;
+  const char* unit;
+};
+inline constexpr CanonicalChannel kCanonicalChannels[] = {
+    {kForce, 3, "N"}, {kTorque, 3, "N*mm"}, {kPosition, 3, "mm"}, {kSpindle, 1, "rpm"}};
+
 struct Channel {
   std::string name;            // canonical name or a device-specific one
   std::string unit;            // "N", "N*mm", "mm", "rpm", ...
