@@ -43,6 +43,22 @@ std::int64_t decode_integer(const std::uint16_t* regs, ValueType type, WordOrder
   return static_cast<std::int64_t>(decode_raw(regs, type, order));
 }
 
+std::int64_t counter_range(ValueType type) {
+  return register_count(type) == 1 ? std::int64_t{1} << 16 : std::int64_t{1} << 32;
+}
+
+std::optional<std::int64_t> unwrap_counter(std::int64_t previous, std::int64_t raw, ValueType type,
+                                           double max_advance) {
+  const std::int64_t range = counter_range(type);
+  const std::int64_t now = ((raw % range) + range) % range;
+  if (previous < 0) return now;
+  const std::int64_t before = previous % range;
+  if (now >= before) return previous + (now - before);
+  const std::int64_t forward = now + range - before;
+  if (static_cast<double>(forward) <= max_advance) return previous + forward;
+  return std::nullopt;
+}
+
 bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, int base,
                     std::span<double> out) {
   BURRBENCH_CHECK(out.size() == ch.registers.size(), "one output per column");

@@ -100,10 +100,17 @@ ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& reg
   // RTU: drop anything already waiting (a reply that came after we gave up on it).
   if (settings_.transport == Transport::Rtu) modbus_flush(ctx_);
   r.t_send_ns = monotonic_ns();
-  const int rc = d.function == 3 ? modbus_read_registers(ctx_, d.start, d.count, regs.data())
-                                 : modbus_read_input_registers(ctx_, d.start, d.count, regs.data());
+  std::string mismatch;
+  const int rc = settings_.transport == Transport::Tcp ? read_tcp_checked(d, regs.data(), &mismatch)
+                 : d.function == 3 ? modbus_read_registers(ctx_, d.start, d.count, regs.data())
+                                   : modbus_read_input_registers(ctx_, d.start, d.count, regs.data());
   const int err = errno;
   r.t_recv_ns = monotonic_ns();
+  if (!mismatch.empty()) {
+    r.status = ReadStatus::BadData;
+    r.detail = mismatch;
+    return r;
+  }
   if (rc == d.count) {
     // A reply faster than the wire allows was already on its way: it answers an
     // earlier request, so it is not this poll's data.
@@ -122,6 +129,44 @@ ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& reg
     r.status = ReadStatus::BadData;
   else r.status = ReadStatus::Disconnected;
   return r;
+}
+
+// libmodbus 3.1.6 checks a TCP reply's transaction and protocol ids but not its unit id
+// (only the RTU backend compares the slave), so a gateway's reply for another unit would
+// pass as this device's data. The request goes out raw (libmodbus still frames it and
+// numbers it) and the reply's MBAP header and PDU are checked here.
+int ModbusLink::read_tcp_checked(const DeviceSpec& d, std::uint16_t* regs, std::string* mismatch) {
+  const std::uint8_t req[6] = {static_cast<std::uint8_t>(d.slave), static_cast<std::uint8_t>(d.function),
+                               static_cast<std::uint8_t>(d.start >> 8), static_cast<std::uint8_t>(d.start & 0xff),
+                               static_cast<std::uint8_t>(d.count >> 8), static_cast<std::uint8_t>(d.count & 0xff)};
+  // A raw request goes out with transaction id 0 (libmodbus 3.1.6); after any failed read
+  // the socket is closed (session.cpp), so no reply to an earlier request can be waiting.
+  constexpr std::uint16_t tid = 0;
+  if (modbus_send_raw_request(ctx_, req, 6) < 0) return -1;
+  std::uint8_t rsp[MODBUS_TCP_MAX_ADU_LENGTH];
+  const int n = modbus_receive_confirmation(ctx_, rsp);
+  if (n < 0) return -1;
+  const auto u16 = [&](int at) { return static_cast<std::uint16_t>((rsp[at] << 8) | rsp[at + 1]); };
+  if (n < 9 || u16(0) != tid || u16(2) != 0) {
+    *mismatch = n < 9 ? fmt::format("reply of {} bytes", n)
+                      : fmt::format("reply to transaction {} (protocol {}), expected {}", u16(0), u16(2), tid);
+    return -1;
+  }
+  if (rsp[6] != d.slave) {
+    *mismatch = fmt::format("reply from unit {}, expected unit {}", rsp[6], d.slave);
+    return -1;
+  }
+  if (rsp[7] == (d.function | 0x80)) {  // exception reply: errno as libmodbus sets it
+    errno = MODBUS_ENOBASE + rsp[8];
+    return -1;
+  }
+  if (rsp[7] != d.function || rsp[8] != 2 * d.count || n != 9 + 2 * d.count) {
+    *mismatch = fmt::format("reply function {} with {} data bytes in {}, expected function {} with {}", rsp[7],
+                            rsp[8], n, d.function, 2 * d.count);
+    return -1;
+  }
+  for (int i = 0; i < d.count; ++i) regs[i] = u16(9 + 2 * i);
+  return d.count;
 }
 
 void ModbusLink::drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns, const std::atomic<bool>* stop) {

@@ -56,11 +56,20 @@ struct DeviceState {
   const DeviceSpec* spec = nullptr;
   std::uint16_t index = 0;
   std::int64_t period_ns = 0, next_ns = 0;
-  std::int64_t last_counter = -1;
+  std::int64_t last_counter = -1;   // unwrapped (decode.hpp: unwrap_counter)
+  std::int64_t rate_c0 = -1, rate_t0_ns = 0;  // latest mode: counter and time seen first, for the device's rate
   std::int64_t last_ok_send_ns = -1;
+  std::int64_t last_ok_before_ns = 0;  // the good poll before that (set in on_good)
   bool pending_gap = false;         // polls failed since the last good one
   std::int64_t gap_since_ns = 0;
   std::int64_t reconnect_at_ns = 0, backoff_ns = 20'000'000;
+  // A run of failed polls of one kind (e.g. 3000 "busy" exceptions in 1.5 s) is one event
+  // with its count and span, not one event per poll. Poller thread only.
+  struct FaultRun {
+    std::string kind, detail;
+    std::int64_t first_ns = 0, last_ns = 0;
+    std::uint64_t count = 0;
+  } run;
   mutable std::mutex m;             // guards status + hist
   DeviceStatus status;
   JitterHist hist;
@@ -87,9 +96,36 @@ struct Session::Impl {
     std::lock_guard lk(qm);
     qs.push_back(std::move(s));
   }
-  void event(int device, std::string kind, std::string detail) {
+  void event(int device, std::string kind, std::string detail, std::int64_t t_ns = 0) {
     std::lock_guard lk(qm);
-    qe.push_back({monotonic_ns(), device, std::move(kind), std::move(detail)});
+    qe.push_back({t_ns ? t_ns : monotonic_ns(), device, std::move(kind), std::move(detail)});
+  }
+
+  // Runs end at a good poll, a fault of another kind, the stop, or after 1 s (so a
+  // journal cut short by a crash still holds runs older than a second).
+  static constexpr std::int64_t kMaxRunNs = 1'000'000'000;
+  void fault(DeviceState& st, const std::string& kind, const std::string& detail, std::int64_t t_ns) {
+    auto& run = st.run;
+    if (run.count && (run.kind != kind || t_ns - run.first_ns >= kMaxRunNs)) end_run(st);
+    if (!run.count) {
+      run.kind = kind;
+      run.detail = detail;
+      run.first_ns = t_ns;
+    }
+    run.last_ns = t_ns;
+    ++run.count;
+  }
+  void end_run(DeviceState& st) {
+    auto& run = st.run;
+    if (!run.count) return;
+    if (run.count == 1)
+      event(st.index, run.kind, run.detail, run.first_ns);
+    else
+      event(st.index, run.kind,
+            fmt::format("{} in a row over {:.1f} ms (last at t = {} ns); the first: {}", run.count,
+                        static_cast<double>(run.last_ns - run.first_ns) * 1e-6, run.last_ns, run.detail),
+            run.first_ns);
+    run.count = 0;
   }
 
   void write_loop() {
@@ -124,6 +160,7 @@ struct Session::Impl {
 
   void on_good(DeviceState& st, const ReadResult& r, const std::vector<std::uint16_t>& regs) {
     const auto& d = *st.spec;
+    end_run(st);
     std::lock_guard lk(st.m);
     ++st.status.polls;
     if (st.last_ok_send_ns >= 0) {
@@ -131,10 +168,25 @@ struct Session::Impl {
       if (dt < 2 * st.period_ns) st.hist.add(static_cast<double>(dt - st.period_ns) * 1e-3);
     }
     const std::int64_t since_last_ns = st.last_ok_send_ns >= 0 ? r.t_send_ns - st.last_ok_send_ns : 0;
+    st.last_ok_before_ns = st.last_ok_send_ns >= 0 ? st.last_ok_send_ns : r.t_send_ns;
     st.last_ok_send_ns = r.t_send_ns;
     if (d.mode == Mode::Latest) {
       std::int64_t counter = -1;
-      if (d.counter) counter = decode_integer(regs.data() + (d.counter->address - d.start), d.counter->type, d.counter->order);
+      if (d.counter) {
+        const auto raw = decode_integer(regs.data() + (d.counter->address - d.start), d.counter->type, d.counter->order);
+        // How far the device can have counted: twice its observed rate over the time since
+        // the last good poll (half the counter's range until a second of it was seen).
+        double max_advance = 0.5 * static_cast<double>(counter_range(d.counter->type));
+        if (st.rate_c0 >= 0 && st.last_ok_before_ns - st.rate_t0_ns > 1'000'000'000 && st.last_counter > st.rate_c0)
+          max_advance = 2.0 * static_cast<double>(st.last_counter - st.rate_c0) /
+                            static_cast<double>(st.last_ok_before_ns - st.rate_t0_ns) *
+                            static_cast<double>(r.t_recv_ns - st.last_ok_before_ns) + 16.0;
+        counter = take_counter(st, raw, d.counter->type, max_advance);
+        if (st.rate_c0 < 0 || counter < st.last_counter) {
+          st.rate_c0 = counter;
+          st.rate_t0_ns = r.t_send_ns;
+        }
+      }
       // Polls came late (slow replies, overrun) and the counter skipped: samples the
       // schedule would have seen are gone — say so. (A regular schedule slower than the
       // device skips counters by design; that is sampling, not loss.)
@@ -148,7 +200,8 @@ struct Session::Impl {
         st.pending_gap = false;
       }
       if (counter >= 0 && st.last_counter >= 0 && counter < st.last_counter)
-        event(st.index, "counter_reset", fmt::format("counter {} → {} (device restarted?)", st.last_counter, counter));
+        event(st.index, "counter_reset", fmt::format("counter {} → {} (device restarted: it went back further than a wrap of its {}-bit range explains)",
+                                                     st.last_counter, counter, register_count(d.counter->type) * 16));
       if (counter >= 0) st.last_counter = counter;
       push({st.index, r.t_send_ns, r.t_recv_ns, counter, regs});
       ++st.status.samples;
@@ -157,7 +210,12 @@ struct Session::Impl {
     }
     // FIFO: take every record newer than the last one taken.
     const auto& f = *d.fifo;
-    const std::int64_t newest = decode_integer(regs.data() + (f.counter.address - d.start), f.counter.type, f.counter.order);
+    const auto raw = decode_integer(regs.data() + (f.counter.address - d.start), f.counter.type, f.counter.order);
+    // Records the device can have taken since the last good poll's request: its rate, with
+    // 50 % margin, over that time and one period more.
+    const double max_advance =
+        f.device_rate_hz * 1.5 * (static_cast<double>(r.t_recv_ns - st.last_ok_before_ns) * 1e-9) + 2.0;
+    const std::int64_t newest = take_counter(st, raw, f.counter.type, max_advance);
     std::int64_t from = newest;  // first poll or after a reset: the newest record only
     if (st.last_counter >= 0 && newest >= st.last_counter) {
       from = st.last_counter + 1;
@@ -168,7 +226,8 @@ struct Session::Impl {
         from = oldest;
       }
     } else if (st.last_counter >= 0) {
-      event(st.index, "counter_reset", fmt::format("fifo counter {} → {} (device restarted?)", st.last_counter, newest));
+      event(st.index, "counter_reset", fmt::format("fifo counter {} → {} (device restarted: it went back further than a wrap of its {}-bit range explains)",
+                                                   st.last_counter, newest, register_count(f.counter.type) * 16));
     }
     if (st.pending_gap) {
       event(st.index, "reconnect_gap", fmt::format("no poll for {:.1f} ms, fifo resumed at record {}",
@@ -185,6 +244,14 @@ struct Session::Impl {
       ++st.status.samples;
     }
     st.last_counter = newest;
+  }
+
+  // The unwrapped counter; after a restart (unwrap_counter gives nothing) the raw value
+  // modulo the range, so the caller sees it below the last one and logs a counter_reset.
+  static std::int64_t take_counter(const DeviceState& st, std::int64_t raw, ValueType type, double max_advance) {
+    if (const auto c = unwrap_counter(st.last_counter, raw, type, max_advance)) return *c;
+    const std::int64_t range = counter_range(type);
+    return ((raw % range) + range) % range;
   }
 
   static void note_values(DeviceState& st, const std::vector<std::uint16_t>& regs, int base) {
@@ -204,7 +271,7 @@ struct Session::Impl {
       }
     }
     if (r.status != ReadStatus::Disconnected || link.connected())
-      event(st.index, std::string(to_string(r.status)), r.detail);
+      fault(st, to_string(r.status), r.detail, r.t_send_ns);
     const auto& d = *st.spec;
     if (d.transport == Transport::Rtu) {
       // An exception reply answered this request: nothing late can follow it.
@@ -225,6 +292,7 @@ struct Session::Impl {
         std::lock_guard lk(st.m);
         ++st.status.reconnects;
       }
+      end_run(st);
       event(st.index, "reconnect", link.describe());
       st.backoff_ns = 20'000'000;
     } else {
@@ -275,6 +343,7 @@ struct Session::Impl {
       if (r.status == ReadStatus::Ok) on_good(*st, r, regs);
       else on_bad(*st, link, r);
     }
+    for (auto* st : group) end_run(*st);
     link.close();
   }
 };

@@ -20,10 +20,12 @@ _UNITS = {"ft": (R.FT_UNIT, R.FT_SIZE), "stage": (R.STAGE_UNIT, R.STAGE_SIZE),
 class Playback:
     """Shared clock and register images of every device."""
 
-    def __init__(self, source):
+    def __init__(self, source, counter_start=0):
         self.source = source
         self.start_ns = time.monotonic_ns()
-        self.counter_base = {d: 0 for d in source.devices()}  # subtracted after a reset
+        # Subtracted from the sample index: -counter_start at first, the index of the
+        # restart after a reset.
+        self.counter_base = {d: -counter_start for d in source.devices()}
         self._cache = {}
         # (unit, address, count, counter) of the latest read; the server notes it
         # with the reply for --served-log.

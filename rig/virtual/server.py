@@ -22,7 +22,8 @@ class Faults:
     """Fault-injection settings (all off by default)."""
 
     def __init__(self, delay_ms=0.0, late_every=0, late_ms=0.0, exception_every=0,
-                 drop_every_s=0.0, restart_at_s=0.0, restart_down_s=0.0, restart_reset=False):
+                 drop_every_s=0.0, restart_at_s=0.0, restart_down_s=0.0, restart_reset=False,
+                 busy_at_s=0.0, busy_for_s=0.0, wrong_unit_every=0):
         self.delay_ms = delay_ms
         self.late_every = late_every
         self.late_ms = late_ms
@@ -31,7 +32,16 @@ class Faults:
         self.restart_at_s = restart_at_s
         self.restart_down_s = restart_down_s
         self.restart_reset = restart_reset
+        self.wrong_unit_every = wrong_unit_every
+        self.busy_at_s = busy_at_s
+        self.busy_for_s = busy_for_s
+        self.start_ns = time.monotonic_ns()  # reset when READY is announced
         self.silent = False  # set while an RTU device is "restarting"
+
+    def busy(self):
+        """Inside the --busy-at-s window: every read is answered SLAVE_DEVICE_BUSY."""
+        t = (time.monotonic_ns() - self.start_ns) * 1e-9
+        return self.busy_for_s > 0 and self.busy_at_s <= t < self.busy_at_s + self.busy_for_s
 
 
 class ServedLog:
@@ -92,6 +102,7 @@ class FaultMixin:
         if f.late_every and n % f.late_every == 0:
             delay += f.late_ms * 1e-3
         self._delay_s = delay
+        self._wrong_unit = bool(f.wrong_unit_every and n % f.wrong_unit_every == 0)
         if f.silent:
             return  # a rebooting device on the bus does not answer
         if self.served_log is not None:
@@ -99,7 +110,7 @@ class FaultMixin:
         if request.function_code != READ_HOLDING:
             # The rig is read-only: a write (or any other function) is refused.
             self._reply(request, request.doException(merror.IllegalFunction), addr)
-        elif f.exception_every and n % f.exception_every == 0:
+        elif (f.exception_every and n % f.exception_every == 0) or f.busy():
             self._reply(request, request.doException(merror.SlaveBusy), addr)
         else:
             super().execute(request, *addr)
@@ -112,6 +123,11 @@ class FaultMixin:
     def send(self, message, *addr, **kwargs):
         self._fault_init()
         info = self.served_log.take() if self.served_log is not None else None
+        if getattr(self, "_wrong_unit", False):
+            # A reply under another unit id (a gateway mixing up its devices): not a reply
+            # of the device asked, so not in the served log.
+            message.unit_id = (message.unit_id + 1) % 256
+            info = None
         loop = asyncio.get_running_loop()
         now = loop.time()
         if self._delay_s <= 0 and self._send_after <= now:

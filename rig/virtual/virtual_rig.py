@@ -52,12 +52,21 @@ def parse_args(argv):
                    help="every Nth request gets exception 06 SLAVE_DEVICE_BUSY")
     f.add_argument("--drop-every-s", type=float, default=0.0, metavar="X",
                    help="close all TCP connections every X s (the listener stays)")
+    f.add_argument("--wrong-unit-every", type=int, default=0, metavar="N",
+                   help="every Nth reply carries the unit id + 1 (TCP)")
+    f.add_argument("--busy-at-s", type=float, default=0.0, metavar="X",
+                   help="from X s after READY every read is answered SLAVE_DEVICE_BUSY ...")
+    f.add_argument("--busy-for-s", type=float, default=0.0, metavar="Y",
+                   help="... for Y s (default 0: never busy)")
     f.add_argument("--restart-at-s", type=float, default=0.0, metavar="X",
                    help="at X s stop serving (TCP: close listener and connections; RTU: fall silent)")
     f.add_argument("--restart-down-s", type=float, default=1.0, metavar="Y",
                    help="then come back on the same port after Y s (default 1)")
     f.add_argument("--restart-resets-counter", action="store_true",
                    help="after the restart counters start again at 0 (default: they continue)")
+    p.add_argument("--counter-start", type=int, default=0, metavar="N",
+                   help="device counters start at N instead of 0 (e.g. 65236: a uint16 counter read "
+                        "from the low word wraps 0.3 s in at 1 kHz)")
     p.add_argument("--served-log", metavar="FILE",
                    help="write one CSV line per read reply sent: t_mono_ns,unit,address,count,counter")
     p.add_argument("-v", "--verbose", action="store_true", help="pymodbus debug logging")
@@ -72,14 +81,16 @@ def parse_args(argv):
         bad.append("--port: expected 0..65535")
     if a.baud <= 0:
         bad.append("--baud: expected > 0")
-    for name in ("delay_ms", "late_ms", "drop_every_s", "restart_at_s", "restart_down_s"):
+    for name in ("delay_ms", "late_ms", "drop_every_s", "restart_at_s", "restart_down_s", "busy_at_s", "busy_for_s"):
         if getattr(a, name) < 0:
             bad.append(f"--{name.replace('_', '-')}: expected >= 0")
-    for name in ("late_reply_every", "exception_every"):
+    for name in ("late_reply_every", "exception_every", "wrong_unit_every"):
         if getattr(a, name) < 0:
             bad.append(f"--{name.replace('_', '-')}: expected >= 0")
     if a.late_reply_every and a.late_ms <= 0:
         bad.append("--late-ms: expected > 0 with --late-reply-every")
+    if not 0 <= a.counter_start < 2 ** 32:
+        bad.append("--counter-start: expected 0 <= N < 2^32 (the counter registers are uint32)")
     if a.rtu and a.drop_every_s:
         bad.append("--drop-every-s: expected TCP (an RTU line has no connection to drop)")
     if bad:
@@ -94,8 +105,8 @@ async def serve(args, source):
         loop.add_signal_handler(sig, stop.set)
     faults = Faults(args.delay_ms, args.late_reply_every, args.late_ms, args.exception_every,
                     args.drop_every_s, args.restart_at_s, args.restart_down_s,
-                    args.restart_resets_counter)
-    playback = Playback(source)
+                    args.restart_resets_counter, args.busy_at_s, args.busy_for_s, args.wrong_unit_every)
+    playback = Playback(source, args.counter_start)
     contexts = make_contexts(playback)
     served = ServedLog(args.served_log, playback) if args.served_log else None
     FaultMixin.served_log = served
@@ -117,6 +128,7 @@ async def serve(args, source):
         ready = f"READY tcp {args.host}:{rig.port}"
     # Playback (sample 0) and the fault schedule start when we announce READY.
     playback.restart_clock()
+    faults.start_ns = playback.start_ns
     log_event("start", playback_start_ns=playback.start_ns)
     tasks = await run_fault_schedule(rig, playback, faults)
     if served is not None:

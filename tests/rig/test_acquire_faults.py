@@ -1,6 +1,8 @@
 """Device faults over TCP: delays, late replies, exceptions, dropped connections and a rig
 restart. Acquisition resumes by itself, every fault and gap is an event, and nothing
 acquired before or after a fault is lost."""
+import re
+
 import numpy as np
 
 import rig_helpers as rh
@@ -95,3 +97,32 @@ def test_fifo_overrun_is_a_gap_event_naming_the_lost_records(tmp_path):
     assert np.all(np.diff(ft["device_counter"]) >= 1)  # never a record twice
     lost = rh.assert_losses_recorded(rec, "ft_sensor")
     assert lost > 50 and len(rh.events(rec, "gap", "ft_sensor")) >= 5
+
+
+def test_a_busy_spell_is_one_event_with_its_count(tmp_path):
+    # Issue 11, fault 8: 1.2 s of SLAVE_DEVICE_BUSY at 250 polls/s used to be ~300
+    # `exception` events. A run of one kind is now one event per second at most, holding
+    # the count and the span; the samples before and after are kept, the gap recorded.
+    rec, ft, _ = run_faulty(tmp_path, ["--busy-at-s", "0.6", "--busy-for-s", "1.2"], 2.6)
+    busy = rh.events(rec, "exception", "ft_sensor")
+    assert 1 <= len(busy) <= 3, busy
+    counts = [int(m.group(1)) for e in busy for m in [re.match(r"(\d+) in a row over ([\d.]+) ms", e[3])] if m]
+    assert len(counts) == len(busy), busy
+    assert 150 <= sum(counts) <= 320, counts  # 1.2 s at 250 polls/s (the shared host may miss a few)
+    assert "the first: " in busy[0][3] and "busy" in busy[0][3].lower(), busy[0]
+    t = ft["t_ns"]
+    assert np.any(t < busy[0][0]) and np.any(t > busy[-1][0] + 1_000_000_000), "samples on both sides"
+    assert rh.events(rec, "gap", "ft_sensor")
+
+
+def test_replies_from_another_unit_are_bad_data_not_samples(tmp_path):
+    # Issue 11, fault 3: libmodbus 3.1.6 does not compare a TCP reply's unit id, so 63 of
+    # 63 replies from another unit were recorded as data. Every 25th reply here comes under
+    # unit 10: none may be a row (run_faulty: no row the rig did not serve as unit 9), each
+    # is a bad_data event naming both units.
+    rec, ft, _ = run_faulty(tmp_path, ["--wrong-unit-every", "25"], 2.0)
+    bad = rh.events(rec, "bad_data", "ft_sensor")
+    n_bad = sum(int(m.group(1)) if (m := re.match(r"(\d+) in a row", e[3])) else 1 for e in bad)
+    assert n_bad >= 5, rec["_events"]
+    assert all("reply from unit 10, expected unit 9" in e[3] for e in bad), bad
+    assert ft["t_ns"].size > 100

@@ -106,3 +106,20 @@ TEST(Decode, NanAndInfFloatsAreFlaggedNotPassedOn) {
     EXPECT_TRUE(std::isnan(out[0]));
   }
 }
+
+TEST(Decode, CounterWrapIsUnwrappedAndARestartIsNot) {
+  // uint16 at 1 kHz rolls over every 65.5 s: 65530 → 4 is 10 counts on, not a restart.
+  EXPECT_EQ(unwrap_counter(-1, 65530, ValueType::UInt16, 100), 65530);
+  EXPECT_EQ(unwrap_counter(65530, 65535, ValueType::UInt16, 100), 65535);
+  EXPECT_EQ(unwrap_counter(65530, 4, ValueType::UInt16, 100), 65540);
+  EXPECT_EQ(unwrap_counter(3 * 65536 + 65530, 4, ValueType::UInt16, 100), 4 * 65536 + 4);  // third wrap
+  EXPECT_EQ(unwrap_counter(65540, 70, ValueType::UInt16, 100), 65536 + 70);  // after the wrap: forward
+  // Back further than the device can have counted: a restart.
+  EXPECT_EQ(unwrap_counter(40000, 3, ValueType::UInt16, 100), std::nullopt);
+  EXPECT_EQ(unwrap_counter(65530, 200, ValueType::UInt16, 100), std::nullopt);
+  // int16 counters wrap at the same 16 bits (−1 is 65535); 32-bit ones at 2^32.
+  EXPECT_EQ(unwrap_counter(65535, 2, ValueType::Int16, 10), 65538);
+  EXPECT_EQ(unwrap_counter(-1, -1, ValueType::Int16, 10), 65535);
+  EXPECT_EQ(unwrap_counter(4294967290LL, 5, ValueType::UInt32, 100), 4294967301LL);
+  EXPECT_EQ(unwrap_counter(4294967290LL, 5, ValueType::UInt32, 5), std::nullopt);
+}

@@ -2,6 +2,7 @@
 // Decoding register values in our own code: libmodbus 3.1.6's float helpers swap bytes
 // (fixed upstream in 3.1.11), so nothing here calls them.
 #include <cstdint>
+#include <optional>
 #include <span>
 
 #include "burrbench/rig/register_map.hpp"
@@ -17,6 +18,16 @@ std::uint16_t assemble16(std::uint16_t r0, WordOrder order);
 double decode_raw(const std::uint16_t* regs, ValueType type, WordOrder order);
 // Integer value (counters); float32 is not allowed here.
 std::int64_t decode_integer(const std::uint16_t* regs, ValueType type, WordOrder order);
+
+// Device counters are unwrapped to 64 bits: a uint16 counter at 1 kHz rolls over every
+// 65.5 s, and a roll-over is not a restart. `previous` is the last unwrapped value (< 0:
+// none yet), `raw` the decoded counter register, `max_advance` the most counts the device
+// can have taken since then. A decrease whose forward distance modulo the counter's range
+// (2^16 or 2^32) is within max_advance is a wrap; any other decrease returns nullopt: the
+// device restarted (the caller starts again from `raw` modulo the range).
+std::optional<std::int64_t> unwrap_counter(std::int64_t previous, std::int64_t raw, ValueType type,
+                                           double max_advance);
+std::int64_t counter_range(ValueType type);  // 2^16 or 2^32
 
 // Decode one channel from a sample's registers (base = address of regs[0]).
 // Returns false when a value is NaN/Inf or outside [min, max]; such values are NaN.

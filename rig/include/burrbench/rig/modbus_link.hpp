@@ -46,6 +46,9 @@ class ModbusLink {
   std::string describe() const;
 
  private:
+  // TCP read sent raw, its reply checked here (see modbus_link.cpp); returns rc as
+  // modbus_read_registers would, with errno set the same way.
+  int read_tcp_checked(const DeviceSpec& d, std::uint16_t* regs, std::string* mismatch);
   DeviceSpec settings_;
   modbus_t* ctx_ = nullptr;
   bool connected_ = false;
