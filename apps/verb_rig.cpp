@@ -20,7 +20,15 @@ void setup(CLI::App& root) {
   check->add_option("--rig", *check_map, "register map (TOML)")->required();
   check->callback([check_map] {
     using namespace burrbench;
-    const auto results = rig::check_rig(rig::load_rig_map(*check_map));
+    const auto map = rig::load_rig_map(*check_map);  // refuses a bus it cannot carry, before connecting
+    for (const auto& b : rig::rtu_bus_budgets(map.devices)) {
+      std::string polls;
+      for (std::size_t k = 0; k < b.devices.size(); ++k)
+        polls += fmt::format("  {} {:.2f} ms", b.devices[k], b.poll_wire_ms[k]);
+      std::cout << fmt::format("bus {} {} baud: {:.0f} % busy at the map's rates (limit {:.0f} %); a poll on the wire:{}\n",
+                               b.serial, b.baud, b.load * 100, rig::kMaxBusLoad * 100, polls);
+    }
+    const auto results = rig::check_rig(map);
     bool all = true;
     for (const auto& r : results) {
       if (!r.ok) {

@@ -8,7 +8,7 @@
 #   1b. the same two devices drained through their FIFO blocks at 1 kHz for 60 s
 #   2. maximum request rate of `burrbench acquire` vs pymodbus' sync client and mbpoll
 #      (rig/virtual/measure_rate.py) on the same rig
-#   3. RTU through the paced relay at 115200 baud vs the wire-time limit
+#   3. RTU through the paced relay at 115200 baud at the rate the bus budget allows
 # Usage: bench/rig.sh BUILD_DIR [SECONDS=60]. The machine may be shared: figures are
 # what this run saw, not a guarantee.
 set -euo pipefail
@@ -163,17 +163,19 @@ row("  vs pymodbus sync client", f"{ours / best['pymodbus']:.2f}x ({best['pymodb
 row("  vs mbpoll (1 process)", f"{ours / best['mbpoll x1']:.1f}x ({best['mbpoll x1']:.0f} req/s)", ">= 1", ours >= best["mbpoll x1"])
 row("  the rig's capacity: a bare-socket Python client", f"{best['raw']:.0f} req/s ({ours / best['raw']:.2f}x)", "-", True)
 
-# 3. RTU at 115200 baud through the paced relay
+# 3. RTU at 115200 baud through the paced relay, at the highest rate the map may ask: the
+#    bus budget (docs/rig.md) allows 90 % of the bus, counting each frame's 1.75 ms silence.
+poll_s = (8 + 5 + 2 * 42) * 10 / 115200.0 + 2 * 1.75e-3
+req = int(0.9 / poll_s)
 with start_virtual_rig_rtu(["--pattern", "ramp", "--baud", "115200"]) as (proc, pty):
     realtime(proc.pid)
-    body = rh.rtu_device("ft_sensor", pty, 9, 180, 42, 100000, rh.FT_CHANNELS[:1], counter=220, timeout_ms=200)
+    body = rh.rtu_device("ft_sensor", pty, 9, 180, 42, req, rh.FT_CHANNELS[:1], counter=220, timeout_ms=200)
     out = rh.acquire(tmp, rh.write_map(tmp, body, "rtu.toml"), 5.0, out="rtu.h5")
 s = rh.read_recording(out)["ft_sensor"]
 rate = (s["t_ns"].size - 1) / ((s["t_send_ns"][-1] - s["t_send_ns"][0]) / 1e9)
-wire = (8 + 5 + 2 * 42) * 10 / 115200.0
-frac = rate * wire
 rtt_row("RTU", s)
-row("RTU 115200 baud, 42 registers: request rate", f"{rate:.1f} req/s = {100 * frac:.1f} % of wire limit {1 / wire:.1f}", ">= 90 %", frac >= 0.9)
+row("RTU 115200 baud, 42 registers: request rate at the bus budget", f"{rate:.1f} of {req} req/s ({100 * rate / req:.1f} %)",
+    ">= 95 %", rate >= 0.95 * req)
 
 # 5. host-side cost per sample: decoding a 42-register block, journal append (+ fsync share)
 jb = json.loads(subprocess.run([os.environ["JOURNAL_BENCH"], "--benchmark_format=json"], capture_output=True,

@@ -269,6 +269,27 @@ DeviceSpec parse_device(const TomlView& r) {
 
 }  // namespace
 
+double rtu_poll_wire_s(const DeviceSpec& d) {
+  const int bits = 1 + d.data_bits + (d.parity == 'N' ? 0 : 1) + d.stop_bits;
+  const double byte_s = bits / static_cast<double>(d.baud);
+  const double silence_s = d.baud > 19200 ? 1.75e-3 : 3.5 * byte_s;
+  return (8 + 5 + 2 * d.count) * byte_s + 2 * silence_s;
+}
+
+std::vector<BusBudget> rtu_bus_budgets(const std::vector<DeviceSpec>& devices) {
+  std::vector<BusBudget> buses;
+  for (const auto& d : devices) {
+    if (d.transport != Transport::Rtu) continue;
+    auto it = std::find_if(buses.begin(), buses.end(), [&](const BusBudget& b) { return b.serial == d.serial; });
+    if (it == buses.end()) it = buses.insert(buses.end(), BusBudget{d.serial, d.baud, {}, {}, 0});
+    const double t = rtu_poll_wire_s(d);
+    it->devices.push_back(d.name);
+    it->poll_wire_ms.push_back(t * 1e3);
+    it->load += d.rate_hz * t;
+  }
+  return buses;
+}
+
 RigMap parse_rig_map(std::string_view text, const std::string& file) {
   const toml::table root = data_schema::parse_toml_text(text, file);
   refuse_writes(root, "", file);
@@ -299,6 +320,21 @@ RigMap parse_rig_map(std::string_view text, const std::string& file) {
         throw InputError(file, path + ".baud", fmt::format("the line settings of device {} on the same bus {}", o.name, d.serial));
     }
     m.devices.push_back(std::move(d));
+  }
+  // A bus carries one request at a time: rates it cannot carry would lose polls all
+  // session long, so they are refused here, before anything connects.
+  for (const auto& b : rtu_bus_budgets(m.devices)) {
+    if (b.load <= kMaxBusLoad) continue;
+    std::size_t last = 0;
+    for (std::size_t i = 0; i < m.devices.size(); ++i)
+      if (m.devices[i].name == b.devices.back()) last = i;
+    std::string polls;
+    for (std::size_t k = 0; k < b.devices.size(); ++k)
+      polls += fmt::format("{}{} {:.1f} ms", k ? ", " : "", b.devices[k], b.poll_wire_ms[k]);
+    throw InputError(file, devs[last].path() + ".rate_hz",
+                     fmt::format("rates the bus {} carries at {} baud (≤ {:.0f} % busy; one poll on the wire: {})",
+                                 b.serial, b.baud, kMaxBusLoad * 100, polls),
+                     fmt::format("{:.0f} % busy", b.load * 100));
   }
   return m;
 }

@@ -168,3 +168,15 @@ def test_overwrite_replaces_a_recording_with_a_whole_session(tmp_path):
             f.write(b"old")
         rh.acquire(tmp_path, rig_map, 0.5, extra=["--overwrite"])
     assert rh.read_recording(out)["ft_sensor"]["t_ns"].size > 10
+
+
+def test_rtu_rates_the_bus_cannot_carry_are_refused_before_opening_it(tmp_path):
+    # Issue 11: the FT 300 example asked for 100 Hz at 19 200 baud, 16.7 ms of wire a poll.
+    chans = [{"name": "force_N", "unit": "N", "type": "int16", "registers": [180, 181, 182], "scale": 0.01}]
+    body = rh.rtu_device("ft_sensor", "/dev/burrbench-no-such-port", 9, 180, 6, 100, chans, baud=19200)
+    rig_map = rh.write_map(tmp_path, body)
+    p = rh.run(["rig", "check", "--rig", rig_map], timeout=20)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert f"{rig_map}: devices[0].rate_hz: expected rates the bus" in p.stderr and "167 % busy" in p.stderr, p.stderr
+    p = rh.run(["rig", "check", "--rig", rh.write_map(tmp_path, body.replace("rate_hz = 100", "rate_hz = 50"))], timeout=20)
+    assert "83 % busy" in p.stdout and "16.67 ms" in p.stdout, p.stdout + p.stderr

@@ -1,6 +1,7 @@
 // Register maps: the presets parse to what the hardware serves; defects and any write
 // request are refused with the file, the field and what was expected.
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -74,6 +75,26 @@ TEST(RegisterMap, RobotiqPresetIsRtuSlave9At19200) {
   EXPECT_EQ(ft.start, 180);
   EXPECT_EQ(ft.count, 6);
   EXPECT_EQ(m.devices[1].serial, m.devices[2].serial);  // one bus, one thread
+}
+
+TEST(RegisterMap, RtuBusThatCannotCarryTheRatesIsRefused) {
+  // The FT 300 at 19200 8N1: 6 registers are 25 bytes on the wire (13.0 ms) plus two
+  // 3.5-character silences (3.6 ms) — 16.6 ms a poll, so 100 Hz would need 167 % of the bus.
+  std::ifstream in(std::string(BURRBENCH_SOURCE_DIR) + "/examples/rigs/robotiq-ft300-az-spindle.toml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto m = parse_rig_map(text, "m.toml");
+  EXPECT_NEAR(rtu_poll_wire_s(m.devices[0]) * 1e3, (25 * 10 + 7 * 10) / 19.2, 1e-9);
+  const auto buses = rtu_bus_budgets(m.devices);
+  ASSERT_EQ(buses.size(), 2u);
+  EXPECT_NEAR(buses[0].load, 50 * (25 * 10 + 7 * 10) / 19200.0, 1e-12);
+  // Above 19200 baud the silence is a fixed 1.75 ms: stage 25 bytes 8E1, spindle 17 bytes.
+  EXPECT_NEAR(buses[1].load, 100 * (25 * 11 / 115200.0 + 3.5e-3) + 50 * (17 * 11 / 115200.0 + 3.5e-3), 1e-12);
+  const auto at = text.find("rate_hz = 50 ");
+  ASSERT_NE(at, std::string::npos);
+  const auto msg = message_of(text.replace(at, 13, "rate_hz = 100"));
+  EXPECT_NE(msg.find("m.toml: devices[0].rate_hz: expected rates the bus /dev/ttyUSB0 carries at 19200 baud"),
+            std::string::npos) << msg;
+  EXPECT_NE(msg.find("167 % busy"), std::string::npos) << msg;
 }
 
 TEST(RegisterMap, FifoPresetParses) {

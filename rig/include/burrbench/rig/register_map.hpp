@@ -83,7 +83,23 @@ struct RigMap {
   std::string source_toml;         // verbatim text
 };
 
+// An RS-485 bus's wire budget: one request at a time, so the devices' polls must fit.
+struct BusBudget {
+  std::string serial;
+  int baud = 0;
+  std::vector<std::string> devices;
+  std::vector<double> poll_wire_ms;  // per device: request + reply frames and their silences
+  double load = 0;                   // Σ rate_hz × poll wire time (1 = the bus never idle)
+};
+inline constexpr double kMaxBusLoad = 0.9;  // headroom for the devices' own turnaround
+// Wire time of one poll of d on its bus: request (8 bytes) and reply (5 + 2·count bytes)
+// at 1 start + data + parity + stop bits per byte, plus the 3.5-character silence after
+// each frame (fixed 1.75 ms above 19200 baud, Modbus over serial line §2.5.1.1).
+double rtu_poll_wire_s(const DeviceSpec& d);
+std::vector<BusBudget> rtu_bus_budgets(const std::vector<DeviceSpec>& devices);
+
 // Throws InputError (file, field, expected, got) on any defect, unknown key or write request.
+// An RTU bus whose polls would not fit its baud rate (load > kMaxBusLoad) is a defect.
 RigMap parse_rig_map(std::string_view toml_text, const std::string& file_for_messages);
 RigMap load_rig_map(const std::filesystem::path& path);
 
