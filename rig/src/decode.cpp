@@ -73,7 +73,9 @@ bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, 
   for (std::size_t i = 0; i < ch.registers.size(); ++i) {
     const int at = ch.registers[i] - base;
     BURRBENCH_CHECK(at >= 0 && at + n <= static_cast<int>(regs.size()), "checked by the map");
-    double v = decode_raw(regs.data() + at, ch.type, ch.order) * ch.scale + ch.offset;
+    const double scale = ch.scale.size() == 1 ? ch.scale[0] : ch.scale[i];
+    const double offset = ch.offset.size() == 1 ? ch.offset[0] : ch.offset[i];
+    double v = decode_raw(regs.data() + at, ch.type, ch.order) * scale + offset;
     if (negate) v = -v;
     if (!std::isfinite(v) || (ch.min && v < *ch.min) || (ch.max && v > *ch.max)) {
       ok = false;

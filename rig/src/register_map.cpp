@@ -107,9 +107,16 @@ ChannelSpec parse_channel(const TomlView& r) {
   c.type = parse_type(r, "type");
   c.order = parse_order(r, "word_order");
   for (const auto a : r.integers("registers", 0, 65535, 64)) c.registers.push_back(static_cast<int>(a));
-  c.scale = r.num_or("scale", 1.0);
-  if (c.scale == 0.0) r.fail("scale", "a non-zero number", "0");
-  c.offset = r.num_or("offset", 0.0);
+  // A number for every column, or an array with one per column (per-axis gain and zero).
+  const auto per_column = [&](std::string_view key, double def) {
+    const auto* n = r.node(key);
+    if (n && n->is_array()) return r.numbers(key, c.registers.size());
+    return std::vector<double>{r.num_or(key, def)};
+  };
+  c.scale = per_column("scale", 1.0);
+  for (std::size_t k = 0; k < c.scale.size(); ++k)
+    if (c.scale[k] == 0.0) r.fail(c.scale.size() > 1 ? fmt::format("scale[{}]", k) : "scale", "a non-zero number", "0");
+  c.offset = per_column("offset", 0.0);
   if (r.has("min")) c.min = r.num("min");
   if (r.has("max")) c.max = r.num("max");
   if (c.min && c.max && *c.min > *c.max) r.fail("max", fmt::format("≥ min ({})", *c.min), fmt::format("{}", *c.max));

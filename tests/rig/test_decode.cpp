@@ -77,8 +77,8 @@ TEST(Decode, ChannelScaleOffsetNegateAndFlags) {
   ChannelSpec c;
   c.type = ValueType::Int16;
   c.registers = {10, 11, 12};
-  c.scale = 0.01;
-  c.offset = 1.0;
+  c.scale = {0.01};
+  c.offset = {1.0};
   c.negate_if_register = 13;
   const std::uint16_t regs[] = {100, 0xFF9C /* -100 */, 5, 0};
   double out[3];
@@ -93,6 +93,20 @@ TEST(Decode, ChannelScaleOffsetNegateAndFlags) {
   EXPECT_FALSE(decode_channel(c, regs, 10, out));  // 2.0 > max → flagged
   EXPECT_TRUE(std::isnan(out[0]));
   EXPECT_DOUBLE_EQ(out[2], 1.05);  // the valid columns keep their values
+}
+
+TEST(Decode, PerAxisScaleAndOffset) {
+  ChannelSpec c;
+  c.type = ValueType::Int16;
+  c.registers = {0, 1, 2};
+  c.scale = {0.01, 0.02, -0.5};
+  c.offset = {0.0, 1.0, 10.0};
+  const std::uint16_t regs[] = {100, 100, 4};
+  double out[3];
+  ASSERT_TRUE(decode_channel(c, regs, 0, out));
+  EXPECT_DOUBLE_EQ(out[0], 1.0);
+  EXPECT_DOUBLE_EQ(out[1], 3.0);
+  EXPECT_DOUBLE_EQ(out[2], 8.0);
 }
 
 TEST(Decode, NanAndInfFloatsAreFlaggedNotPassedOn) {

@@ -61,7 +61,7 @@ TEST(RegisterMap, VirtualPresetMatchesContractE) {
   EXPECT_EQ(ft.channels[0].registers, (std::vector<int>{200, 202, 204}));
   EXPECT_EQ(m.devices[1].slave, 1);
   EXPECT_EQ(m.devices[1].channels[0].type, ValueType::Int32);
-  EXPECT_DOUBLE_EQ(m.devices[1].channels[0].scale, 0.001);
+  EXPECT_EQ(m.devices[1].channels[0].scale, std::vector<double>{0.001});
   EXPECT_EQ(m.devices[2].channels[0].negate_if_register, 1);
 }
 
@@ -108,6 +108,12 @@ TEST(RegisterMap, FifoPresetParses) {
   EXPECT_EQ(m.devices[1].sample_registers(), 6);
 }
 
+TEST(RegisterMap, PerAxisScaleAndOffsetParse) {
+  const auto m = parse_rig_map(with("scale = 0.01", "scale = [0.01, 0.02, 0.03]\noffset = [-1, 0, 1.5]"), "m.toml");
+  EXPECT_EQ(m.devices[0].channels[0].scale, (std::vector<double>{0.01, 0.02, 0.03}));
+  EXPECT_EQ(m.devices[0].channels[0].offset, (std::vector<double>{-1, 0, 1.5}));
+}
+
 TEST(RegisterMap, MinimalMapParses) {
   const auto m = parse_rig_map(kDevice, "m.toml");
   EXPECT_EQ(m.devices[0].channels[0].registers.size(), 3u);
@@ -136,6 +142,9 @@ TEST(RegisterMap, DefectsNameFileFieldAndExpectation) {
       {with("transport = \"tcp\"", "transport = \"udp\""), "devices[0].transport"},
       {with("slave = 9", "slave = 300"), "devices[0].slave"},
       {with("scale = 0.01", "scale = 0"), "devices[0].channels[0].scale"},
+      {with("scale = 0.01", "scale = [0.01, 0.01]"), "devices[0].channels[0].scale"},  // one per column
+      {with("scale = 0.01", "scale = [0.01, 0, 0.01]"), "devices[0].channels[0].scale[1]"},
+      {with("scale = 0.01", "scale = 0.01\noffset = [1, \"a\", 2]"), "devices[0].channels[0].offset"},
       {with("unit = \"N\"", "unit = \"N\"\nword_order = \"ACBD\""), "devices[0].channels[0].word_order"},
       {with("format = \"burrbench.rig\"", "format = \"other\""), "format"},
       {with("scale = 0.01", "scale = 0.01\nscale = 2"), "line"},

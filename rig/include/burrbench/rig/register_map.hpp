@@ -34,7 +34,9 @@ struct ChannelSpec {
   ValueType type = ValueType::Int16;
   WordOrder order = WordOrder::ABCD;
   std::vector<int> registers;      // one start address per column
-  double scale = 1.0, offset = 0.0;  // value = raw * scale + offset
+  // value = raw * scale + offset, per column (one entry: the same for every column), so
+  // each axis of a sensor can carry its own gain and zero.
+  std::vector<double> scale{1.0}, offset{0.0};
   std::optional<double> min, max;    // decoded values outside → sample flagged invalid
   std::optional<int> negate_if_register;  // register (≠ 0 → value negated), e.g. spindle direction
 };
