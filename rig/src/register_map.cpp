@@ -159,7 +159,7 @@ void check_disjoint(const TomlView& r, const ChannelSpec& c, std::map<int, std::
 
 DeviceSpec parse_device(const TomlView& r) {
   r.allow({"name", "transport", "host", "port", "serial", "baud", "parity", "data_bits", "stop_bits",
-           "slave", "rate_hz", "timeout_ms", "late_reply_ms", "mode", "function", "start", "count", "counter", "fifo",
+           "slave", "rate_hz", "timeout_ms", "late_reply_ms", "reconnect_backoff_ms", "reconnect_max_ms", "mode", "function", "start", "count", "counter", "fifo",
            "calibration", "channels"});
   DeviceSpec d;
   d.name = r.str("name");
@@ -198,6 +198,15 @@ DeviceSpec parse_device(const TomlView& r) {
   if (d.transport != Transport::Rtu && r.has("late_reply_ms")) r.fail("late_reply_ms", "no late_reply_ms on a tcp device", "present");
   if (!(d.late_reply_ms >= d.timeout_ms && d.late_reply_ms <= 60000))
     r.fail("late_reply_ms", fmt::format("a time in [timeout_ms = {}, 60000] ms", d.timeout_ms), fmt::format("{}", d.late_reply_ms));
+  d.reconnect_backoff_ms = r.num_or("reconnect_backoff_ms", 20.0);
+  d.reconnect_max_ms = r.num_or("reconnect_max_ms", std::max(1000.0, d.reconnect_backoff_ms));
+  for (const char* k : {"reconnect_backoff_ms", "reconnect_max_ms"})
+    if (d.transport != Transport::Tcp && r.has(k)) r.fail(k, "no reconnect settings on an rtu device (a bus is not reconnected)", "present");
+  if (!(d.reconnect_backoff_ms >= 1 && d.reconnect_backoff_ms <= 60000))
+    r.fail("reconnect_backoff_ms", "a wait in [1, 60000] ms", fmt::format("{}", d.reconnect_backoff_ms));
+  if (!(d.reconnect_max_ms >= d.reconnect_backoff_ms && d.reconnect_max_ms <= 600000))
+    r.fail("reconnect_max_ms", fmt::format("a wait in [reconnect_backoff_ms = {}, 600000] ms", d.reconnect_backoff_ms),
+           fmt::format("{}", d.reconnect_max_ms));
   const auto function = r.str_or("function", "holding");
   if (function == "holding") d.function = 3;
   else if (function == "input") d.function = 4;

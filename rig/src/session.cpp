@@ -278,8 +278,11 @@ struct Session::Impl {
       if (r.status != ReadStatus::Exception) link.drain_late_reply(d, r.t_send_ns, &stopping);
     } else if (r.status != ReadStatus::Exception && link.connected()) {
       link.close();  // timeout or bad data: the stream may be out of step — start afresh
+      // The first retry is immediate, not at the next deadline: a dropped connection to a
+      // live device costs one round trip, not a poll period.
       st.reconnect_at_ns = monotonic_ns();
-      st.backoff_ns = 20'000'000;
+      st.backoff_ns = backoff_first_ns(d);
+      try_reconnect(st, link);
     }
   }
 
@@ -294,11 +297,14 @@ struct Session::Impl {
       }
       end_run(st);
       event(st.index, "reconnect", link.describe());
-      st.backoff_ns = 20'000'000;
+      st.backoff_ns = backoff_first_ns(*st.spec);
     } else {
       st.reconnect_at_ns = now + st.backoff_ns;
-      st.backoff_ns = std::min<std::int64_t>(st.backoff_ns * 2, 1'000'000'000);
+      st.backoff_ns = std::min<std::int64_t>(st.backoff_ns * 2, static_cast<std::int64_t>(st.spec->reconnect_max_ms * 1e6));
     }
+  }
+  static std::int64_t backoff_first_ns(const DeviceSpec& d) {
+    return static_cast<std::int64_t>(d.reconnect_backoff_ms * 1e6);
   }
 
   // One thread: a TCP device, or every device on one RS-485 bus (one request at a time).
@@ -360,6 +366,7 @@ Session::Session(RigMap map, const std::filesystem::path& journal, const std::st
     st->index = static_cast<std::uint16_t>(i);
     st->period_ns = static_cast<std::int64_t>(std::llround(1e9 / st->spec->rate_hz));
     st->next_ns = I.start_ns + 20'000'000;
+    st->backoff_ns = Impl::backoff_first_ns(*st->spec);
     st->status.name = st->spec->name;
     st->status.rate_hz = st->spec->rate_hz;
     st->status.first_channel = st->spec->channels.front().name;

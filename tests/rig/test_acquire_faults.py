@@ -126,3 +126,18 @@ def test_replies_from_another_unit_are_bad_data_not_samples(tmp_path):
     assert n_bad >= 5, rec["_events"]
     assert all("reply from unit 10, expected unit 9" in e[3] for e in bad), bad
     assert ft["t_ns"].size > 100
+
+
+def test_a_dropped_connection_is_retried_at_once(tmp_path):
+    # Issue 11: the first reconnect is immediate, not at the next deadline. Polled at 5 Hz
+    # (200 ms apart), each drop is found by a poll and reopened within a few ms of it.
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "50", "--drop-every-s", "0.7"]) as (proc, host, port):
+        body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 5, rh.FT_CHANNELS, counter=220, timeout_ms=100)
+        out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), 2.6)
+    rec = rh.read_recording(out)
+    fails = sorted(e[0] for k in ("disconnected", "bad_data", "timeout") for e in rh.events(rec, k, "ft_sensor"))
+    reconnects = [e[0] for e in rh.events(rec, "reconnect", "ft_sensor")]
+    assert len(fails) >= 2 and len(reconnects) >= len(fails), rec["_events"]
+    for t in fails:
+        after = min(r for r in reconnects if r > t)
+        assert after - t < 50_000_000, (after - t, rec["_events"])

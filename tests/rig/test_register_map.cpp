@@ -142,6 +142,8 @@ TEST(RegisterMap, DefectsNameFileFieldAndExpectation) {
       {with("transport = \"tcp\"", "transport = \"udp\""), "devices[0].transport"},
       {with("slave = 9", "slave = 300"), "devices[0].slave"},
       {with("scale = 0.01", "scale = 0"), "devices[0].channels[0].scale"},
+      {with("rate_hz = 100", "rate_hz = 100\nreconnect_backoff_ms = 0"), "devices[0].reconnect_backoff_ms"},
+      {with("rate_hz = 100", "rate_hz = 100\nreconnect_backoff_ms = 50\nreconnect_max_ms = 10"), "devices[0].reconnect_max_ms"},
       {with("scale = 0.01", "scale = [0.01, 0.01]"), "devices[0].channels[0].scale"},  // one per column
       {with("scale = 0.01", "scale = [0.01, 0, 0.01]"), "devices[0].channels[0].scale[1]"},
       {with("scale = 0.01", "scale = 0.01\noffset = [1, \"a\", 2]"), "devices[0].channels[0].offset"},

@@ -67,6 +67,9 @@ struct DeviceSpec {
   double rate_hz = 100;            // polls per second
   double timeout_ms = 100;         // reply timeout
   double late_reply_ms = 300;      // RTU: latest a reply may still come (after the request)
+  // TCP: a lost connection is retried at once; while the device refuses, again after
+  // reconnect_backoff_ms, doubling up to reconnect_max_ms.
+  double reconnect_backoff_ms = 20, reconnect_max_ms = 1000;
   Mode mode = Mode::Latest;
   int function = 3;                // 3 = holding, 4 = input registers
   int start = 0, count = 0;        // the one block read per poll
