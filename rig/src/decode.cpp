@@ -59,6 +59,15 @@ std::optional<std::int64_t> unwrap_counter(std::int64_t previous, std::int64_t r
   return std::nullopt;
 }
 
+bool status_invalid(const DeviceSpec& d, std::span<const std::uint16_t> regs, int base) {
+  if (!d.status) return false;
+  const int at = d.status->field.address - base;
+  BURRBENCH_CHECK(at >= 0 && at + register_count(d.status->field.type) <= static_cast<int>(regs.size()),
+                  "checked by the map");
+  const auto word = static_cast<std::uint32_t>(decode_integer(regs.data() + at, d.status->field.type, d.status->field.order));
+  return (word & d.status->invalid_mask) != 0;
+}
+
 bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, int base,
                     std::span<double> out) {
   BURRBENCH_CHECK(out.size() == ch.registers.size(), "one output per column");

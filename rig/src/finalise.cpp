@@ -151,7 +151,8 @@ data_schema::Recording recording_from_journal(const JournalContents& j, const st
     const int base = d.mode == Mode::Fifo ? 0 : d.start;
     std::vector<data_schema::Channel> chans;
     for (const auto& c : d.channels) chans.push_back({c.name, c.unit, c.registers.size(), {}});
-    // bit 0: a value was invalid (NaN/Inf/out of range); bit 1: counter unchanged (repeat)
+    // bit 0: a value was invalid (NaN/Inf/out of range); bit 1: counter unchanged (repeat);
+    // bit 2: the device's status word marked the sample invalid (its values are NaN)
     data_schema::Channel flags{"sample_flags", "1", 1, {}};
     std::vector<double> buf;
     for (const auto* s : samples) {
@@ -162,11 +163,14 @@ data_schema::Recording recording_from_journal(const JournalContents& j, const st
       if (has_counter) st.device_counter.push_back(s->counter);
       const bool stale = d.mode == Mode::Latest && has_counter && st.device_counter.size() >= 2 &&
                          s->counter == st.device_counter[st.device_counter.size() - 2];
-      bool ok = true;
+      bool values_ok = true;
+      const bool status_bad = status_invalid(d, s->regs, base);
       for (std::size_t c = 0; c < d.channels.size(); ++c) {
         buf.assign(d.channels[c].registers.size(), 0.0);
-        if (!decode_channel(d.channels[c], s->regs, base, buf)) {
-          ok = false;
+        const bool decoded = decode_channel(d.channels[c], s->regs, base, buf);
+        values_ok = values_ok && decoded;
+        if (status_bad) buf.assign(buf.size(), std::numeric_limits<double>::quiet_NaN());
+        if (!decoded || status_bad) {
           // NaN on a stale row is the recording's "no fresh value" marker; positions
           // must stay finite, so they hold 0 and rely on the stale flag alone.
           if (d.channels[c].name == data_schema::kPosition)
@@ -175,8 +179,9 @@ data_schema::Recording recording_from_journal(const JournalContents& j, const st
         }
         chans[c].values.insert(chans[c].values.end(), buf.begin(), buf.end());
       }
+      const bool ok = values_ok && !status_bad;
       st.stale.push_back((stale || !ok) ? 1 : 0);
-      flags.values.push_back((ok ? 0.0 : 1.0) + (stale ? 2.0 : 0.0));
+      flags.values.push_back((values_ok ? 0.0 : 1.0) + (stale ? 2.0 : 0.0) + (status_bad ? 4.0 : 0.0));
       rep.stale += stale;
       rep.invalid += !ok;
     }

@@ -160,7 +160,7 @@ void check_disjoint(const TomlView& r, const ChannelSpec& c, std::map<int, std::
 DeviceSpec parse_device(const TomlView& r) {
   r.allow({"name", "transport", "host", "port", "serial", "baud", "parity", "data_bits", "stop_bits",
            "slave", "rate_hz", "timeout_ms", "late_reply_ms", "reconnect_backoff_ms", "reconnect_max_ms", "mode", "function", "start", "count", "counter", "fifo",
-           "calibration", "channels"});
+           "calibration", "channels", "status"});
   DeviceSpec d;
   d.name = r.str("name");
   if (d.name.empty() || d.name.find_first_of("/. ") != std::string::npos)
@@ -264,6 +264,20 @@ DeviceSpec parse_device(const TomlView& r) {
     check_canonical(cr, c);
     check_disjoint(cr, c, owner);
     d.channels.push_back(std::move(c));
+  }
+  if (r.has("status")) {
+    const TomlView sr = r.table("status");
+    sr.allow({"register", "type", "word_order", "invalid_mask"});
+    StatusSpec st;
+    st.field.address = static_cast<int>(sr.integer("register", 0, 65535));
+    st.field.type = parse_type(sr, "type", std::string("uint16"));
+    if (st.field.type == ValueType::Float32) sr.fail("type", "an integer type for a status word", "float32");
+    st.field.order = parse_order(sr, "word_order");
+    const auto bits = register_count(st.field.type) * 16;
+    st.invalid_mask = static_cast<std::uint32_t>(
+        sr.integer("invalid_mask", 1, bits == 16 ? 0xFFFF : 0xFFFFFFFFLL));
+    check_inside(sr, "register", st.field.address, register_count(st.field.type), base, span);
+    d.status = st;
   }
   if (r.has("calibration")) {
     const TomlView cr = r.table("calibration");

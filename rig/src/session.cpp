@@ -257,7 +257,8 @@ struct Session::Impl {
   static void note_values(DeviceState& st, const std::vector<std::uint16_t>& regs, int base) {
     const auto& ch = st.spec->channels.front();
     st.status.last.resize(ch.registers.size());
-    if (!decode_channel(ch, regs, base, st.status.last)) ++st.status.invalid;
+    const bool values_ok = decode_channel(ch, regs, base, st.status.last);
+    if (!values_ok || status_invalid(*st.spec, regs, base)) ++st.status.invalid;
   }
 
   void on_bad(DeviceState& st, ModbusLink& link, const ReadResult& r) {

@@ -20,8 +20,9 @@ _UNITS = {"ft": (R.FT_UNIT, R.FT_SIZE), "stage": (R.STAGE_UNIT, R.STAGE_SIZE),
 class Playback:
     """Shared clock and register images of every device."""
 
-    def __init__(self, source, counter_start=0):
+    def __init__(self, source, counter_start=0, status_every=0):
         self.source = source
+        self.status_every = status_every  # ft sample k with k % N == 0 sets the overload bit
         self.start_ns = time.monotonic_ns()
         # Subtracted from the sample index: -counter_start at first, the index of the
         # restart after a reset.
@@ -60,7 +61,8 @@ class Playback:
         src = self.source
         counter = k - self.counter_base[device]
         if device == "ft":
-            return R.ft_image(counter, src.value("ft", k), self._fifo(device, k, R.FIFO_DEPTH))
+            overload = bool(self.status_every) and k % self.status_every == 0
+            return R.ft_image(counter, src.value("ft", k), self._fifo(device, k, R.FIFO_DEPTH), overload)
         if device == "stage":
             return R.stage_image(counter, src.value("stage", k), self._fifo(device, k, R.STAGE_FIFO_DEPTH))
         return R.spindle_image(counter, src.value("spindle", k))

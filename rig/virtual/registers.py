@@ -20,6 +20,9 @@ SPINDLE_SIZE = 4
 FT_INT16 = 180    # Fx,Fy,Fz N*100 ; Mx,My,Mz N*m*1000 (= N*mm)
 FT_FLOAT = 200    # Fx,Fy,Fz N, Tx,Ty,Tz N*mm, float32 ABCD
 FT_COUNTER = 220  # uint32 ABCD
+FT_STATUS = 222   # uint16 status word: bit 0 an int16 value saturated, bit 1 overload (--status-every)
+STATUS_SATURATED = 0x0001
+STATUS_OVERLOAD = 0x0002
 FIFO_COUNTER = 300
 FIFO_DATA = 302
 FIFO_DEPTH = 8
@@ -85,7 +88,7 @@ def _constant_block():
 CONST_FLOAT_REGS, CONST_INT_REGS = _constant_block()
 
 
-def ft_image(counter, wrench, fifo):
+def ft_image(counter, wrench, fifo, overload=False):
     """Unit 9 address space.
 
     counter: device sample counter of the current sample.
@@ -101,6 +104,9 @@ def ft_image(counter, wrench, fifo):
     packed = struct.unpack(">12H", struct.pack(">6f", *wrench))
     regs[FT_FLOAT:FT_FLOAT + 12] = packed
     regs[FT_COUNTER:FT_COUNTER + 2] = u32_words(counter)
+    saturated = any(math.isnan(v) or abs(v * s) > INT16_MAX
+                    for v, s in zip(wrench, (100.0, 100.0, 100.0, 1.0, 1.0, 1.0)))
+    regs[FT_STATUS] = (STATUS_SATURATED if saturated else 0) | (STATUS_OVERLOAD if overload else 0)
     regs[FIFO_COUNTER:FIFO_COUNTER + 2] = u32_words(counter)
     at = FIFO_DATA
     for w in fifo:

@@ -180,3 +180,23 @@ def test_rtu_rates_the_bus_cannot_carry_are_refused_before_opening_it(tmp_path):
     assert f"{rig_map}: devices[0].rate_hz: expected rates the bus" in p.stderr and "167 % busy" in p.stderr, p.stderr
     p = rh.run(["rig", "check", "--rig", rh.write_map(tmp_path, body.replace("rate_hz = 100", "rate_hz = 50"))], timeout=20)
     assert "83 % busy" in p.stdout and "16.67 ms" in p.stdout, p.stdout + p.stderr
+
+
+def test_status_bits_mark_rows_invalid(tmp_path):
+    # Issue 11: a status or saturation register marks rows invalid. The virtual sensor sets
+    # its overload bit (0x0002 at register 222) on every 7th sample; the map's mask is 0x0002.
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "100", "--status-every", "7"]) as (proc, host, port):
+        body = rh.tcp_device("ft_sensor", port, 9, 180, 43, 100, rh.FT_CHANNELS, counter=220,
+                             extra="status = { register = 222, type = \"uint16\", invalid_mask = 0x0002 }\n")
+        out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), 1.5)
+    ft = rh.read_recording(out)["ft_sensor"]
+    k = ft["device_counter"]
+    flags = ft["channels"]["sample_flags"].reshape(-1).astype(int)
+    bad = (k % 7 == 0)
+    assert bad.sum() >= 10 and (~bad).sum() >= 50, k
+    np.testing.assert_array_equal((flags & 4) != 0, bad)
+    assert np.all(ft["stale"][bad] == 1)
+    for name in ("force_N", "torque_Nmm", "force_int16_N"):
+        assert np.all(np.isnan(ft["channels"][name][bad])), name
+        assert np.all(np.isfinite(ft["channels"][name][~bad])), name
+    assert np.all(ft["raw_registers"][bad][:, 222 - 180] == 2)  # the status is kept raw

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -136,4 +137,16 @@ TEST(Decode, CounterWrapIsUnwrappedAndARestartIsNot) {
   EXPECT_EQ(unwrap_counter(-1, -1, ValueType::Int16, 10), 65535);
   EXPECT_EQ(unwrap_counter(4294967290LL, 5, ValueType::UInt32, 100), 4294967301LL);
   EXPECT_EQ(unwrap_counter(4294967290LL, 5, ValueType::UInt32, 5), std::nullopt);
+}
+
+TEST(Decode, StatusWordMasksMarkSamplesInvalid) {
+  DeviceSpec d;
+  EXPECT_FALSE(status_invalid(d, std::vector<std::uint16_t>{0xFFFF}, 0));  // no status word
+  d.status = StatusSpec{Field{11, ValueType::UInt16, WordOrder::ABCD}, 0x0006};
+  const std::vector<std::uint16_t> ok{0xFFFF, 0x0009}, bad{0, 0x0004}, swapped{0, 0x0400};
+  EXPECT_FALSE(status_invalid(d, ok, 10));
+  EXPECT_TRUE(status_invalid(d, bad, 10));
+  EXPECT_FALSE(status_invalid(d, swapped, 10));
+  d.status->field.order = WordOrder::BADC;  // byte-swapped device
+  EXPECT_TRUE(status_invalid(d, swapped, 10));
 }

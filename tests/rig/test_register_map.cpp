@@ -196,3 +196,19 @@ TEST(RegisterMap, CalibrationNeedsSixColumnInput) {
   const auto msg = message_of(t);  // "strain" has 3 columns
   EXPECT_NE(msg.find("m.toml: devices[0].calibration.input: expected the name of a 6-column channel"), std::string::npos) << msg;
 }
+
+TEST(RegisterMap, StatusWordIsParsedAndChecked) {
+  const auto m = parse_rig_map(with("count = 6", "count = 6\nstatus = { register = 185, invalid_mask = 0x8003 }"), "m.toml");
+  ASSERT_TRUE(m.devices[0].status);
+  EXPECT_EQ(m.devices[0].status->field.address, 185);
+  EXPECT_EQ(m.devices[0].status->field.type, ValueType::UInt16);
+  EXPECT_EQ(m.devices[0].status->invalid_mask, 0x8003u);
+  EXPECT_NE(message_of(with("count = 6", "count = 6\nstatus = { register = 190, invalid_mask = 1 }"))
+                .find("m.toml: devices[0].status.register: expected registers inside [180, 186)"),
+            std::string::npos);
+  EXPECT_NE(message_of(with("count = 6", "count = 6\nstatus = { register = 185, invalid_mask = 0x10000 }"))
+                .find("m.toml: devices[0].status.invalid_mask"),
+            std::string::npos);
+  EXPECT_NE(message_of(with("count = 6", "count = 6\nstatus = { register = 185 }")).find("m.toml: devices[0].status.invalid_mask"),
+            std::string::npos);
+}

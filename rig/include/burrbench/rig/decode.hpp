@@ -29,6 +29,9 @@ std::optional<std::int64_t> unwrap_counter(std::int64_t previous, std::int64_t r
                                            double max_advance);
 std::int64_t counter_range(ValueType type);  // 2^16 or 2^32
 
+// True when the device's status word (if it has one) marks this sample invalid.
+bool status_invalid(const DeviceSpec& d, std::span<const std::uint16_t> regs, int base);
+
 // Decode one channel from a sample's registers (base = address of regs[0]).
 // Returns false when a value is NaN/Inf or outside [min, max]; such values are NaN.
 bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, int base,

@@ -49,6 +49,13 @@ struct FifoSpec {
   double device_rate_hz = 0;   // the device's own sample rate
 };
 
+// A device's status word: a sample whose status has any of invalid_mask's bits set is
+// flagged invalid (e.g. a sensor's saturation or overload bit).
+struct StatusSpec {
+  Field field;                  // latest mode: inside the block; fifo mode: offset in a record
+  std::uint32_t invalid_mask = 0;
+};
+
 struct CalibrationSpec {
   std::string input;               // a 6-column raw channel (e.g. strain gauges)
   std::array<double, 36> matrix{};  // row-major; rows 0-2 → force_N, 3-5 → torque_Nmm
@@ -77,6 +84,7 @@ struct DeviceSpec {
   std::optional<Field> counter;    // latest mode: device sample counter
   std::optional<FifoSpec> fifo;    // fifo mode
   std::optional<CalibrationSpec> calibration;
+  std::optional<StatusSpec> status;
   // Registers stored per sample: the block (latest) or one FIFO record.
   int sample_registers() const { return mode == Mode::Fifo ? fifo->record_registers : count; }
 };
