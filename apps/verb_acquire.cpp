@@ -155,7 +155,7 @@ void run(const Options& o) {
   for (const auto& d : status.devices)
     std::cout << fmt::format("{:<14} {:>9.1f} {:>9.1f} {:>10} {:>9.0f} µs {:>9} {:>8} {:>10} {:>7} {:>7}\n", d.name,
                              d.rate_hz, d.achieved_hz, d.samples, d.jitter_p99_us, d.timeouts, d.errors, d.reconnects,
-                             d.missed_polls, d.lost);
+                             d.missed_polls, d.fifo ? std::to_string(d.lost) : std::string("-"));
 }
 
 void setup(CLI::App& root) {

@@ -371,6 +371,7 @@ Session::Session(RigMap map, const std::filesystem::path& journal, const std::st
     st->status.name = st->spec->name;
     st->status.rate_hz = st->spec->rate_hz;
     st->status.first_channel = st->spec->channels.front().name;
+    st->status.fifo = st->spec->mode == Mode::Fifo;
     I.devices.push_back(std::move(st));
   }
   I.event(-1, "start", fmt::format("{} device(s)", I.devices.size()));

@@ -21,7 +21,8 @@ struct DeviceStatus {
   double rate_hz = 0;              // requested polls per second
   std::uint64_t polls = 0, samples = 0, timeouts = 0, errors = 0, reconnects = 0;
   std::uint64_t missed_polls = 0;  // deadlines skipped (overrun or disconnected)
-  std::uint64_t lost = 0;          // device samples lost by counter (fifo) / polls lost
+  std::uint64_t lost = 0;          // FIFO records lost to an overrun (fifo mode only)
+  bool fifo = false;               // latest mode has no "lost": its gaps are events
   std::uint64_t invalid = 0;       // samples with a NaN/out-of-range value
   double jitter_p99_us = 0;        // |interval - period| of consecutive polls
   double jitter_max_us = 0;
