@@ -8,6 +8,7 @@
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/data_schema/version.hpp"
+#include "cli_suggest.hpp"
 #include "verb_registry.hpp"
 
 namespace burrbench::apps {
@@ -35,8 +36,11 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int rc = app.exit(e);  // prints help/version or the parse error
-    return rc == 0 ? 0 : 2;
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // One line, prefixed like every other error, with the nearest verb or option when the
+    // mistake looks like a typo ("calibrat", "--experment").
+    std::cerr << "burrbench: " << apps::explain_parse_error(app, e, argc, argv) << "\n";
+    return 2;
   } catch (const InputError& e) {
     std::cerr << "burrbench: " << e.what() << "\n";
     return 2;

@@ -52,7 +52,7 @@ void setup(CLI::App& root) {
   auto* cmd = root.add_subcommand("calibrate", "Fit alpha, C1 and mu per bone class to an "
                                                "experiment's recorded forces, with intervals");
   auto a = std::make_shared<Args>();
-  cmd->add_option("--experiment", a->experiment, "experiment manifest (.toml)")->required();
+  cmd->add_option("EXPERIMENT,--experiment", a->experiment, "experiment manifest (.toml), as --experiment E.toml or just E.toml")->required();
   cmd->add_option("--out", a->out, "output directory (fit.json, params.toml)")->required();
   cmd->add_option("--threads", a->options.threads, "replay threads")->capture_default_str();
   cmd->add_option("--max-iterations", a->options.max_iterations, "Ceres iterations")->capture_default_str();

@@ -91,7 +91,7 @@ void setup(CLI::App& root) {
                                   "Replay an experiment's recordings through the model: "
                                   "predicted force at every sample");
   auto a = std::make_shared<Args>();
-  cmd->add_option("--experiment", a->experiment, "experiment manifest (.toml)")->required();
+  cmd->add_option("EXPERIMENT,--experiment", a->experiment, "experiment manifest (.toml), as --experiment E.toml or just E.toml")->required();
   cmd->add_option("--params", a->params, "parameter set (.toml)")->required();
   cmd->add_option("--out", a->out, "prediction file to write (.h5, format burrbench.prediction)")
       ->required();

@@ -78,7 +78,7 @@ void setup(CLI::App& root) {
       "validate", "Release gate: replay with fixed parameters, check acceptance criteria, write the "
                   "report; exit 0 pass, 1 fail, 2 bad input");
   auto a = std::make_shared<Args>();
-  cmd->add_option("--experiment", a->experiment, "experiment manifest (.toml)")->required();
+  cmd->add_option("EXPERIMENT,--experiment", a->experiment, "experiment manifest (.toml), as --experiment E.toml or just E.toml")->required();
   cmd->add_option("--params", a->params, "parameter set (.toml, burrbench.params)")->required();
   cmd->add_option("--criteria", a->criteria, "acceptance criteria (.toml, burrbench.criteria)")->required();
   cmd->add_option("--out", a->out, "output directory (report.html, analysis.json, CSVs, metrics.json)")

@@ -1,0 +1,49 @@
+"""The command line a user types: every mistake is one line starting `burrbench:`, exit 2,
+and a typo gets the nearest verb or option (issue 12)."""
+import os
+import subprocess
+
+import pytest
+
+BURRBENCH = os.environ["BURRBENCH"]
+
+
+def run(*args):
+    return subprocess.run([BURRBENCH, *args], capture_output=True, text=True, timeout=60)
+
+
+@pytest.mark.parametrize("args,want", [
+    (["calibrat"], "burrbench: unknown command 'calibrat' (did you mean calibrate?)"),
+    (["calibrate", "--experment", "E.toml", "--out", "x"],
+     "burrbench: calibrate: unknown option --experment (did you mean --experiment?)"),
+    (["rig", "chek"], "burrbench: rig: unknown command 'chek' (did you mean check?)"),
+    (["validate", "--param", "p.toml"], "burrbench: validate: unknown option --param (did you mean --params?)"),
+    (["calibrate"], "burrbench: calibrate: --experiment is required"),
+    ([], "burrbench: A subcommand is required"),
+])
+def test_mistakes_are_one_prefixed_line_with_a_suggestion(args, want):
+    p = run(*args)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert p.stderr.startswith(want), p.stderr
+    assert p.stderr.count("\n") == 1, p.stderr
+
+
+def test_unrelated_words_get_no_suggestion():
+    p = run("frobnicate")
+    assert p.returncode == 2 and "unknown command 'frobnicate'" in p.stderr and "did you mean" not in p.stderr
+
+
+@pytest.mark.parametrize("verb", ["calibrate", "validate", "replay"])
+def test_the_experiment_may_be_given_without_its_option(tmp_path, verb):
+    # `burrbench calibrate E.toml`, the form the provenance example in docs/formats.md shows.
+    missing = str(tmp_path / "E.toml")
+    params = {"calibrate": [], "replay": ["--params", missing],
+              "validate": ["--params", missing, "--criteria", missing]}[verb]  # missing too: any error names it
+    p = run(verb, missing, "--out", str(tmp_path / "out"), *params)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert p.stderr.startswith(f"burrbench: {missing}:"), p.stderr  # taken as the experiment
+
+
+def test_help_still_exits_0():
+    p = run("calibrate", "--help")
+    assert p.returncode == 0 and "EXPERIMENT" in p.stdout
