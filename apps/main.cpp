@@ -1,5 +1,6 @@
 // burrbench: thin entry point. Verbs live in verb_*.cpp, one file per verb.
 #include <algorithm>
+#include <csignal>
 #include <exception>
 #include <iostream>
 
@@ -26,6 +27,8 @@ int exit_code() { return g_exit_code; }
 int main(int argc, char** argv) {
   using namespace burrbench;
   set_invocation(argc, argv);
+  // A file-size limit (ulimit -f) must be a write error naming the file, not a kill.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"burrbench — validate and calibrate a voxel burr–bone drilling model "
                "against a physical drilling rig"};
   app.set_version_flag("--version", std::string(software_version()));

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <memory>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
@@ -53,14 +54,7 @@ void run(const Args& a) {
   res.recording.meta.sample_id = fs::path(a.sample).stem().string();
   data_schema::write_recording(a.out, res.recording);
   const auto truth = model::truth_json(res, sample, protocol, params, o, prov);
-  {
-    const std::string tmp = a.truth + ".tmp";
-    std::ofstream f(tmp);
-    f << truth.dump(2) << "\n";
-    if (!f) throw InputError(a.truth, "<file>", "a writable output path");
-    f.close();
-    fs::rename(tmp, a.truth);
-  }
+  data_schema::write_file_atomic(a.truth, truth.dump(2) + "\n");
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::string removed;
   for (const auto& [name, v] : truth["removed_mm3_by_class"].items())

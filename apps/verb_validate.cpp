@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/analysis/criteria.hpp"
 #include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/analysis/report.hpp"
@@ -52,9 +53,9 @@ void run(const Args& a) {
   const fs::path dir = a.out;
   analysis::write_analysis_input(dir, in);
   if (!fs::equivalent(a.criteria, dir / "criteria.toml", ec))
-    fs::copy_file(a.criteria, dir / "criteria.toml", fs::copy_options::overwrite_existing);
+    data_schema::copy_file_atomic(a.criteria, dir / "criteria.toml");
   if (!fs::equivalent(a.params, dir / "params.toml", ec))
-    fs::copy_file(a.params, dir / "params.toml", fs::copy_options::overwrite_existing);
+    data_schema::copy_file_atomic(a.params, dir / "params.toml");
   const auto s = analysis::write_report(dir, dir / "report.html", {a.assets, a.context, nullptr});
   progress.finish(fmt::format("{} recordings, {} samples", s.recordings, s.samples));
 

@@ -1,3 +1,4 @@
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/analysis/analysis_input.hpp"
 
 #include <cmath>
@@ -133,12 +134,8 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
                                {"segments", segs}, {"samples", r.t_s.size()}});
   }
   j["provenance"] = provenance_to_json(in.provenance);
-  {
-    std::ofstream f(dir / "analysis.json");
-    f << j.dump(1) << "\n";
-    if (!f) throw InputError((dir / "analysis.json").string(), "file", "a writable path");
-  }
-  std::ofstream f(dir / "predictions.csv");
+  data_schema::write_file_atomic(dir / "analysis.json", j.dump(1) + "\n");
+  data_schema::AtomicFile f(dir / "predictions.csv");
   f << kCsvHeader << "\n";
   for (const auto& r : in.recordings) {
     const std::string id = csv_quote(r.id);
@@ -149,7 +146,7 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
                        p.z, int(r.used[i]));
     }
   }
-  if (!f) throw InputError((dir / "predictions.csv").string(), "file", "a writable path");
+  f.commit();
 }
 
 AnalysisInput read_analysis_input(const fs::path& dir) {
@@ -319,7 +316,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
 }
 
 void write_residuals_csv(const fs::path& path, const AnalysisInput& in) {
-  std::ofstream f(path);
+  data_schema::AtomicFile f(path);
   f << "recording_id,role,t_s,used,residual_x_N,residual_y_N,residual_z_N\n";
   for (const auto& r : in.recordings) {
     const std::string id = csv_quote(r.id);
@@ -328,7 +325,7 @@ void write_residuals_csv(const fs::path& path, const AnalysisInput& in) {
       f << fmt::format("{},{},{},{},{},{},{}\n", id, r.role, r.t_s[i], int(r.used[i]), e.x, e.y, e.z);
     }
   }
-  if (!f) throw InputError(path.string(), "file", "a writable path");
+  f.commit();
 }
 
 }  // namespace burrbench::analysis

@@ -1,3 +1,4 @@
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/analysis/report.hpp"
 
 #include <algorithm>
@@ -477,8 +478,8 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
       b += "<p>" + esc(s.id) + ": no depth map recorded.</p>";
       continue;
     }
-    std::ofstream(out_dir / fmt::format("removed_{}.png", &s - in.samples.data()), std::ios::binary)
-        .write(reinterpret_cast<const char*>(png.data()), std::streamsize(png.size()));
+    data_schema::write_file_atomic(out_dir / fmt::format("removed_{}.png", &s - in.samples.data()),
+                                   std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
     b += "<h3>" + esc(s.id) + "</h3><img class=\"bone\" alt=\"removed bone depth map\" src=\"data:image/png;base64," +
          base64(png) + "\">";
   }
@@ -540,18 +541,14 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   replace_once(html, "<!--BURRBENCH:BODY-->", b);
   replace_once(html, "<!--BURRBENCH:DATA-->", json_for_script(data));
   replace_once(html, "<!--BURRBENCH:JS-->", js);
-  {
-    std::ofstream f(out_html, std::ios::binary);
-    f << html;
-    if (!f) throw InputError(out_html.string(), "--out", "a writable file");
-  }
+  data_schema::write_file_atomic(out_html, html);
 
   // Beside the report: the series, residuals, metrics and the fit.
   if (!fs::equivalent(dir, out_dir, ec)) {
     // Only from an analysis directory: a report that replayed a fit wrote its own fresh
     // predictions.csv above, which an older file must not replace.
     if (has_analysis && fs::exists(dir / "predictions.csv"))
-      fs::copy_file(dir / "predictions.csv", out_dir / "predictions.csv", fs::copy_options::overwrite_existing);
+      data_schema::copy_file_atomic(dir / "predictions.csv", out_dir / "predictions.csv");
     if (fit_result) {
       // The copy beside the report carries the metrics (FitResult::metrics is analysis's
       // to fill); the calibrate directory's own fit.json is an input and stays as it is.
@@ -577,7 +574,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   for (const auto& f : in.provenance.inputs) inputs.push_back({{"path", f.path}, {"sha256", f.sha256}});
   mj["provenance"] = {{"software_version", prov.software_version}, {"command_line", prov.command_line},
                       {"created_utc", prov.created_utc}, {"inputs", inputs}};
-  std::ofstream(out_dir / "metrics.json") << mj.dump(1) << "\n";
+  data_schema::write_file_atomic(out_dir / "metrics.json", mj.dump(1) + "\n");
   return sum;
 }
 

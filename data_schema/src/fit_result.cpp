@@ -1,5 +1,6 @@
 // Fit result (JSON, format "burrbench.fit"): writer, reader, validator.
 // Non-finite numbers: NaN ↔ null, ±inf ↔ "inf"/"-inf" (JSON has neither).
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
 
 #include <cmath>
@@ -236,16 +237,8 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
       {"settings", f.settings},
       {"provenance", provenance_json(detail::stamped(f.provenance))},
       {"experiment", {{"path", f.experiment_path}, {"sha256", f.experiment_sha256}}}};
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    // max_digits10 round trip: nlohmann prints doubles with 17 significant digits.
-    out << root.dump(2, ' ', false, json::error_handler_t::replace) << "\n";
-    if (!out) throw InputError(path.string(), "<file>", "a writable location");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw InputError(path.string(), "<file>", "a writable location", ec.message());
+  // max_digits10 round trip: nlohmann prints doubles with 17 significant digits.
+  write_file_atomic(path, root.dump(2, ' ', false, json::error_handler_t::replace) + "\n");
 }
 
 FitResult read_fit(const std::filesystem::path& path) {

@@ -1,5 +1,6 @@
 // Experiment manifest (TOML, format "burrbench.experiment"): parse, resolve, validate.
 // Messages name the TOML key path, arrays indexed from 0 ("recordings[1].lag_ms").
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/manifest.hpp"
 
 #include <cmath>
@@ -495,16 +496,9 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
       {"sensor", sensor},
       {"recordings", recordings},
       {"fit", fit}};
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << "# burrbench experiment manifest (docs/formats.md). Paths are relative to this file.\n"
-        << root << "\n";
-    if (!out) throw InputError(path.string(), "<file>", "a writable location");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw InputError(path.string(), "<file>", "a writable location", ec.message());
+  std::ostringstream text;
+  text << "# burrbench experiment manifest (docs/formats.md). Paths are relative to this file.\n" << root << "\n";
+  write_file_atomic(path, text.str());
 }
 
 }  // namespace burrbench::data_schema

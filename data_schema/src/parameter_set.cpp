@@ -1,4 +1,5 @@
 // Parameter set (TOML, format "burrbench.params"): per class id, α, C1, μ.
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 
 #include <cmath>
@@ -56,18 +57,12 @@ void write_params(const std::filesystem::path& path, const ParameterSet& p) {
                          {"notes", p.notes},
                          {"classes", classes},
                          {"provenance", detail::provenance_to_toml(detail::stamped(p.provenance))}};
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << "# burrbench parameter set: model constants per bone class (docs/formats.md).\n"
-           "# Units: alpha_N_per_mm2 and c1_N_per_mm2 in N/mm^2 (alpha = mJ/mm^3, energy to\n"
-           "# remove 1 mm^3 of full-density bone; inf = no erosion); mu dimensionless.\n"
-        << root << "\n";
-    if (!out) throw InputError(path.string(), "<file>", "a writable location");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw InputError(path.string(), "<file>", "a writable location", ec.message());
+  std::ostringstream text;
+  text << "# burrbench parameter set: model constants per bone class (docs/formats.md).\n"
+          "# Units: alpha_N_per_mm2 and c1_N_per_mm2 in N/mm^2 (alpha = mJ/mm^3, energy to\n"
+          "# remove 1 mm^3 of full-density bone; inf = no erosion); mu dimensionless.\n"
+       << root << "\n";
+  write_file_atomic(path, text.str());
 }
 
 ParameterSet read_params(const std::filesystem::path& path) {

@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
 
@@ -54,8 +55,7 @@ void write_prediction(const std::filesystem::path& path,
 
 void write_prediction_csv(const std::filesystem::path& path,
                           const std::vector<RecordingPrediction>& preds) {
-  std::ofstream out(path);
-  if (!out) throw InputError(path.string(), "<file>", "a writable output path");
+  data_schema::AtomicFile out(path);
   out << "recording,t_s,Fburr_x_N,Fburr_y_N,Fburr_z_N,Fpred_x_N,Fpred_y_N,Fpred_z_N,"
          "Fmeas_x_N,Fmeas_y_N,Fmeas_z_N,b_mm,n_x,n_y,n_z,class_mask,buried,use\n";
   for (const auto& p : preds)
@@ -68,7 +68,7 @@ void write_prediction_csv(const std::filesystem::path& path,
           p.recording_id, p.t_s[k], fb.x, fb.y, fb.z, fp.x, fp.y, fp.z, fm.x, fm.y, fm.z,
           p.depth_b_mm[k], n.x, n.y, n.z, int(p.class_mask[k]), int(p.buried[k]), int(p.use[k]));
     }
-  if (!out) throw InputError(path.string(), "<file>", "a writable output path", "write failed");
+  out.commit();
 }
 
 }  // namespace burrbench::model

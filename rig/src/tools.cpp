@@ -1,3 +1,4 @@
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/rig/tools.hpp"
 
 #include <time.h>
@@ -164,9 +165,9 @@ void write_tare(const std::filesystem::path& path, const Tare& t) {
   for (double v : t.stddev) sd.push_back(v);
   root.insert("bias", bias);
   root.insert("stddev", sd);
-  std::ofstream out(path);
-  out << "# Sensor bias (Fx,Fy,Fz N, Tx,Ty,Tz N*mm) written by burrbench rig tare\n" << root << "\n";
-  if (!out) throw std::runtime_error(fmt::format("{}: cannot write tare file", path.string()));
+  std::ostringstream text;
+  text << "# Sensor bias (Fx,Fy,Fz N, Tx,Ty,Tz N*mm) written by burrbench rig tare\n" << root << "\n";
+  data_schema::write_file_atomic(path, text.str());
 }
 
 Tare read_tare(const std::filesystem::path& path) {

@@ -172,3 +172,24 @@ def test_replay_refuses_one_file_for_both_outputs(exp, tmp_path):
     lines = [l for l in p.stderr.splitlines() if l.strip()]
     assert len(lines) == 1 and "--csv" in lines[0] and "--out" in lines[0], p.stderr
     assert not out.exists()
+
+
+def test_a_file_size_limit_fails_loudly_and_leaves_nothing_half_written(exp, tmp_path):
+    # Issue 12: under a full disk `replay --csv` exited 0 with the CSV cut mid-row. With
+    # RLIMIT_FSIZE (a full disk without a mount) the command must fail naming the file, and
+    # neither output may exist, whole or in part; no temporary is left.
+    import resource
+    import signal
+
+    def limit():
+        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)  # burrbench must ignore it itself
+        resource.setrlimit(resource.RLIMIT_FSIZE, (64 << 10, 64 << 10))
+
+    out, csv = tmp_path / "p.h5", tmp_path / "p.csv"
+    p = subprocess.run([BURRBENCH, "replay", "--experiment", str(exp / "experiment.toml"), "--params",
+                        str(exp / "params_true.toml"), "--out", str(out), "--csv", str(csv)],
+                       capture_output=True, text=True, timeout=300, preexec_fn=limit)
+    assert p.returncode == 3, p.stdout + p.stderr
+    lines = [l for l in p.stderr.splitlines() if l.startswith("burrbench:")]
+    assert len(lines) == 1 and ("p.csv" in lines[0] or "p.h5" in lines[0]), p.stderr
+    assert sorted(x.name for x in tmp_path.iterdir()) == [], list(tmp_path.iterdir())

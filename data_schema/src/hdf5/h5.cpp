@@ -1,13 +1,16 @@
 #include "hdf5/h5.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cstring>
+#include <stdexcept>
 #include <system_error>
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 
 namespace burrbench::data_schema::h5 {
@@ -436,6 +439,13 @@ std::string Reader::read_string(const std::string& ds_path, std::uint64_t max_by
 
 // ---------------------------------------------------------------- Writer
 
+namespace {
+// A failed write is not bad input: exit 3, naming the file (the temporary is removed).
+[[noreturn]] void write_error(const std::string& file, const std::string& field, const std::string& what) {
+  throw std::runtime_error(fmt::format("{}: {}: {}; nothing was written there", file, field, what));
+}
+}  // namespace
+
 Writer::Writer(const std::filesystem::path& target)
     : target_(target),
       tmp_(target.string() + fmt::format(".tmp-{}", ::getpid())),
@@ -447,8 +457,9 @@ Writer::Writer(const std::filesystem::path& target)
   // corrupt v1 metadata). Readable by HDF5 >= 1.8: h5py, MATLAB, Slicer.
   Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V18, H5F_LIBVER_V18);
+  temp_slot_ = register_temporary(tmp_);
   f_ = Handle(H5Fcreate(tmp_.string().c_str(), H5F_ACC_TRUNC, fcpl.get(), fapl.get()), H5Fclose);
-  if (!f_.valid()) throw InputError(file_, "<file>", "a writable location", "cannot create " + tmp_.string());
+  if (!f_.valid()) write_error(file_, "<file>", "cannot create " + tmp_.string());
 }
 
 Writer::~Writer() {
@@ -457,6 +468,7 @@ Writer::~Writer() {
     std::error_code ec;
     std::filesystem::remove(tmp_, ec);
   }
+  unregister_temporary(temp_slot_);
 }
 
 void Writer::group(const std::string& path) {
@@ -465,7 +477,7 @@ void Writer::group(const std::string& path) {
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
   H5Pset_create_intermediate_group(lcpl.get(), 1);
   Handle g(H5Gcreate2(f_.get(), path.c_str(), lcpl.get(), gcpl.get(), H5P_DEFAULT), H5Gclose);
-  if (!g.valid()) throw InputError(file_, path, "a new group", "HDF5 could not create it");
+  if (!g.valid()) write_error(file_, path, "HDF5 could not create it");
 }
 
 namespace {
@@ -475,7 +487,7 @@ void write_attr(hid_t f, const std::string& file, const std::string& obj, const 
                              H5P_DEFAULT),
            H5Aclose);
   if (!a.valid() || H5Awrite(a.get(), memtype, data) < 0)
-    throw InputError(file, attr_field(obj, name), "a writable attribute", "HDF5 write failed");
+    write_error(file, attr_field(obj, name), "HDF5 write failed");
 }
 }  // namespace
 
@@ -536,9 +548,9 @@ void Writer::dataset(const std::string& path, const std::vector<hsize_t>& shape,
   Handle d(H5Dcreate2(f_.get(), path.c_str(), file_type(e), space.get(), lcpl.get(), dcpl.get(),
                       H5P_DEFAULT),
            H5Dclose);
-  if (!d.valid()) throw InputError(file_, path, "a new dataset", "HDF5 could not create it");
+  if (!d.valid()) write_error(file_, path, "HDF5 could not create it");
   if (n > 0 && H5Dwrite(d.get(), native(e), H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
-    throw InputError(file_, path, "a writable dataset", "HDF5 write failed");
+    write_error(file_, path, "HDF5 write failed");
 }
 
 template void Writer::dataset(const std::string&, const std::vector<hsize_t>&, const std::int64_t*, bool);
@@ -557,9 +569,9 @@ void Writer::strings(const std::string& path, const std::vector<std::string>& va
   H5Pset_create_intermediate_group(lcpl.get(), 1);
   Handle d(H5Dcreate2(f_.get(), path.c_str(), t.get(), space.get(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT),
            H5Dclose);
-  if (!d.valid()) throw InputError(file_, path, "a new dataset", "HDF5 could not create it");
+  if (!d.valid()) write_error(file_, path, "HDF5 could not create it");
   if (n > 0 && H5Dwrite(d.get(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0)
-    throw InputError(file_, path, "a writable dataset", "HDF5 write failed");
+    write_error(file_, path, "HDF5 write failed");
 }
 
 void Writer::string(const std::string& path, const std::string& value) {
@@ -572,16 +584,24 @@ void Writer::string(const std::string& path, const std::string& value) {
   Handle d(H5Dcreate2(f_.get(), path.c_str(), t.get(), space.get(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT),
            H5Dclose);
   if (!d.valid() || H5Dwrite(d.get(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0)
-    throw InputError(file_, path, "a writable dataset", "HDF5 write failed");
+    write_error(file_, path, "HDF5 write failed");
 }
 
 void Writer::commit() {
   const hid_t id = f_.get();
-  if (H5Fflush(id, H5F_SCOPE_GLOBAL) < 0) throw InputError(file_, "<file>", "a writable file", "flush failed");
+  if (H5Fflush(id, H5F_SCOPE_GLOBAL) < 0) write_error(file_, "<file>", "flush failed");
   f_.reset();
+  // Durable before it takes the target's name: a crash after the rename must not leave a
+  // recording whose blocks never reached the disk.
+  const int fd = ::open(tmp_.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0 || ::fsync(fd) != 0) {
+    if (fd >= 0) ::close(fd);
+    write_error(file_, "<file>", "fsync failed");
+  }
+  ::close(fd);
   std::error_code ec;
   std::filesystem::rename(tmp_, target_, ec);
-  if (ec) throw InputError(file_, "<file>", "a writable location", ec.message());
+  if (ec) write_error(file_, "<file>", ec.message());
   committed_ = true;
 }
 

@@ -120,6 +120,7 @@ class Writer {
   ErrorSilencer silence_;
   Handle f_;
   bool committed_ = false;
+  int temp_slot_ = -1;  // removed on SIGINT/SIGTERM too (atomic_file.hpp)
 };
 
 }  // namespace burrbench::data_schema::h5

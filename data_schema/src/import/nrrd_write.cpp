@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/import/volume.hpp"
 
@@ -51,11 +52,9 @@ void write_nrrd(const std::filesystem::path& path, const ImageVolume& v, VoxelTy
       "space origin: ({:.17g},{:.17g},{:.17g})\n\n",
       tname, v.dims[0], v.dims[1], v.dims[2], v.spacing_mm.x, v.spacing_mm.y, v.spacing_mm.z, v.origin_mm.x,
       v.origin_mm.y, v.origin_mm.z);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw InputError(path.string(), "<file>", "a writable path");
-  out << h;
-  out.write(gz.data(), static_cast<std::streamsize>(gz.size()));
-  if (!out) throw InputError(path.string(), "<file>", "a writable path", "write failed");
+  AtomicFile out(path);
+  out << h << std::string_view(gz.data(), gz.size());
+  out.commit();
 }
 
 }  // namespace burrbench::data_schema::import
