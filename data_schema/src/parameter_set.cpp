@@ -27,13 +27,18 @@ void validate(const ParameterSet& p, const std::string& file) {
     if (id == 0) throw InputError(file, f + ".id", "a class id 1..255 (0 is empty space)", "0");
     if (c.name.empty()) throw InputError(file, f, "a class name");
     if (!names.insert(c.name).second) throw InputError(file, f, "unique class names", "duplicate");
-    if (std::isnan(c.alpha_N_per_mm2) || !(c.alpha_N_per_mm2 > 0))
-      throw InputError(file, f + ".alpha_N_per_mm2", "alpha > 0 N/mm² (inf = no erosion)",
-                       fmt::format("{}", c.alpha_N_per_mm2));
-    if (!std::isfinite(c.c1_N_per_mm2) || !(c.c1_N_per_mm2 > 0))
-      throw InputError(file, f + ".c1_N_per_mm2", "a finite C1 > 0 N/mm²", fmt::format("{}", c.c1_N_per_mm2));
-    if (!std::isfinite(c.mu) || c.mu < 0)
-      throw InputError(file, f + ".mu", "a finite mu >= 0", fmt::format("{}", c.mu));
+    // Physical ranges (docs/formats.md): far wider than bone, narrow enough that a typo
+    // (c1 = 1e200) is refused here instead of turning into NaN forces in a replay.
+    const double a = c.alpha_N_per_mm2;
+    if (std::isnan(a) || !(a > 0) || (std::isfinite(a) && a > kMaxAlpha_N_per_mm2))
+      throw InputError(file, f + ".alpha_N_per_mm2",
+                       fmt::format("alpha > 0 N/mm², at most {:g} (inf = no erosion)", kMaxAlpha_N_per_mm2),
+                       fmt::format("{}", a));
+    if (!std::isfinite(c.c1_N_per_mm2) || !(c.c1_N_per_mm2 > 0) || c.c1_N_per_mm2 > kMaxC1_N_per_mm2)
+      throw InputError(file, f + ".c1_N_per_mm2", fmt::format("a finite C1 > 0 N/mm², at most {:g}", kMaxC1_N_per_mm2),
+                       fmt::format("{}", c.c1_N_per_mm2));
+    if (!std::isfinite(c.mu) || c.mu < 0 || c.mu > kMaxMu)
+      throw InputError(file, f + ".mu", fmt::format("a finite mu >= 0, at most {:g}", kMaxMu), fmt::format("{}", c.mu));
   }
 }
 

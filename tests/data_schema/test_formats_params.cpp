@@ -71,7 +71,11 @@ TEST(FormatsParams, HandWrittenFileWithInfString) {
 TEST(FormatsParams, BadValuesAndKeysAreRejected) {
   TempDir dir;
   expect_bad(dir, "c1_N_per_mm2 = 10.0", "c1_N_per_mm2 = 0.0",
-             {"P.toml: classes.compact.c1_N_per_mm2: expected a finite C1 > 0 N/mm², got 0"});
+             {"P.toml: classes.compact.c1_N_per_mm2: expected a finite C1 > 0 N/mm², at most 1e+06, got 0"});
+  // A typo that would turn into NaN forces in a replay (issue 12).
+  expect_bad(dir, "c1_N_per_mm2 = 10.0", "c1_N_per_mm2 = 1e200", {"classes.compact.c1_N_per_mm2", "at most 1e+06"});
+  expect_bad(dir, "mu = 0.3", "mu = 30", {"classes.compact.mu", "at most 10"});
+  expect_bad(dir, "alpha_N_per_mm2 = 25.0", "alpha_N_per_mm2 = 1e300", {"classes.compact.alpha_N_per_mm2", "at most 1e+12"});
   expect_bad(dir, "c1_N_per_mm2 = 10.0", "c1_N_per_mm2 = -1.0", {"classes.compact.c1_N_per_mm2"});
   expect_bad(dir, "mu = 0.3", "mu = -0.3", {"classes.compact.mu: expected a finite mu >= 0"});
   expect_bad(dir, "mu = 0.3", "mu = nan", {"classes.compact.mu", "finite"});

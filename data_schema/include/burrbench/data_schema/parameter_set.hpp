@@ -13,6 +13,11 @@
 namespace burrbench::data_schema {
 
 inline constexpr const char* kParamsFormat = "burrbench.params";
+// Largest constants a parameter set may hold: orders of magnitude above bone (cortical
+// bone's elastic modulus ≈ 2·10⁴ N/mm², its specific cutting energy ≈ 10³–10⁴ N/mm²).
+inline constexpr double kMaxAlpha_N_per_mm2 = 1e12;  // an implant that never erodes may say 1e9
+inline constexpr double kMaxC1_N_per_mm2 = 1e6;
+inline constexpr double kMaxMu = 10.0;
 inline constexpr int kParamsVersionMajor = 1;
 inline constexpr int kParamsVersionMinor = 0;
 
