@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "burrbench/calibration/calibrate.hpp"
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
@@ -32,17 +33,14 @@ void run(const Args& a) {
   o.derivatives = a.derivatives == "fd" ? calibration::Derivatives::kFiniteDifferences
                                         : calibration::Derivatives::kSensitivities;
   calibration::validate(o);  // before any output folder is made
-  std::error_code ec;
-  if (fs::exists(a.out) && !fs::is_directory(a.out))
-    throw InputError(a.out, "--out", "a directory (or a path to create one)", "an existing file");
-  fs::create_directories(a.out, ec);
-  if (ec) throw InputError(a.out, "--out", "a directory that can be created", ec.message());
+  data_schema::CreatedFolder folder(a.out, "--out");  // gone again if the fit fails or is interrupted
   TerminalProgress progress("calibrate");
   o.progress = &progress;
   const auto res = calibration::calibrate(a.experiment, o);
   const fs::path fit = fs::path(a.out) / "fit.json", params = fs::path(a.out) / "params.toml";
   data_schema::write_fit(fit, res.fit);
   data_schema::write_params(params, res.params);
+  folder.keep();
   progress.finish(fmt::format("{} iterations, {} replays, {:.1f} s", res.fit.solver.iterations,
                               res.fit.solver.replays, res.fit.solver.wall_s));
   std::cout << res.summary << fmt::format("wrote {} and {}\n", fit.string(), params.string());

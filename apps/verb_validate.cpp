@@ -36,8 +36,7 @@ void run(const Args& a) {
   // Everything that can be checked cheaply is checked before the replay.
   const auto criteria = analysis::read_criteria(a.criteria);
   const auto params = data_schema::read_params(a.params);
-  fs::create_directories(a.out, ec);
-  if (ec) throw InputError(a.out, "--out", "a directory that can be created", ec.message());
+  data_schema::CreatedFolder folder(a.out, "--out");  // gone again if the replay fails or is interrupted
 
   TerminalProgress progress("validate");
   auto in = analysis::replay_experiment(a.experiment, params, nullptr,
@@ -57,6 +56,7 @@ void run(const Args& a) {
   if (!fs::equivalent(a.params, dir / "params.toml", ec))
     data_schema::copy_file_atomic(a.params, dir / "params.toml");
   const auto s = analysis::write_report(dir, dir / "report.html", {a.assets, a.context, nullptr});
+  folder.keep();
   progress.finish(fmt::format("{} recordings, {} samples", s.recordings, s.samples));
 
   std::size_t failed = 0;

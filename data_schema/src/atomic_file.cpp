@@ -13,6 +13,8 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/error.hpp"
+
 namespace burrbench::data_schema {
 namespace {
 
@@ -21,13 +23,18 @@ namespace {
 constexpr int kSlots = 64;
 struct Slot {
   std::atomic<bool> used{false};
+  bool folder = false;  // rmdir (only if empty) instead of unlink
   char path[4096];
 };
 std::array<Slot, kSlots> g_slots;
 
 void on_signal(int sig) {
   for (auto& s : g_slots)
-    if (s.used.load()) ::unlink(s.path);
+    if (s.used.load() && !s.folder) ::unlink(s.path);
+  for (auto& s : g_slots)  // folders after the files in them
+    if (s.used.load() && s.folder) ::rmdir(s.path);
+  static const char msg[] = "\nburrbench: interrupted; unfinished files removed\n";
+  [[maybe_unused]] const auto n = ::write(2, msg, sizeof msg - 1);
   // Then die of the signal as we would have (exit status 128 + sig for the shell).
   ::signal(sig, SIG_DFL);
   ::raise(sig);
@@ -54,7 +61,7 @@ std::atomic<unsigned> g_counter{0};
 
 }  // namespace
 
-int register_temporary(const std::filesystem::path& tmp) {
+int register_temporary(const std::filesystem::path& tmp, bool folder) {
   install_handlers_once();
   const std::string p = tmp.string();
   if (p.size() >= sizeof(Slot::path)) return -1;
@@ -65,6 +72,7 @@ int register_temporary(const std::filesystem::path& tmp) {
     std::lock_guard lk(m);
     if (g_slots[std::size_t(i)].used.load()) continue;
     std::memcpy(g_slots[std::size_t(i)].path, p.c_str(), p.size() + 1);
+    g_slots[std::size_t(i)].folder = folder;
     if (g_slots[std::size_t(i)].used.compare_exchange_strong(expected, true)) return i;
   }
   return -1;
@@ -137,6 +145,31 @@ void AtomicFile::commit() {
     ::fsync(dfd);
     ::close(dfd);
   }
+}
+
+CreatedFolder::CreatedFolder(const std::filesystem::path& path, const std::string& option) : path_(path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path_, ec)) {
+    if (!std::filesystem::is_directory(path_, ec))
+      throw InputError(path_.string(), option, "a directory (or a path to create one)", "an existing file");
+    return;
+  }
+  std::filesystem::create_directories(path_, ec);
+  if (ec) throw InputError(path_.string(), option, "a directory that can be created", ec.message());
+  created_ = true;
+  slot_ = register_temporary(path_, true);
+}
+
+CreatedFolder::~CreatedFolder() {
+  unregister_temporary(slot_);
+  std::error_code ec;
+  if (created_ && std::filesystem::is_empty(path_, ec)) std::filesystem::remove(path_, ec);
+}
+
+void CreatedFolder::keep() {
+  created_ = false;
+  unregister_temporary(slot_);
+  slot_ = -1;
 }
 
 void copy_file_atomic(const std::filesystem::path& from, const std::filesystem::path& target) {

@@ -47,3 +47,27 @@ def test_the_experiment_may_be_given_without_its_option(tmp_path, verb):
 def test_help_still_exits_0():
     p = run("calibrate", "--help")
     assert p.returncode == 0 and "EXPERIMENT" in p.stdout
+
+
+def test_ctrl_c_leaves_no_empty_output_folder(tmp_path):
+    # Issue 12: Ctrl-C during a calibration left an empty output folder and no message.
+    import signal
+    import time
+    from pathlib import Path
+    src = Path(os.environ["BURRBENCH_SOURCE_DIR"]) / "examples" / "experiments" / "synthetic"
+    subprocess.run(["sh", str(src / "make.sh"), BURRBENCH, str(tmp_path / "exp")], check=True,
+                   capture_output=True, timeout=300)
+    out = tmp_path / "fit"
+    p = subprocess.Popen([BURRBENCH, "calibrate", str(tmp_path / "exp" / "experiment.toml"), "--out", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    for _ in range(100):  # until the folder exists: the fit is under way
+        if out.exists():
+            break
+        time.sleep(0.05)
+    assert out.exists()
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == -signal.SIGINT, err
+    assert "burrbench: interrupted; unfinished files removed" in err, err
+    assert not out.exists()

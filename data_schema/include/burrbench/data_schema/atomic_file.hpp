@@ -44,9 +44,27 @@ void write_file_atomic(const std::filesystem::path& target, std::string_view byt
 // output, criteria, parameters, predictions).
 void copy_file_atomic(const std::filesystem::path& from, const std::filesystem::path& target);
 
+// An output folder a command creates: removed again (if still empty) when the command
+// fails or is interrupted, so Ctrl-C never leaves an empty folder behind. keep() once
+// the command's outputs are written.
+class CreatedFolder {
+ public:
+  // Creates `path` (and parents) unless it exists; InputError(option) when it cannot.
+  CreatedFolder(const std::filesystem::path& path, const std::string& option);
+  ~CreatedFolder();
+  CreatedFolder(const CreatedFolder&) = delete;
+  CreatedFolder& operator=(const CreatedFolder&) = delete;
+  void keep();
+
+ private:
+  std::filesystem::path path_;
+  bool created_ = false;
+  int slot_ = -1;
+};
+
 // Temporaries of other writers (HDF5) that a SIGINT/SIGTERM must remove too. register
 // returns a slot (or -1 when the list is full: the file is then only removed on error).
-int register_temporary(const std::filesystem::path& tmp);
+int register_temporary(const std::filesystem::path& tmp, bool folder = false);
 void unregister_temporary(int slot);
 
 }  // namespace burrbench::data_schema
