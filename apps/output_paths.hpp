@@ -1,6 +1,8 @@
 #pragma once
 // Inputs are never written: every verb refuses an output path that names one of its
 // inputs (the same file through another spelling, a symlink or a hard link included).
+#include <unistd.h>
+
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -30,6 +32,21 @@ inline void refuse_same_outputs(const std::string& a, const std::string& option_
                                 const std::string& option_b) {
   if (!a.empty() && !b.empty() && same_file(a, b))
     throw InputError(b, option_b, "a file other than " + option_a + " (one output would replace the other)", a);
+}
+
+// Checked before long work, not after it: an output file's folder must exist and be
+// writable, and the path must not name a folder.
+inline void check_output_location(const std::string& out, const std::string& option) {
+  if (out.empty()) return;
+  const std::filesystem::path p(out);
+  std::error_code ec;
+  if (std::filesystem::is_directory(p, ec))
+    throw InputError(out, option, "a file path (it names a folder)", "a folder");
+  const auto dir = p.parent_path().empty() ? std::filesystem::path(".") : p.parent_path();
+  if (!std::filesystem::is_directory(dir, ec))
+    throw InputError(out, option, "a path in an existing folder", "no folder " + dir.string());
+  if (::access(dir.c_str(), W_OK) != 0)
+    throw InputError(out, option, "a path in a folder we may write", "folder " + dir.string() + " is not writable");
 }
 
 }  // namespace burrbench::apps

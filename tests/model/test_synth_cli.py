@@ -193,3 +193,16 @@ def test_a_file_size_limit_fails_loudly_and_leaves_nothing_half_written(exp, tmp
     lines = [l for l in p.stderr.splitlines() if l.startswith("burrbench:")]
     assert len(lines) == 1 and ("p.csv" in lines[0] or "p.h5" in lines[0]), p.stderr
     assert sorted(x.name for x in tmp_path.iterdir()) == [], list(tmp_path.iterdir())
+
+
+def test_replay_checks_its_outputs_before_replaying(exp, tmp_path):
+    # Issue 12: an unwritable output was found only after the whole replay.
+    for out, csv, want in ((tmp_path / "no" / "p.h5", None, "no folder"),
+                           (tmp_path, None, "names a folder"),
+                           (tmp_path / "p.h5", tmp_path / "missing" / "p.csv", "--csv")):
+        args = ["replay", "--experiment", exp / "experiment.toml", "--params", exp / "params_true.toml", "--out", out]
+        if csv:
+            args += ["--csv", csv]
+        p = run(*args, check=False)
+        assert p.returncode == 2 and want in p.stderr, p.stderr
+        assert "replay plunge" not in p.stderr, "refused before any replay"
