@@ -117,3 +117,19 @@ def test_decimal_comma_with_a_detected_comma_delimiter_is_refused(tmp_path):
     assert r.returncode == 2, r.stdout + r.stderr
     assert f"{m}: decimal: expected" in r.stderr and str(csv) in r.stderr, r.stderr
     assert not out.exists()
+
+
+def test_burr_axis_and_spin_are_stated_on_import(tmp_path):
+    # Issue 12: a tilted burr imported as axis [0, 0, 1]; the axis is normalised, a bad one refused.
+    csv = tmp_path / "R.csv"
+    csv.write_text("t_s,x_mm,y_mm,z_mm,fx_N,fy_N,fz_N\n0.0,1,2,3,4,5,6\n0.001,1,2,3,4,5,6\n")
+    out = tmp_path / "R.h5"
+    r = run("recording", "import", "--csv", csv, "--out", out, "--burr-axis", "0", "3", "4", "--spin", "-1")
+    assert r.returncode == 0, r.stderr
+    with h5py.File(out, "r") as f:
+        np.testing.assert_allclose(f["meta"].attrs["burr_axis_rig"], [0, 0.6, 0.8], rtol=0, atol=1e-15)
+        assert int(f["meta"].attrs["spin_sign"]) == -1
+    for args, field in ((["--burr-axis", "0", "0", "0"], "--burr-axis"), (["--spin", "2"], "--spin")):
+        r = run("recording", "import", "--csv", csv, "--out", tmp_path / "X.h5", *args)
+        assert r.returncode == 2 and field in r.stderr and r.stderr.startswith("burrbench:"), r.stderr
+        assert not (tmp_path / "X.h5").exists()
