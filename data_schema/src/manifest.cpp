@@ -313,6 +313,10 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
     rr.role = choice(r, "role", {{"calibrate", RecordingRole::kCalibrate}, {"validate", RecordingRole::kValidate}},
                      RecordingRole::kCalibrate);
     rr.lag_ms = r.opt_num("lag_ms").value_or(0.0);
+    rr.spindle_rpm = r.opt_num("spindle_rpm");
+    if (rr.spindle_rpm && !(std::abs(*rr.spindle_rpm) > 0 && std::abs(*rr.spindle_rpm) <= 1e6))
+      throw InputError(file, r.field("spindle_rpm"), "a constant spindle speed, 0 < |rpm| ≤ 1e6 (sign = spin)",
+                       fmt::format("{}", *rr.spindle_rpm));
     auto g = r.table("registration");
     const bool fid = g.has("fiducials_rig_mm") || g.has("fiducials_vol_mm");
     const int given = int(g.has("rotation") || g.has("translation_mm")) + int(g.has("vol_from_rig")) +
@@ -463,6 +467,7 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
     toml::table rt{{"id", r.id},          {"path", display(r.path, base)}, {"sample", r.sample},
                    {"role", to_string(r.role)}, {"lag_ms", r.lag_ms},       {"registration", reg}};
     if (!segs.empty()) rt.insert("segments", segs);
+    if (r.spindle_rpm) rt.insert("spindle_rpm", *r.spindle_rpm);
     recordings.push_back(rt);
   }
   toml::table sensor{{"rotation_sensor_to_rig", rows(m.sensor.rotation_sensor_to_rig)},

@@ -133,16 +133,28 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     a.stage_rig_mm.value.emplace_back(pos.values[3 * i], pos.values[3 * i + 1],
                                       pos.values[3 * i + 2]);
   }
-  const auto& rpm = channel(rec, data_schema::kSpindle, 1, file);
-  const data_schema::Stream& s_stream = *rec.stream_with(data_schema::kSpindle);
-  for (std::size_t i : fresh(s_stream)) {
-    a.spindle_rpm.t_s.push_back(seconds(s_stream.t_ns[i], a.t0_ns));
-    a.spindle_rpm.value.push_back(rpm.values[i]);
-  }
   if (a.stage_rig_mm.t_s.empty())
     throw InputError(file, "streams/" + p_stream.name, "at least one fresh sample");
-  if (a.spindle_rpm.t_s.empty())
-    throw InputError(file, "streams/" + s_stream.name, "at least one fresh sample");
+  // The spindle speed: the recording's channel, or the manifest's constant when the rig
+  // did not log it — never both (which one would be right?).
+  if (const data_schema::Stream* s_stream = rec.stream_with(data_schema::kSpindle)) {
+    if (ref.spindle_rpm)
+      throw InputError(m.file.string(), "recordings." + ref.id + ".spindle_rpm",
+                       "no constant speed for a recording that logs spindle_rpm (" + file + ")", "both");
+    const auto& rpm = channel(rec, data_schema::kSpindle, 1, file);
+    for (std::size_t i : fresh(*s_stream)) {
+      a.spindle_rpm.t_s.push_back(seconds(s_stream->t_ns[i], a.t0_ns));
+      a.spindle_rpm.value.push_back(rpm.values[i]);
+    }
+    if (a.spindle_rpm.t_s.empty())
+      throw InputError(file, "streams/" + s_stream->name, "at least one fresh sample");
+  } else if (ref.spindle_rpm) {
+    a.spindle_rpm.t_s = {0.0};
+    a.spindle_rpm.value = {*ref.spindle_rpm};
+  } else {
+    throw InputError(file, "streams", "a stream with the channel spindle_rpm, or spindle_rpm = RPM for recording " +
+                                          ref.id + " in the manifest (a constant speed)");
+  }
 
   // Segments: a sample is used when some use=true segment holds it and no use=false one does.
   // Bounds are inclusive and compared in integer ns (start_s rounded to the ns), so a

@@ -206,3 +206,41 @@ def test_replay_checks_its_outputs_before_replaying(exp, tmp_path):
         p = run(*args, check=False)
         assert p.returncode == 2 and want in p.stderr, p.stderr
         assert "replay plunge" not in p.stderr, "refused before any replay"
+
+
+def test_a_constant_spindle_speed_in_the_manifest_replaces_a_missing_channel(exp, tmp_path):
+    # Issue 12: a recording without spindle_rpm imported, then could not be replayed. The
+    # manifest's `spindle_rpm` gives a constant speed: the same forces as the channel that
+    # held that constant (30000 rpm in the synthetic recordings).
+    import shutil
+    for f in ("sample.h5", "plunge.h5", "params_true.toml"):
+        shutil.copy(exp / f, tmp_path / f)
+    with h5py.File(tmp_path / "plunge.h5", "r") as f:
+        assert set(np.unique(f["streams/spindle/channels/spindle_rpm"][()])) == {30000.0}
+    shutil.copy(tmp_path / "plunge.h5", tmp_path / "nospin.h5")
+    with h5py.File(tmp_path / "nospin.h5", "r+") as f:
+        del f["streams/spindle/channels/spindle_rpm"]
+    text = (exp / "experiment.toml").read_text()
+    head = text[:text.index("[[recordings]]")]
+    rec = text[text.index("[[recordings]]"):text.index("[[recordings]]", text.index("[[recordings]]") + 1)]
+    (tmp_path / "with.toml").write_text(head + rec)
+    (tmp_path / "without.toml").write_text(head + rec.replace('path = "plunge.h5"', 'path = "nospin.h5"'))
+    (tmp_path / "constant.toml").write_text(
+        head + rec.replace('path = "plunge.h5"', 'path = "nospin.h5"').replace("lag_ms = 0.0", "lag_ms = 0.0\nspindle_rpm = 30000"))
+    (tmp_path / "both.toml").write_text(head + rec.replace("lag_ms = 0.0", "lag_ms = 0.0\nspindle_rpm = 30000"))
+
+    def replay(manifest, out):
+        return run("replay", tmp_path / manifest, "--params", tmp_path / "params_true.toml", "--out", tmp_path / out,
+                   check=False)
+    p = replay("without.toml", "a.h5")
+    assert p.returncode == 2 and "spindle_rpm = RPM" in p.stderr, p.stderr
+    p = replay("both.toml", "b.h5")
+    assert p.returncode == 2 and "recordings.plunge.spindle_rpm" in p.stderr, p.stderr
+    assert replay("with.toml", "with.h5").returncode == 0
+    assert replay("constant.toml", "const.h5").returncode == 0
+    def predicted(path):
+        with h5py.File(path, "r") as f:
+            return f["recordings/plunge/force_sensor_pred_N"][()]
+    a, b = predicted(tmp_path / "with.h5"), predicted(tmp_path / "const.h5")
+    assert np.abs(a).max() > 0.2
+    np.testing.assert_array_equal(a, b)

@@ -77,6 +77,8 @@ struct RecordingRef {
   std::string sample;          // a SampleRef id
   RecordingRole role = RecordingRole::kCalibrate;
   double lag_ms = 0;           // initial / fixed position→force lag
+  // Constant spindle speed (signed rpm) for a recording without a spindle_rpm channel.
+  std::optional<double> spindle_rpm;
   Registration registration;
   std::vector<Segment> segments;  // empty: the whole recording
 };
