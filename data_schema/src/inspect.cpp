@@ -29,7 +29,8 @@ FileFormat from_name(const std::string& file, const std::string& field, const st
                        FileFormat::kFit, FileFormat::kPrediction})
     if (name == format_name(f)) return f;
   throw InputError(file, field,
-                   "a burrbench format (burrbench.recording | sample | params | experiment | fit | prediction)",
+                   "a burrbench format (burrbench.recording | sample | params | experiment | fit | prediction | "
+                   "criteria | metrics | analysis)",
                    "\"" + name + "\"");
 }
 
@@ -189,11 +190,16 @@ const char* format_name(FileFormat f) {
 
 FileFormat detect_format(const std::filesystem::path& path) {
   const std::string file = path.string();
+  return from_name(file, "format", declared_format(path));
+}
+
+std::string declared_format(const std::filesystem::path& path) {
+  const std::string file = path.string();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw InputError(file, "<file>", "an existing regular file");
   if (h5::is_hdf5(path)) {
     const h5::Reader r(path);
-    return from_name(file, "/@format", r.attr_string("/", "format"));
+    return r.attr_string("/", "format");
   }
   std::ifstream in(path, std::ios::binary);
   char c = 0;
@@ -208,7 +214,7 @@ FileFormat detect_format(const std::filesystem::path& path) {
       throw InputError(file, "<file>", "an HDF5, TOML or JSON burrbench file", "unparsable JSON");
     if (!j.contains("format") || !j["format"].is_string())
       throw InputError(file, "format", "a format name string", "missing");
-    return from_name(file, "format", j["format"].get<std::string>());
+    return j["format"].get<std::string>();
   }
   toml::table t;
   try {
@@ -218,7 +224,7 @@ FileFormat detect_format(const std::filesystem::path& path) {
   }
   const auto fmt_name = t["format"].value<std::string>();
   if (!fmt_name) throw InputError(file, "format", "a format name string", "missing");
-  return from_name(file, "format", *fmt_name);
+  return *fmt_name;
 }
 
 std::string describe_file(const std::filesystem::path& path) {

@@ -60,6 +60,15 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
     for f in ("report.html", "predictions.csv", "residuals.csv", "analysis.json", "criteria.toml"):
         assert (out / f).exists(), f
     assert [sha(p) for p in inputs] == before  # inputs untouched
+    # `inspect` reads every file the gate wrote, analysis's formats included (issue 12).
+    for f, want in (("criteria.toml", "acceptance criteria (burrbench.criteria), 4 criteria"),
+                    ("metrics.json", "release gate PASS"),
+                    ("analysis.json", "analysis directory (burrbench.analysis), 3 recordings")):
+        r = run("inspect", str(out / f))
+        assert r.returncode == 0 and want in r.stdout and r.stdout.endswith("valid\n"), r.stdout + r.stderr
+    (out / "metrics.json").write_text('{"format": "burrbench.metrics", "format_version": "1.0"}')
+    r = run("inspect", str(out / "metrics.json"))
+    assert r.returncode == 2 and f"{out / 'metrics.json'}: rows: expected" in r.stderr, r.stderr
 
     html = open(out / "report.html", encoding="utf-8").read()
     assert "http://" not in html and "https://" not in html
