@@ -33,7 +33,7 @@ void run(const Args& a) {
   o.derivatives = a.derivatives == "fd" ? calibration::Derivatives::kFiniteDifferences
                                         : calibration::Derivatives::kSensitivities;
   calibration::validate(o);  // before any output folder is made
-  data_schema::CreatedFolder folder(a.out, "--out");  // gone again if the fit fails or is interrupted
+  data_schema::OutputFolder folder(a.out, "--out");  // gone again if the fit fails or is interrupted
   TerminalProgress progress("calibrate");
   o.progress = &progress;
   const auto res = calibration::calibrate(a.experiment, o);

@@ -36,7 +36,7 @@ void run(const Args& a) {
   // Everything that can be checked cheaply is checked before the replay.
   const auto criteria = analysis::read_criteria(a.criteria);
   const auto params = data_schema::read_params(a.params);
-  data_schema::CreatedFolder folder(a.out, "--out");  // gone again if the replay fails or is interrupted
+  data_schema::OutputFolder folder(a.out, "--out");  // gone again if the replay fails or is interrupted
 
   TerminalProgress progress("validate");
   auto in = analysis::replay_experiment(a.experiment, params, nullptr,

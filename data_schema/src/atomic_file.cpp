@@ -1,6 +1,7 @@
 #include "burrbench/data_schema/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -147,26 +148,37 @@ void AtomicFile::commit() {
   }
 }
 
-CreatedFolder::CreatedFolder(const std::filesystem::path& path, const std::string& option) : path_(path) {
+OutputFolder::OutputFolder(const std::filesystem::path& path, const std::string& option) : path_(path) {
   std::error_code ec;
   if (std::filesystem::exists(path_, ec)) {
     if (!std::filesystem::is_directory(path_, ec))
       throw InputError(path_.string(), option, "a directory (or a path to create one)", "an existing file");
-    return;
+  } else {
+    std::filesystem::create_directories(path_, ec);
+    if (ec) throw InputError(path_.string(), option, "a directory that can be created", ec.message());
+    created_ = true;
+    slot_ = register_temporary(path_, true);
   }
-  std::filesystem::create_directories(path_, ec);
-  if (ec) throw InputError(path_.string(), option, "a directory that can be created", ec.message());
-  created_ = true;
-  slot_ = register_temporary(path_, true);
+  lock_fd_ = ::open(path_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (lock_fd_ >= 0 && ::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(lock_fd_);
+    lock_fd_ = -1;
+    created_ = false;  // not ours to remove
+    unregister_temporary(slot_);
+    slot_ = -1;
+    throw InputError(path_.string(), option, "a folder no other burrbench command is writing",
+                     "in use by another run");
+  }
 }
 
-CreatedFolder::~CreatedFolder() {
+OutputFolder::~OutputFolder() {
   unregister_temporary(slot_);
   std::error_code ec;
   if (created_ && std::filesystem::is_empty(path_, ec)) std::filesystem::remove(path_, ec);
+  if (lock_fd_ >= 0) ::close(lock_fd_);
 }
 
-void CreatedFolder::keep() {
+void OutputFolder::keep() {
   created_ = false;
   unregister_temporary(slot_);
   slot_ = -1;

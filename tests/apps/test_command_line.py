@@ -49,8 +49,9 @@ def test_help_still_exits_0():
     assert p.returncode == 0 and "EXPERIMENT" in p.stdout
 
 
-def test_ctrl_c_leaves_no_empty_output_folder(tmp_path):
-    # Issue 12: Ctrl-C during a calibration left an empty output folder and no message.
+def test_ctrl_c_leaves_no_empty_output_folder_and_a_busy_folder_is_refused(tmp_path):
+    # Issue 12: Ctrl-C during a calibration left an empty output folder and no message;
+    # two runs into one folder mixed their files.
     import signal
     import time
     from pathlib import Path
@@ -65,6 +66,13 @@ def test_ctrl_c_leaves_no_empty_output_folder(tmp_path):
             break
         time.sleep(0.05)
     assert out.exists()
+    # A second run into the same folder is refused while the first writes it (it would mix
+    # their files): exit 2, one line, the first run undisturbed.
+    second = subprocess.run([BURRBENCH, "calibrate", str(tmp_path / "exp" / "experiment.toml"), "--out", str(out)],
+                            capture_output=True, text=True, timeout=60)
+    assert second.returncode == 2, second.stderr
+    assert second.stderr == f"burrbench: {out}: --out: expected a folder no other burrbench command is writing, got in use by another run\n"
+    assert p.poll() is None
     time.sleep(0.5)
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=60)

@@ -44,22 +44,26 @@ void write_file_atomic(const std::filesystem::path& target, std::string_view byt
 // output, criteria, parameters, predictions).
 void copy_file_atomic(const std::filesystem::path& from, const std::filesystem::path& target);
 
-// An output folder a command creates: removed again (if still empty) when the command
-// fails or is interrupted, so Ctrl-C never leaves an empty folder behind. keep() once
-// the command's outputs are written.
-class CreatedFolder {
+// A command's output folder. Locked (flock) while the command writes it, so a second
+// run into the same folder is refused (exit 2) instead of mixing its files with ours.
+// A folder the command created is removed again (if still empty) when the command fails
+// or is interrupted, so Ctrl-C never leaves an empty folder behind. keep() once the
+// command's outputs are written.
+class OutputFolder {
  public:
-  // Creates `path` (and parents) unless it exists; InputError(option) when it cannot.
-  CreatedFolder(const std::filesystem::path& path, const std::string& option);
-  ~CreatedFolder();
-  CreatedFolder(const CreatedFolder&) = delete;
-  CreatedFolder& operator=(const CreatedFolder&) = delete;
+  // Creates `path` (and parents) unless it exists, then locks it; InputError(option) when
+  // it cannot be created or another command holds it.
+  OutputFolder(const std::filesystem::path& path, const std::string& option);
+  ~OutputFolder();
+  OutputFolder(const OutputFolder&) = delete;
+  OutputFolder& operator=(const OutputFolder&) = delete;
   void keep();
 
  private:
   std::filesystem::path path_;
   bool created_ = false;
   int slot_ = -1;
+  int lock_fd_ = -1;
 };
 
 // Temporaries of other writers (HDF5) that a SIGINT/SIGTERM must remove too. register
