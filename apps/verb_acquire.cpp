@@ -15,6 +15,7 @@
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/data_schema/version.hpp"
+#include "burrbench/data_schema/recording.hpp"
 #include "burrbench/rig/finalise.hpp"
 #include "burrbench/rig/modbus_link.hpp"
 #include "burrbench/rig/session.hpp"
@@ -143,6 +144,7 @@ void run(const Options& o) {
   auto rec = rig::recording_from_journal(contents, journal.string(), &rep);
   for (const auto& p : rep.problems) std::cerr << "warning: " << p << "\n";
   rec.provenance = make_provenance(inputs);
+  data_schema::validate(rec, journal.string());  // a defect is the journal's (kept for recover)
   data_schema::write_recording(out, rec);
   if (!o.keep_journal) std::filesystem::remove(journal);
 

@@ -172,28 +172,44 @@ struct Session::Impl {
     st.last_ok_send_ns = r.t_send_ns;
     if (d.mode == Mode::Latest) {
       std::int64_t counter = -1;
+      double device_hz = 0;  // observed over at least 0.25 s, else unknown (0)
+      if (st.rate_c0 >= 0 && st.last_ok_before_ns - st.rate_t0_ns > 250'000'000 && st.last_counter > st.rate_c0)
+        device_hz = static_cast<double>(st.last_counter - st.rate_c0) /
+                    (static_cast<double>(st.last_ok_before_ns - st.rate_t0_ns) * 1e-9);
       if (d.counter) {
         const auto raw = decode_integer(regs.data() + (d.counter->address - d.start), d.counter->type, d.counter->order);
         // How far the device can have counted: twice its observed rate over the time since
-        // the last good poll (half the counter's range until a second of it was seen).
+        // the last good poll (half the counter's range until its rate is known).
         double max_advance = 0.5 * static_cast<double>(counter_range(d.counter->type));
-        if (st.rate_c0 >= 0 && st.last_ok_before_ns - st.rate_t0_ns > 1'000'000'000 && st.last_counter > st.rate_c0)
-          max_advance = 2.0 * static_cast<double>(st.last_counter - st.rate_c0) /
-                            static_cast<double>(st.last_ok_before_ns - st.rate_t0_ns) *
-                            static_cast<double>(r.t_recv_ns - st.last_ok_before_ns) + 16.0;
+        if (device_hz > 0)
+          max_advance = 2.0 * device_hz * static_cast<double>(r.t_recv_ns - st.last_ok_before_ns) * 1e-9 + 16.0;
         counter = take_counter(st, raw, d.counter->type, max_advance);
         if (st.rate_c0 < 0 || counter < st.last_counter) {
           st.rate_c0 = counter;
           st.rate_t0_ns = r.t_send_ns;
         }
       }
-      // Polls came late (slow replies, overrun) and the counter skipped: samples the
-      // schedule would have seen are gone — say so. (A regular schedule slower than the
-      // device skips counters by design; that is sampling, not loss.)
-      if (!st.pending_gap && counter >= 0 && st.last_counter >= 0 && counter - st.last_counter > 1 &&
-          since_last_ns > st.period_ns * 3 / 2)
-        event(st.index, "gap", fmt::format("late poll: {:.1f} ms since the previous one; counter {} → {}",
-                                           since_last_ns * 1e-6, st.last_counter, counter));
+      // Samples the schedule would have seen are gone — say so. (A regular schedule slower
+      // than the device skips counters by design; that is sampling, not loss.) Two ways:
+      // the poll was sent late (overrun, stall), or it was sent on time but the device
+      // answered late and so sampled late (fault 5: send times alone do not show it). The
+      // second is a skip beyond what one period at the device's observed rate explains
+      // (any skip when the device is no faster than the polls), or, in the first 0.25 s
+      // before its rate is known, any skip while previous send → this reply spans more
+      // than a period (conservative: a faster device's skips by design are flagged then).
+      if (!st.pending_gap && counter >= 0 && st.last_counter >= 0 && counter - st.last_counter > 1) {
+        const std::int64_t skip = counter - st.last_counter;
+        const double span_ms = static_cast<double>(r.t_recv_ns - st.last_ok_before_ns) * 1e-6;
+        bool lost = since_last_ns > st.period_ns * 3 / 2;
+        if (device_hz > 0)
+          lost = lost || skip > std::max<std::int64_t>(1, static_cast<std::int64_t>(std::floor(
+                                                              device_hz * static_cast<double>(st.period_ns) * 1e-9 * 1.25)));
+        else
+          lost = lost || span_ms > static_cast<double>(st.period_ns) * 1e-6;  // conservative until the rate is known
+        if (lost)
+          event(st.index, "gap", fmt::format("late poll or late reply: {:.1f} ms since the previous request was sent; "
+                                             "counter {} → {}", span_ms, st.last_counter, counter));
+      }
       if (st.pending_gap) {
         event(st.index, "gap", fmt::format("no data for {:.1f} ms; counter {} → {}",
                                            (r.t_send_ns - st.gap_since_ns) * 1e-6, st.last_counter, counter));

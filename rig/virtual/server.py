@@ -23,7 +23,7 @@ class Faults:
 
     def __init__(self, delay_ms=0.0, late_every=0, late_ms=0.0, exception_every=0,
                  drop_every_s=0.0, restart_at_s=0.0, restart_down_s=0.0, restart_reset=False,
-                 busy_at_s=0.0, busy_for_s=0.0, wrong_unit_every=0):
+                 busy_at_s=0.0, busy_for_s=0.0, wrong_unit_every=0, late_sample_every=0, late_sample_ms=0.0):
         self.delay_ms = delay_ms
         self.late_every = late_every
         self.late_ms = late_ms
@@ -33,6 +33,8 @@ class Faults:
         self.restart_down_s = restart_down_s
         self.restart_reset = restart_reset
         self.wrong_unit_every = wrong_unit_every
+        self.late_sample_every = late_sample_every
+        self.late_sample_ms = late_sample_ms
         self.busy_at_s = busy_at_s
         self.busy_for_s = busy_for_s
         self.start_ns = time.monotonic_ns()  # reset when READY is announced
@@ -112,6 +114,11 @@ class FaultMixin:
             self._reply(request, request.doException(merror.IllegalFunction), addr)
         elif (f.exception_every and n % f.exception_every == 0) or f.busy():
             self._reply(request, request.doException(merror.SlaveBusy), addr)
+        elif f.late_sample_every and n % f.late_sample_every == 0:
+            # A device slow to answer: it reads its registers (and replies) late_sample_ms
+            # after the request came, so the sample carried is a late one.
+            execute = super().execute
+            asyncio.get_running_loop().call_later(f.late_sample_ms * 1e-3, lambda: execute(request, *addr))
         else:
             super().execute(request, *addr)
 

@@ -52,6 +52,9 @@ def parse_args(argv):
                    help="every Nth request gets exception 06 SLAVE_DEVICE_BUSY")
     f.add_argument("--drop-every-s", type=float, default=0.0, metavar="X",
                    help="close all TCP connections every X s (the listener stays)")
+    f.add_argument("--late-sample-every", type=int, default=0, metavar="N",
+                   help="every Nth request is read (and answered) --late-sample-ms later")
+    f.add_argument("--late-sample-ms", type=float, default=0.0, help="how late, in ms")
     f.add_argument("--status-every", type=int, default=0, metavar="N",
                    help="the force sensor's status word (register 222) sets its overload bit (0x0002) "
                         "on every Nth sample (sample index k with k %% N == 0)")
@@ -84,10 +87,11 @@ def parse_args(argv):
         bad.append("--port: expected 0..65535")
     if a.baud <= 0:
         bad.append("--baud: expected > 0")
-    for name in ("delay_ms", "late_ms", "drop_every_s", "restart_at_s", "restart_down_s", "busy_at_s", "busy_for_s"):
+    for name in ("delay_ms", "late_ms", "drop_every_s", "restart_at_s", "restart_down_s", "busy_at_s", "busy_for_s",
+                 "late_sample_ms"):
         if getattr(a, name) < 0:
             bad.append(f"--{name.replace('_', '-')}: expected >= 0")
-    for name in ("late_reply_every", "exception_every", "wrong_unit_every", "status_every"):
+    for name in ("late_reply_every", "exception_every", "wrong_unit_every", "status_every", "late_sample_every"):
         if getattr(a, name) < 0:
             bad.append(f"--{name.replace('_', '-')}: expected >= 0")
     if a.late_reply_every and a.late_ms <= 0:
@@ -108,7 +112,8 @@ async def serve(args, source):
         loop.add_signal_handler(sig, stop.set)
     faults = Faults(args.delay_ms, args.late_reply_every, args.late_ms, args.exception_every,
                     args.drop_every_s, args.restart_at_s, args.restart_down_s,
-                    args.restart_resets_counter, args.busy_at_s, args.busy_for_s, args.wrong_unit_every)
+                    args.restart_resets_counter, args.busy_at_s, args.busy_for_s, args.wrong_unit_every,
+                    args.late_sample_every, args.late_sample_ms)
     playback = Playback(source, args.counter_start, args.status_every)
     contexts = make_contexts(playback)
     served = ServedLog(args.served_log, playback) if args.served_log else None

@@ -200,3 +200,16 @@ def test_status_bits_mark_rows_invalid(tmp_path):
         assert np.all(np.isnan(ft["channels"][name][bad])), name
         assert np.all(np.isfinite(ft["channels"][name][~bad])), name
     assert np.all(ft["raw_registers"][bad][:, 222 - 180] == 2)  # the status is kept raw
+
+
+def test_recover_never_replaces_an_existing_recording(tmp_path):
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "200"]) as (proc, host, port):
+        rig_map = rh.write_map(tmp_path, rh.tcp_device("ft_sensor", port, 9, 180, 42, 100, rh.FT_CHANNELS, counter=220))
+        out = rh.acquire(tmp_path, rig_map, 0.5, extra=["--keep-journal"])
+    before = open(out, "rb").read()
+    p = rh.run(["recover", out + ".journal", "--out", out])
+    assert p.returncode == 2 and f"{out}: --out: expected a file that does not exist yet" in p.stderr, p.stderr
+    assert open(out, "rb").read() == before
+    p = rh.run(["recover", out + ".journal", "--out", out, "--overwrite"])
+    assert p.returncode == 0, p.stderr
+    assert rh.read_recording(out)["ft_sensor"]["t_ns"].size > 10

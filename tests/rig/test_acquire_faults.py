@@ -111,7 +111,8 @@ def test_a_busy_spell_is_one_event_with_its_count(tmp_path):
     assert 150 <= sum(counts) <= 320, counts  # 1.2 s at 250 polls/s (the shared host may miss a few)
     assert "the first: " in busy[0][3] and "busy" in busy[0][3].lower(), busy[0]
     t = ft["t_ns"]
-    assert np.any(t < busy[0][0]) and np.any(t > busy[-1][0] + 1_000_000_000), "samples on both sides"
+    end = int(re.search(r"last at t = (\d+) ns", busy[-1][3]).group(1))
+    assert np.any(t < busy[0][0]) and np.any(t > end), "samples on both sides"
     assert rh.events(rec, "gap", "ft_sensor")
 
 
@@ -140,4 +141,18 @@ def test_a_dropped_connection_is_retried_at_once(tmp_path):
     assert len(fails) >= 2 and len(reconnects) >= len(fails), rec["_events"]
     for t in fails:
         after = min(r for r in reconnects if r > t)
-        assert after - t < 50_000_000, (after - t, rec["_events"])
+        assert after - t < 80_000_000, (after - t, rec["_events"])  # the next deadline would be 200 ms
+
+
+def test_samples_lost_to_a_late_reply_are_gap_events(tmp_path):
+    # Issue 11, fault 5: a request sent on time whose reply (and sample) comes late loses a
+    # device sample when device and polls run at one rate; send times alone did not show it,
+    # so no gap event was written. Polls at 100/s, the device at 99/s (so the phase between
+    # them sweeps every value; no skip by design), every 3rd request read 8 ms late.
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "99", "--late-sample-every", "3",
+                            "--late-sample-ms", "8"]) as (proc, host, port):
+        body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 100, rh.FT_CHANNELS, counter=220, timeout_ms=50)
+        out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), 2.5)
+    rec = rh.read_recording(out)
+    lost = rh.assert_losses_recorded(rec, "ft_sensor")
+    assert lost >= 10, lost  # the fault is real: samples were lost, and each one is in a gap event
