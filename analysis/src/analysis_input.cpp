@@ -1,4 +1,3 @@
-#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/analysis/analysis_input.hpp"
 
 #include <cmath>
@@ -9,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/nesting.hpp"
 #include "csv.hpp"

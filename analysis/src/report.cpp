@@ -1,4 +1,3 @@
-#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/analysis/report.hpp"
 
 #include <algorithm>
@@ -16,6 +15,7 @@
 
 #include "bone_image.hpp"
 #include "burrbench/analysis/replay_input.hpp"
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/error.hpp"

@@ -129,19 +129,33 @@ void AtomicFile::flush() {
 
 void AtomicFile::commit() {
   flush();
-  if (::fsync(fd_) != 0) fail("fsync failed", errno);
   const int fd = fd_;
   fd_ = -1;
-  if (::close(fd) != 0) {
-    fd_ = -1;
-    fail("close failed", errno);
-  }
-  if (::rename(tmp_.c_str(), target_.c_str()) != 0) fail("cannot rename the finished file onto it", errno);
-  tmp_.clear();
+  if (::close(fd) != 0) fail("close failed", errno);
+  const auto tmp = tmp_;
+  tmp_.clear();  // publish_temporary removes it on failure
+  publish_temporary(tmp, target_);
   unregister_temporary(slot_);
   slot_ = -1;
+}
+
+void publish_temporary(const std::filesystem::path& tmp, const std::filesystem::path& target) {
+  const auto failed = [&](const char* what, int err) {
+    ::unlink(tmp.c_str());
+    throw std::runtime_error(fmt::format("{}: {} ({}); nothing was written there", target.string(), what,
+                                         std::strerror(err)));
+  };
+  const int fd = ::open(tmp.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) failed("cannot reopen the finished file", errno);
+  if (::fsync(fd) != 0) {
+    const int err = errno;
+    ::close(fd);
+    failed("fsync failed", err);
+  }
+  ::close(fd);
+  if (::rename(tmp.c_str(), target.c_str()) != 0) failed("cannot rename the finished file onto it", errno);
   // The rename is durable once the folder is synced (best effort: some filesystems refuse).
-  const auto dir = target_.parent_path().empty() ? std::filesystem::path(".") : target_.parent_path();
+  const auto dir = target.parent_path().empty() ? std::filesystem::path(".") : target.parent_path();
   if (const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
     ::fsync(dfd);
     ::close(dfd);

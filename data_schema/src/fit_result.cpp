@@ -1,6 +1,5 @@
 // Fit result (JSON, format "burrbench.fit"): writer, reader, validator.
 // Non-finite numbers: NaN ↔ null, ±inf ↔ "inf"/"-inf" (JSON has neither).
-#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
 
 #include <cmath>
@@ -10,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/nesting.hpp"
 #include "format_common.hpp"

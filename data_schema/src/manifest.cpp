@@ -1,6 +1,5 @@
 // Experiment manifest (TOML, format "burrbench.experiment"): parse, resolve, validate.
 // Messages name the TOML key path, arrays indexed from 0 ("recordings[1].lag_ms").
-#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/manifest.hpp"
 
 #include <cmath>
@@ -9,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/sample_volume.hpp"
 #include "format_common.hpp"

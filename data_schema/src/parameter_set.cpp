@@ -1,5 +1,4 @@
 // Parameter set (TOML, format "burrbench.params"): per class id, α, C1, μ.
-#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 
 #include <cmath>
@@ -8,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "format_common.hpp"
 #include "toml_util.hpp"

@@ -82,10 +82,8 @@ void ModbusLink::close() {
 }
 
 double ModbusLink::wire_time_s(const DeviceSpec& d) const {
-  if (settings_.transport != Transport::Rtu) return 0.0;
-  const int bits = 1 + settings_.data_bits + (settings_.parity == 'N' ? 0 : 1) + settings_.stop_bits;
-  const int bytes = 8 + 5 + 2 * d.count;  // request + reply frames
-  return bytes * bits / static_cast<double>(settings_.baud);
+  // Devices on one bus share its line settings (the map checks it).
+  return settings_.transport == Transport::Rtu ? rtu_frames_wire_s(d) : 0.0;
 }
 
 ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& regs) {

@@ -299,11 +299,17 @@ DeviceSpec parse_device(const TomlView& r) {
 
 }  // namespace
 
+namespace {
+double rtu_byte_s(const DeviceSpec& d) {
+  return (1 + d.data_bits + (d.parity == 'N' ? 0 : 1) + d.stop_bits) / static_cast<double>(d.baud);
+}
+}  // namespace
+
+double rtu_frames_wire_s(const DeviceSpec& d) { return (8 + 5 + 2 * d.count) * rtu_byte_s(d); }
+
 double rtu_poll_wire_s(const DeviceSpec& d) {
-  const int bits = 1 + d.data_bits + (d.parity == 'N' ? 0 : 1) + d.stop_bits;
-  const double byte_s = bits / static_cast<double>(d.baud);
-  const double silence_s = d.baud > 19200 ? 1.75e-3 : 3.5 * byte_s;
-  return (8 + 5 + 2 * d.count) * byte_s + 2 * silence_s;
+  const double silence_s = d.baud > 19200 ? 1.75e-3 : 3.5 * rtu_byte_s(d);
+  return rtu_frames_wire_s(d) + 2 * silence_s;
 }
 
 std::vector<BusBudget> rtu_bus_budgets(const std::vector<DeviceSpec>& devices) {

@@ -1,4 +1,3 @@
-#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/rig/tools.hpp"
 
 #include <time.h>
@@ -14,6 +13,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/toml_input.hpp"
 #include "burrbench/data_schema/toml_view.hpp"

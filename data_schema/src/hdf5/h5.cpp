@@ -1,6 +1,5 @@
 #include "hdf5/h5.hpp"
 
-#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -593,16 +592,8 @@ void Writer::commit() {
   f_.reset();
   // Durable before it takes the target's name: a crash after the rename must not leave a
   // recording whose blocks never reached the disk.
-  const int fd = ::open(tmp_.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0 || ::fsync(fd) != 0) {
-    if (fd >= 0) ::close(fd);
-    write_error(file_, "<file>", "fsync failed");
-  }
-  ::close(fd);
-  std::error_code ec;
-  std::filesystem::rename(tmp_, target_, ec);
-  if (ec) write_error(file_, "<file>", ec.message());
-  committed_ = true;
+  committed_ = true;  // from here on publish_temporary owns (and on failure removes) it
+  publish_temporary(tmp_, target_);
 }
 
 }  // namespace burrbench::data_schema::h5

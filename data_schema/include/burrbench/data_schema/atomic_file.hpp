@@ -66,6 +66,11 @@ class OutputFolder {
   int lock_fd_ = -1;
 };
 
+// The last step of every writer, for writers that must own their temporary by path
+// (HDF5): fsync the finished temporary, rename it onto the target, fsync the folder.
+// std::runtime_error naming `target` on failure (the temporary is then removed).
+void publish_temporary(const std::filesystem::path& tmp, const std::filesystem::path& target);
+
 // Temporaries of other writers (HDF5) that a SIGINT/SIGTERM must remove too. register
 // returns a slot (or -1 when the list is full: the file is then only removed on error).
 int register_temporary(const std::filesystem::path& tmp, bool folder = false);

@@ -109,6 +109,8 @@ inline constexpr double kMaxBusLoad = 0.9;  // headroom for the devices' own tur
 // at 1 start + data + parity + stop bits per byte, plus the 3.5-character silence after
 // each frame (fixed 1.75 ms above 19200 baud, Modbus over serial line §2.5.1.1).
 double rtu_poll_wire_s(const DeviceSpec& d);
+// The request and reply frames alone (no silences): the fastest a reply can come.
+double rtu_frames_wire_s(const DeviceSpec& d);
 std::vector<BusBudget> rtu_bus_budgets(const std::vector<DeviceSpec>& devices);
 
 // Throws InputError (file, field, expected, got) on any defect, unknown key or write request.

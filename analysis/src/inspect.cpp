@@ -1,0 +1,69 @@
+#include "burrbench/analysis/inspect.hpp"
+
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <nlohmann/json.hpp>
+
+#include "burrbench/analysis/analysis_input.hpp"
+#include "burrbench/analysis/criteria.hpp"
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/nesting.hpp"
+
+namespace burrbench::analysis {
+namespace {
+
+constexpr std::uintmax_t kMaxMetricsBytes = 256u << 20;  // as fit.json
+
+std::string describe_criteria(const std::filesystem::path& path) {
+  const auto c = read_criteria(path);
+  std::string s = fmt::format("acceptance criteria (burrbench.criteria), {} criteria\n", c.criteria.size());
+  for (const auto& k : c.criteria)
+    s += fmt::format("  {}: {} [{}] of {}{}{}\n", k.name, k.metric, fmt::join(k.axes, ","),
+                     k.recording.empty() ? k.data : "recording " + k.recording,
+                     k.min ? fmt::format(" ≥ {}", *k.min) : "", k.max ? fmt::format(" ≤ {}", *k.max) : "");
+  return s;
+}
+
+std::string describe_metrics(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec || size > kMaxMetricsBytes) throw InputError(file, "<file>", "a JSON file of at most 256 MiB");
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  data_schema::check_json_nesting(text, file);
+  const auto j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) throw InputError(file, "<file>", "a JSON object", "unparsable JSON");
+  const auto v = j.value("format_version", std::string());
+  if (v.rfind("1.", 0) != 0) throw InputError(file, "format_version", "1.x", "\"" + v + "\"");
+  if (!j.contains("rows") || !j["rows"].is_array()) throw InputError(file, "rows", "an array of metric rows", "missing");
+  std::string s = fmt::format("metrics (burrbench.metrics), {} rows", j["rows"].size());
+  if (j.contains("pass") && j["pass"].is_boolean())
+    s += fmt::format(", release gate {}", j["pass"].get<bool>() ? "PASS" : "FAIL");
+  return s + "\n";
+}
+
+std::string describe_analysis(const std::filesystem::path& path) {
+  // analysis.json goes with predictions.csv in the same folder: both are read and checked.
+  const auto in = read_analysis_input(path.parent_path().empty() ? "." : path.parent_path());
+  std::size_t n = 0;
+  for (const auto& r : in.recordings) n += r.t_s.size();
+  return fmt::format("analysis directory (burrbench.analysis), {} recordings, {} samples, {} sample volumes\n",
+                     in.recordings.size(), n, in.samples.size());
+}
+
+}  // namespace
+
+std::optional<std::string> describe_file(const std::filesystem::path& path, const std::string& declared_format) {
+  if (declared_format == "burrbench.criteria") return describe_criteria(path);
+  if (declared_format == "burrbench.metrics") return describe_metrics(path);
+  if (declared_format == kAnalysisFormat) return describe_analysis(path);
+  return std::nullopt;
+}
+
+}  // namespace burrbench::analysis
