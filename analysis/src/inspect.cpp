@@ -1,8 +1,5 @@
 #include "burrbench/analysis/inspect.hpp"
 
-#include <fstream>
-#include <sstream>
-
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
@@ -10,12 +7,10 @@
 #include "burrbench/analysis/analysis_input.hpp"
 #include "burrbench/analysis/criteria.hpp"
 #include "burrbench/data_schema/error.hpp"
-#include "burrbench/data_schema/nesting.hpp"
+#include "burrbench/data_schema/json_input.hpp"
 
 namespace burrbench::analysis {
 namespace {
-
-constexpr std::uintmax_t kMaxMetricsBytes = 256u << 20;  // as fit.json
 
 std::string describe_criteria(const std::filesystem::path& path) {
   const auto c = read_criteria(path);
@@ -29,16 +24,8 @@ std::string describe_criteria(const std::filesystem::path& path) {
 
 std::string describe_metrics(const std::filesystem::path& path) {
   const std::string file = path.string();
-  std::error_code ec;
-  const auto size = std::filesystem::file_size(path, ec);
-  if (ec || size > kMaxMetricsBytes) throw InputError(file, "<file>", "a JSON file of at most 256 MiB");
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  const std::string text = ss.str();
-  data_schema::check_json_nesting(text, file);
-  const auto j = nlohmann::json::parse(text, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) throw InputError(file, "<file>", "a JSON object", "unparsable JSON");
+  const auto j = data_schema::read_json_file(path);
+  if (!j.is_object()) throw InputError(file, "<file>", "a JSON object", "another JSON value");
   const auto v = j.value("format_version", std::string());
   if (v.rfind("1.", 0) != 0) throw InputError(file, "format_version", "1.x", "\"" + v + "\"");
   if (!j.contains("rows") || !j["rows"].is_array()) throw InputError(file, "rows", "an array of metric rows", "missing");

@@ -11,6 +11,7 @@
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/json_input.hpp"
 #include "burrbench/data_schema/nesting.hpp"
 #include "format_common.hpp"
 
@@ -20,7 +21,6 @@ using nlohmann::json;
 
 namespace {
 
-constexpr std::uintmax_t kMaxJsonBytes = 256u << 20;
 
 json num(double x) {
   if (std::isnan(x)) return nullptr;
@@ -243,21 +243,7 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
 
 FitResult read_fit(const std::filesystem::path& path) {
   const std::string file = path.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throw InputError(file, "<file>", "an existing regular file");
-  const auto size = std::filesystem::file_size(path, ec);
-  if (ec || size > kMaxJsonBytes) throw InputError(file, "<file>", "a JSON file of at most 256 MiB");
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  const std::string text = ss.str();
-  check_json_nesting(text, file);  // before nlohmann::json recurses
-  json j;
-  try {
-    j = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw InputError(file, fmt::format("byte {}", e.byte), "valid JSON", e.what());
-  }
+  const json j = read_json_file(path);
   JsonView root(j, file, "");
   detail::check_format(file, "format", root.str("format"), kFitFormat);
   detail::check_version(file, "format_version", root.str("format_version"), kFitVersionMajor);
