@@ -26,6 +26,14 @@ inline void refuse_output_over_inputs(const std::string& out, const std::string&
       throw InputError(out, option, "a path different from the inputs (inputs are never written)", in);
 }
 
+// An output never replaces an existing file unless the user says --overwrite; checked
+// before any work.
+inline void refuse_existing(const std::string& out, const std::string& option, bool overwrite) {
+  std::error_code ec;
+  if (out.empty() || overwrite || !std::filesystem::exists(std::filesystem::symlink_status(out, ec))) return;
+  throw InputError(out, option, "a file that does not exist yet (--overwrite replaces it)", "exists");
+}
+
 // InputError when two outputs of one command name the same file (one would replace the
 // other: `replay --out X --csv X`).
 inline void refuse_same_outputs(const std::string& a, const std::string& option_a, const std::string& b,

@@ -64,8 +64,7 @@ void run(const Options& o) {
   apps::refuse_output_over_inputs(o.out, "--out", {o.rig, o.tare});
   apps::refuse_output_over_inputs(journal.string(), "--journal", {o.rig, o.tare, o.out});
   // A recording is the one copy of a session: never replaced unless asked.
-  if (!o.overwrite && std::filesystem::exists(out))
-    throw InputError(o.out, "--out", "a file that does not exist yet (--overwrite replaces it)", "exists");
+  apps::refuse_existing(o.out, "--out", o.overwrite);
   if (std::filesystem::exists(journal))
     throw InputError(journal.string(), "(journal)", "no journal left from an earlier session (run `burrbench recover` on it, or remove it)", "exists");
   if (o.duration_s < 0) throw InputError("--duration", "value", "seconds ≥ 0");

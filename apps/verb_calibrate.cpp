@@ -7,9 +7,10 @@
 #include <fmt/format.h>
 
 #include "burrbench/calibration/calibrate.hpp"
-#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
+#include "burrbench/data_schema/manifest.hpp"
+#include "burrbench/data_schema/output_folder.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
 #include "verb_registry.hpp"
@@ -22,7 +23,7 @@ using namespace burrbench;
 struct Args {
   std::string experiment, out;
   calibration::CalibrateOptions options;
-  bool no_cv = false, no_profiles = false;
+  bool no_cv = false, no_profiles = false, overwrite = false;
   std::string derivatives = "sensitivities";
 };
 
@@ -33,14 +34,20 @@ void run(const Args& a) {
   o.derivatives = a.derivatives == "fd" ? calibration::Derivatives::kFiniteDifferences
                                         : calibration::Derivatives::kSensitivities;
   calibration::validate(o);  // before any output folder is made
-  data_schema::OutputFolder folder(a.out, "--out");  // gone again if the fit fails or is interrupted
+  const auto manifest = data_schema::read_manifest(a.experiment);
+  std::vector<fs::path> inputs{manifest.file};
+  for (const auto& s : manifest.samples) inputs.push_back(s.path);
+  for (const auto& r : manifest.recordings) inputs.push_back(r.path);
+  // Written whole at the end, or not at all (a failed or interrupted fit leaves nothing).
+  data_schema::OutputFolder folder(a.out, "--out", a.overwrite);
+  folder.refuse_inputs({"fit.json", "params.toml"}, inputs);
   TerminalProgress progress("calibrate");
   o.progress = &progress;
   const auto res = calibration::calibrate(a.experiment, o);
-  const fs::path fit = fs::path(a.out) / "fit.json", params = fs::path(a.out) / "params.toml";
-  data_schema::write_fit(fit, res.fit);
-  data_schema::write_params(params, res.params);
-  folder.keep();
+  data_schema::write_fit(folder.staging() / "fit.json", res.fit);
+  data_schema::write_params(folder.staging() / "params.toml", res.params);
+  folder.commit();
+  const fs::path fit = folder.target() / "fit.json", params = folder.target() / "params.toml";
   progress.finish(fmt::format("{} iterations, {} replays, {:.1f} s", res.fit.solver.iterations,
                               res.fit.solver.replays, res.fit.solver.wall_s));
   std::cout << res.summary << fmt::format("wrote {} and {}\n", fit.string(), params.string());
@@ -51,7 +58,8 @@ void setup(CLI::App& root) {
                                                "experiment's recorded forces, with intervals");
   auto a = std::make_shared<Args>();
   cmd->add_option("EXPERIMENT,--experiment", a->experiment, "experiment manifest (.toml), as --experiment E.toml or just E.toml")->required();
-  cmd->add_option("--out", a->out, "output directory (fit.json, params.toml)")->required();
+  cmd->add_option("--out", a->out, "output directory (fit.json, params.toml): new or empty")->required();
+  cmd->add_flag("--overwrite", a->overwrite, "write into an existing --out folder, replacing fit.json and params.toml");
   cmd->add_option("--threads", a->options.threads, "replay threads")->capture_default_str();
   cmd->add_option("--max-iterations", a->options.max_iterations, "Ceres iterations")->capture_default_str();
   cmd->add_option("--bootstrap", a->options.bootstrap, "block-bootstrap replicates (0: none)")

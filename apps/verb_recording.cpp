@@ -23,6 +23,7 @@ struct Args {
   double burr_radius_mm = 0;
   std::vector<double> burr_axis{0, 0, 1};
   int spin = 1;
+  bool overwrite = false;
 };
 
 void setup(CLI::App& root) {
@@ -33,6 +34,7 @@ void setup(CLI::App& root) {
   imp->add_option("--csv", a->csv, "CSV file")->required();
   imp->add_option("--map", a->map, "TOML column map (format burrbench.csv_map), for non-canonical headers");
   imp->add_option("--out", a->out, "output recording (.h5)")->required();
+  imp->add_flag("--overwrite", a->overwrite, "replace an existing --out recording (refused otherwise)");
   imp->add_option("--sample-id", a->sample_id, "sample id stored in the metadata");
   imp->add_option("--rig-id", a->rig_id, "rig id stored in the metadata");
   imp->add_option("--operator", a->operator_name, "operator stored in the metadata");
@@ -49,6 +51,7 @@ void setup(CLI::App& root) {
                        fmt::format("{} {} {}", axis.x, axis.y, axis.z));
     if (a->spin != 1 && a->spin != -1) throw InputError("command line", "--spin", "+1 or -1", std::to_string(a->spin));
     burrbench::apps::refuse_output_over_inputs(a->out, "--out", {a->csv, a->map});
+    burrbench::apps::refuse_existing(a->out, "--out", a->overwrite);
     std::optional<fs::path> map;
     if (!a->map.empty()) map = a->map;
     Recording r = import::read_csv_recording(a->csv, map);

@@ -26,8 +26,7 @@ void setup(CLI::App& root) {
   cmd->callback([journal, out, overwrite] {
     using namespace burrbench;
     apps::refuse_output_over_inputs(*out, "--out", {*journal});  // the journal is never modified
-    if (!*overwrite && std::filesystem::exists(*out))
-      throw InputError(*out, "--out", "a file that does not exist yet (--overwrite replaces it)", "exists");
+    apps::refuse_existing(*out, "--out", *overwrite);
     const auto contents = rig::read_journal(*journal);
     rig::FinaliseReport rep;
     auto rec = rig::recording_from_journal(contents, *journal, &rep);

@@ -22,7 +22,7 @@ using namespace burrbench;
 struct Args {
   std::string experiment, params, out, csv;
   double step_us = 0;
-  bool no_erosion = false;
+  bool no_erosion = false, overwrite = false;
 };
 
 void run(const Args& a) {
@@ -43,6 +43,8 @@ void run(const Args& a) {
     apps::refuse_same_outputs(a.out, "--out", a.csv, "--csv");
     apps::check_output_location(a.out, "--out");
     apps::check_output_location(a.csv, "--csv");
+    apps::refuse_existing(a.out, "--out", a.overwrite);
+    apps::refuse_existing(a.csv, "--csv", a.overwrite);
   }
   const Provenance prov = make_provenance(inputs);
   model::ReplayOptions opt;
@@ -98,6 +100,7 @@ void setup(CLI::App& root) {
   cmd->add_option("--out", a->out, "prediction file to write (.h5, format burrbench.prediction)")
       ->required();
   cmd->add_option("--csv", a->csv, "also write the prediction as CSV");
+  cmd->add_flag("--overwrite", a->overwrite, "replace an existing --out or --csv file (refused otherwise)");
   cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")
       ->capture_default_str();
   cmd->add_flag("--no-erosion", a->no_erosion, "forces only, the volume is not eroded");

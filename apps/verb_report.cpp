@@ -1,21 +1,52 @@
 // `burrbench report DIR [--out FILE]`: the self-contained validation report of an analysis
 // directory (written by calibrate or validate; layout in docs/report.md). Without --out it
 // goes to DIR/report/report.html, never into the current folder (whose fit.json or
-// metrics.json might be a user's).
+// metrics.json might be a user's). The report's folder is an output folder like
+// calibrate's: new or empty unless --overwrite, written whole or not at all.
 #include <filesystem>
 #include <iostream>
 #include <memory>
 
 #include "burrbench/analysis/report.hpp"
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/output_folder.hpp"
 #include "burrbench/data_schema/progress.hpp"
 #include "verb_registry.hpp"
 
 namespace {
 
+namespace fs = std::filesystem;
+
 struct Options {
   std::string dir, out, assets;
   std::string context;
+  bool overwrite = false;
 };
+
+void run(const Options& o) {
+  using namespace burrbench;
+  std::error_code ec;
+  // DIR first: a wrong DIR is the mistake to name, not the output folder.
+  if (!fs::is_directory(o.dir, ec)) throw InputError(o.dir, "DIR", "an analysis directory", "not a directory");
+  const fs::path out = o.out.empty() ? fs::path(o.dir) / "report" / "report.html" : fs::path(o.out);
+  if (out.filename().empty() || fs::is_directory(out, ec))
+    throw InputError(o.out, "--out", "a report file path (e.g. OUT/report.html)", "a folder");
+  const fs::path parent = out.parent_path().empty() ? fs::path(".") : out.parent_path();
+  data_schema::OutputFolder folder(parent, "--out", o.overwrite);
+  // DIR's files are inputs: a report written into DIR itself must not replace them.
+  std::vector<fs::path> inputs;
+  for (const char* f : {"analysis.json", "predictions.csv", "fit.json", "params.toml", "criteria.toml"})
+    inputs.push_back(fs::path(o.dir) / f);
+  folder.refuse_inputs({out.filename().string(), "analysis.json", "predictions.csv", "fit.json", "residuals.csv",
+                        "metrics.json"},
+                       inputs);
+  TerminalProgress progress("report");
+  const auto s = analysis::write_report(o.dir, folder.staging() / out.filename(), {o.assets, o.context, &progress});
+  folder.commit();
+  std::cout << "report: " << (folder.target() / out.filename()).string() << " (" << s.recordings << " recordings, "
+            << s.samples << " samples)\n";
+  if (s.has_criteria) std::cout << "acceptance criteria: " << (s.pass ? "PASS" : "FAIL") << "\n";
+}
 
 void setup(CLI::App& root) {
   auto* cmd = root.add_subcommand("report", "Write the self-contained HTML validation report of an analysis directory");
@@ -23,21 +54,16 @@ void setup(CLI::App& root) {
   cmd->add_option("DIR", o->dir, "analysis directory (analysis.json, predictions.csv, fit.json, criteria.toml)")
       ->required();
   cmd->add_option("--out", o->out,
-                  "report file; CSVs, metrics.json and fit.json go beside it (default: DIR/report/report.html)");
+                  "report file, in a new or empty folder; CSVs, metrics.json and fit.json go beside it "
+                  "(default: DIR/report/report.html)");
+  cmd->add_flag("--overwrite", o->overwrite,
+                "write into an existing folder, replacing the report's files of the same names");
   cmd->add_option("--assets", o->assets,
                   "report assets folder (template, JS, CSS, node_modules/uplot); default: "
                   "$BURRBENCH_REPORT_ASSETS, <bin>/../share/burrbench/report, or the source tree's analysis/report");
   cmd->add_option("--context-of-use", o->context,
                   "context-of-use statement (when DIR holds only fit.json; validate stores its own)");
-  cmd->callback([o] {
-    using namespace burrbench::analysis;
-    burrbench::TerminalProgress progress("report");
-    const std::string out = o->out.empty() ? (std::filesystem::path(o->dir) / "report" / "report.html").string() : o->out;
-    const auto s = write_report(o->dir, out, {o->assets, o->context, &progress});
-    std::cout << "report: " << s.html.string() << " (" << s.recordings << " recordings, " << s.samples
-              << " samples)\n";
-    if (s.has_criteria) std::cout << "acceptance criteria: " << (s.pass ? "PASS" : "FAIL") << "\n";
-  });
+  cmd->callback([o] { run(*o); });
 }
 
 BURRBENCH_VERB("report", setup);

@@ -46,14 +46,18 @@ void setup(CLI::App& root) {
 
   auto* tare = rig->add_subcommand("tare", "Average N force/torque samples (burr spinning in air) into a tare file");
   auto tare_map = std::make_shared<std::string>();
-  auto out = std::make_shared<std::string>("tare.toml");
+  auto out = std::make_shared<std::string>();
+  auto overwrite = std::make_shared<bool>(false);
   auto n = std::make_shared<std::size_t>(200);
   tare->add_option("--rig", *tare_map, "register map (TOML)")->required();
-  tare->add_option("--out", *out, "tare file to write (pass it to `burrbench acquire --tare`)")->capture_default_str();
+  tare->add_option("--out", *out, "tare file to write (pass it to `burrbench acquire --tare`)")->required();
+  tare->add_flag("--overwrite", *overwrite, "replace an existing --out file (refused otherwise)");
   tare->add_option("--samples", *n, "samples to average")->capture_default_str()->check(CLI::Range(1, 1000000));
-  tare->callback([tare_map, out, n] {
+  tare->callback([tare_map, out, n, overwrite] {
     using namespace burrbench;
     apps::refuse_output_over_inputs(*out, "--out", {*tare_map});
+    apps::refuse_existing(*out, "--out", *overwrite);
+    apps::check_output_location(*out, "--out");
     const auto map = rig::load_rig_map(*tare_map);
     auto t = rig::measure_tare(map, *n);
     t.rig_sha256 = sha256_file(*tare_map);

@@ -25,7 +25,7 @@ using namespace burrbench::data_schema::import;
 struct ImportArgs {
   std::string labels, fraction, ct, out, encoding = "float32";
   std::vector<double> spacing;
-  bool resample = false;
+  bool resample = false, overwrite = false;
   double voxel_mm = 0;
   double budget_mb = double(kDefaultBudgetBytes >> 20);
   std::optional<double> threshold, empty_grey, bone_grey;
@@ -60,6 +60,7 @@ void run_import(const ImportArgs& a) {
   if (!a.fraction.empty() && a.labels.empty()) throw InputError("<command line>", "--fraction", "--labels with it (a CT gives its own fraction)");
   if (!(a.budget_mb > 0 && a.budget_mb <= double(1 << 30))) throw InputError("<command line>", "--budget-mb", "a budget in (0, 2^30] MiB");
   check_out_not_input(a.out, {a.labels, a.fraction, a.ct});
+  burrbench::apps::refuse_existing(a.out, "--out", a.overwrite);
   const ImportLimits lim{static_cast<std::size_t>(a.budget_mb * double(1 << 20))};
   std::vector<fs::path> inputs;
   SampleVolume s;
@@ -108,6 +109,7 @@ void setup(CLI::App& root) {
   imp->add_option("--fraction", a->fraction, "bone fraction volume (float in [0,1] or uint8 counter n/255)");
   imp->add_option("--ct", a->ct, "grey CT volume to segment (HU or micro-CT grey values)");
   imp->add_option("--out", a->out, "output sample file (.h5)")->required();
+  imp->add_flag("--overwrite", a->overwrite, "replace an existing --out file (refused otherwise)");
   imp->add_option("--spacing-mm", a->spacing, "voxel spacing sx,sy,sz (required for slice stacks; overrides the file's)")
       ->delimiter(',')->expected(3);
   imp->add_flag("--resample", a->resample, "resample anisotropic voxels to cubic ones (side = smallest spacing unless --voxel-mm)");
@@ -136,6 +138,7 @@ void setup(CLI::App& root) {
   auto ss = std::make_shared<SynthSettings>();
   auto extent = std::make_shared<std::vector<double>>(std::vector<double>{10, 10, 6});
   auto out = std::make_shared<std::string>();
+  auto syn_overwrite = std::make_shared<bool>(false);
   auto* syn = sample->add_subcommand("synth", "Write a seeded synthetic sample: a compact layer over a trabecular core");
   syn->add_option("--voxel-mm", ss->voxel_mm, "cubic voxel side")->capture_default_str();
   syn->add_option("--extent-mm", *extent, "extent x,y,z")->delimiter(',')->expected(3);
@@ -144,7 +147,9 @@ void setup(CLI::App& root) {
   syn->add_option("--strut-mm", ss->strut_mm, "length scale of the trabecular plates")->capture_default_str();
   syn->add_option("--seed", ss->seed, "random seed")->capture_default_str();
   syn->add_option("--out", *out, "output sample file (.h5)")->required();
-  syn->callback([ss, extent, out] {
+  syn->add_flag("--overwrite", *syn_overwrite, "replace an existing --out file (refused otherwise)");
+  syn->callback([ss, extent, out, syn_overwrite] {
+    burrbench::apps::refuse_existing(*out, "--out", *syn_overwrite);
     ss->extent_mm = glm::dvec3((*extent)[0], (*extent)[1], (*extent)[2]);
     SampleVolume s = synth_sample(*ss);
     s.provenance = make_provenance({});
@@ -159,11 +164,15 @@ void setup(CLI::App& root) {
   auto* exp = sample->add_subcommand("export-nrrd", "Write PREFIX_labels.nrrd and PREFIX_fraction.nrrd for 3D Slicer");
   exp->add_option("SAMPLE", *in, "sample file (.h5)")->required();
   exp->add_option("--out-prefix", *prefix, "output prefix")->required();
-  exp->callback([in, prefix] {
-    const SampleVolume s = read_sample(*in);
+  auto exp_overwrite = std::make_shared<bool>(false);
+  exp->add_flag("--overwrite", *exp_overwrite, "replace existing PREFIX_*.nrrd files (refused otherwise)");
+  exp->callback([in, prefix, exp_overwrite] {
     const std::string lp = *prefix + "_labels.nrrd", fp = *prefix + "_fraction.nrrd";
     check_out_not_input(lp, {*in});
     check_out_not_input(fp, {*in});
+    burrbench::apps::refuse_existing(lp, "--out-prefix", *exp_overwrite);
+    burrbench::apps::refuse_existing(fp, "--out-prefix", *exp_overwrite);
+    const SampleVolume s = read_sample(*in);
     write_nrrd(lp, labels_image(s), VoxelType::kUint8);
     write_nrrd(fp, fraction_image(s), VoxelType::kFloat32);
     std::cout << fmt::format("wrote {} and {}\n", lp, fp);

@@ -23,6 +23,7 @@ using namespace burrbench;
 
 struct Args {
   std::string sample, protocol, params, out, truth;
+  bool overwrite = false;
   double noise_N = 0, lag_ms = 0, step_us = 0;
   std::vector<double> bias_N{0, 0, 0};
   std::uint64_t seed = 1;
@@ -31,6 +32,8 @@ struct Args {
 void refuse_overwriting_inputs(const Args& a) {
   apps::refuse_output_over_inputs(a.out, "--out", {a.sample, a.protocol, a.params});
   apps::refuse_output_over_inputs(a.truth, "--truth", {a.sample, a.protocol, a.params, a.out});
+  apps::refuse_existing(a.out, "--out", a.overwrite);
+  apps::refuse_existing(a.truth, "--truth", a.overwrite);
 }
 
 void run(const Args& a) {
@@ -75,6 +78,7 @@ void setup(CLI::App& root) {
       ->required();
   cmd->add_option("--params", a->params, "true parameter set (.toml)")->required();
   cmd->add_option("--out", a->out, "recording to write (.h5)")->required();
+  cmd->add_flag("--overwrite", a->overwrite, "replace an existing --out (or --truth) file (refused otherwise)");
   cmd->add_option("--truth", a->truth, "ground truth to write (.json)")->required();
   cmd->add_option("--noise-N", a->noise_N, "σ of Gaussian force noise per component (N)")
       ->capture_default_str();

@@ -8,6 +8,8 @@
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/atomic_file.hpp"
+#include "burrbench/data_schema/manifest.hpp"
+#include "burrbench/data_schema/output_folder.hpp"
 #include "burrbench/analysis/criteria.hpp"
 #include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/analysis/report.hpp"
@@ -26,17 +28,36 @@ struct Args {
   std::string context = "Release gate of the voxel burr–bone drilling model: does the model, with "
                         "the given constants, reproduce the forces recorded on the rig well enough "
                         "for the simulator's intended use?";
-  bool no_tare = false;
+  bool no_tare = false, overwrite = false;
 };
 
 void run(const Args& a) {
   std::error_code ec;
-  if (fs::exists(a.out) && !fs::is_directory(a.out))
-    throw InputError(a.out, "--out", "a directory (or a path to create one)", "an existing file");
   // Everything that can be checked cheaply is checked before the replay.
   const auto criteria = analysis::read_criteria(a.criteria);
   const auto params = data_schema::read_params(a.params);
-  data_schema::OutputFolder folder(a.out, "--out");  // gone again if the replay fails or is interrupted
+  const auto manifest = data_schema::read_manifest(a.experiment);
+  // Written whole at the end, or not at all (a failed or interrupted replay leaves nothing).
+  data_schema::OutputFolder folder(a.out, "--out", a.overwrite);
+  // The criteria and parameters are copied beside the report, unless they already are
+  // the folder's own (a re-run with --overwrite): then they stay as they are.
+  const bool criteria_there = fs::equivalent(a.criteria, folder.target() / "criteria.toml", ec);
+  const bool params_there = fs::equivalent(a.params, folder.target() / "params.toml", ec);
+  {
+    std::vector<fs::path> inputs{manifest.file};
+    for (const auto& s : manifest.samples) inputs.push_back(s.path);
+    for (const auto& r : manifest.recordings) inputs.push_back(r.path);
+    std::vector<std::string> names{"analysis.json", "predictions.csv", "report.html", "residuals.csv", "metrics.json"};
+    if (!criteria_there) {
+      names.push_back("criteria.toml");
+      inputs.push_back(a.criteria);
+    }
+    if (!params_there) {
+      names.push_back("params.toml");
+      inputs.push_back(a.params);
+    }
+    folder.refuse_inputs(names, inputs);
+  }
 
   TerminalProgress progress("validate");
   auto in = analysis::replay_experiment(a.experiment, params, nullptr,
@@ -49,21 +70,20 @@ void run(const Args& a) {
   in.criteria_sha256 = sha256_file(a.criteria);
   in.provenance.inputs.push_back({in.params_path, in.params_sha256});
   in.provenance.inputs.push_back({in.criteria_path, in.criteria_sha256});
-  const fs::path dir = a.out;
+  const fs::path dir = folder.staging();
   analysis::write_analysis_input(dir, in);
-  if (!fs::equivalent(a.criteria, dir / "criteria.toml", ec))
-    data_schema::copy_file_atomic(a.criteria, dir / "criteria.toml");
-  if (!fs::equivalent(a.params, dir / "params.toml", ec))
-    data_schema::copy_file_atomic(a.params, dir / "params.toml");
+  data_schema::copy_file_atomic(a.criteria, dir / "criteria.toml");
+  if (!params_there) data_schema::copy_file_atomic(a.params, dir / "params.toml");
   const auto s = analysis::write_report(dir, dir / "report.html", {a.assets, a.context, nullptr});
-  folder.keep();
+  if (criteria_there) fs::remove(dir / "criteria.toml");  // read by the report; the folder has it
+  folder.commit();
   progress.finish(fmt::format("{} recordings, {} samples", s.recordings, s.samples));
 
   std::size_t failed = 0;
   for (const auto& r : s.results) failed += !r.pass;
   for (const auto& r : in.recordings)
     if (!r.registration.empty()) std::cout << fmt::format("  {}: {}\n", r.id, r.registration);
-  std::cout << fmt::format("report: {}\n", s.html.string());
+  std::cout << fmt::format("report: {}\n", (folder.target() / "report.html").string());
   for (const auto& r : s.results) {
     const auto& c = s.criteria.criteria[r.index];
     std::cout << fmt::format("  {} {} [{}] {} = {:.4g}\n", r.pass ? "PASS" : "FAIL", c.name, r.axis,
@@ -82,8 +102,9 @@ void setup(CLI::App& root) {
   cmd->add_option("EXPERIMENT,--experiment", a->experiment, "experiment manifest (.toml), as --experiment E.toml or just E.toml")->required();
   cmd->add_option("--params", a->params, "parameter set (.toml, burrbench.params)")->required();
   cmd->add_option("--criteria", a->criteria, "acceptance criteria (.toml, burrbench.criteria)")->required();
-  cmd->add_option("--out", a->out, "output directory (report.html, analysis.json, CSVs, metrics.json)")
+  cmd->add_option("--out", a->out, "output directory (report.html, analysis.json, CSVs, metrics.json): new or empty")
       ->required();
+  cmd->add_flag("--overwrite", a->overwrite, "write into an existing --out folder, replacing the files of the same names");
   cmd->add_option("--assets", a->assets, "report assets folder (see `burrbench report --help`)");
   cmd->add_option("--context-of-use", a->context, "context-of-use statement for the report");
   cmd->add_flag("--no-tare", a->no_tare, "do not subtract the no-contact mean force (sensor bias)");

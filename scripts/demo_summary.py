@@ -9,7 +9,7 @@ fit = json.load(open(f"{out}/fit/fit.json"))
 truth = tomllib.load(open(truth_path, "rb"))["classes"]
 keys = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}
 
-print(f"report:   {out}/report.html")
+print(f"report:   {out}/validate/report.html")
 for name, cls in truth.items():
     parts = []
     for p in fit["parameters"]:

@@ -1,13 +1,15 @@
 #include "burrbench/data_schema/atomic_file.hpp"
 
 #include <fcntl.h>
-#include <sys/file.h>
 #include <signal.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <array>
 #include <atomic>
 #include <cerrno>
+#include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <mutex>
 #include <stdexcept>
@@ -22,18 +24,51 @@ namespace {
 // Temporaries to unlink on SIGINT/SIGTERM. The handler may only call async-signal-safe
 // functions, so the paths live in fixed buffers claimed with an atomic flag.
 constexpr int kSlots = 64;
+enum class Kind { kFile, kFolder, kTree };  // unlink; rmdir if empty; unlink its files, rmdir
 struct Slot {
   std::atomic<bool> used{false};
-  bool folder = false;  // rmdir (only if empty) instead of unlink
+  Kind kind = Kind::kFile;
   char path[4096];
 };
 std::array<Slot, kSlots> g_slots;
 
+// Unlinks the files of a (flat) staging folder, then the folder. Only async-signal-safe
+// calls: getdents64 through syscall() instead of opendir/readdir, which may allocate.
+void remove_tree_in_handler(const char* path) {
+  const int fd = ::open(path, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  struct Dirent64 {
+    std::uint64_t ino;
+    std::int64_t off;
+    unsigned short reclen;
+    unsigned char type;
+    char name[1];
+  };
+  alignas(8) static char buf[16384];
+  for (int pass = 0; pass < 16; ++pass) {  // unlinking while listing may hide entries: list again
+    bool removed = false;
+    ::lseek(fd, 0, SEEK_SET);
+    for (long n; (n = ::syscall(SYS_getdents64, fd, buf, sizeof buf)) > 0;)
+      for (long at = 0; at < n;) {
+        const auto* d = reinterpret_cast<const Dirent64*>(buf + at);
+        at += d->reclen;
+        const char* nm = buf + (at - d->reclen) + offsetof(Dirent64, name);
+        if (nm[0] == '.' && (nm[1] == 0 || (nm[1] == '.' && nm[2] == 0))) continue;
+        removed |= ::unlinkat(fd, nm, 0) == 0;
+      }
+    if (!removed) break;
+  }
+  ::close(fd);
+  ::rmdir(path);
+}
+
 void on_signal(int sig) {
   for (auto& s : g_slots)
-    if (s.used.load() && !s.folder) ::unlink(s.path);
-  for (auto& s : g_slots)  // folders after the files in them
-    if (s.used.load() && s.folder) ::rmdir(s.path);
+    if (s.used.load() && s.kind == Kind::kFile) ::unlink(s.path);
+  for (auto& s : g_slots)  // staging folders, then the (now empty) output folders
+    if (s.used.load() && s.kind == Kind::kTree) remove_tree_in_handler(s.path);
+  for (auto& s : g_slots)
+    if (s.used.load() && s.kind == Kind::kFolder) ::rmdir(s.path);
   static const char msg[] = "\nburrbench: interrupted; unfinished files removed\n";
   [[maybe_unused]] const auto n = ::write(2, msg, sizeof msg - 1);
   // Then die of the signal as we would have (exit status 128 + sig for the shell).
@@ -60,9 +95,7 @@ void install_handlers_once() {
 
 std::atomic<unsigned> g_counter{0};
 
-}  // namespace
-
-int register_temporary(const std::filesystem::path& tmp, bool folder) {
+int register_slot(const std::filesystem::path& tmp, Kind kind) {
   install_handlers_once();
   const std::string p = tmp.string();
   if (p.size() >= sizeof(Slot::path)) return -1;
@@ -73,11 +106,19 @@ int register_temporary(const std::filesystem::path& tmp, bool folder) {
     std::lock_guard lk(m);
     if (g_slots[std::size_t(i)].used.load()) continue;
     std::memcpy(g_slots[std::size_t(i)].path, p.c_str(), p.size() + 1);
-    g_slots[std::size_t(i)].folder = folder;
+    g_slots[std::size_t(i)].kind = kind;
     if (g_slots[std::size_t(i)].used.compare_exchange_strong(expected, true)) return i;
   }
   return -1;
 }
+
+}  // namespace
+
+int register_temporary(const std::filesystem::path& tmp, bool folder) {
+  return register_slot(tmp, folder ? Kind::kFolder : Kind::kFile);
+}
+
+int register_temporary_tree(const std::filesystem::path& folder) { return register_slot(folder, Kind::kTree); }
 
 void unregister_temporary(int slot) {
   if (slot >= 0 && slot < kSlots) g_slots[std::size_t(slot)].used = false;
@@ -160,42 +201,6 @@ void publish_temporary(const std::filesystem::path& tmp, const std::filesystem::
     ::fsync(dfd);
     ::close(dfd);
   }
-}
-
-OutputFolder::OutputFolder(const std::filesystem::path& path, const std::string& option) : path_(path) {
-  std::error_code ec;
-  if (std::filesystem::exists(path_, ec)) {
-    if (!std::filesystem::is_directory(path_, ec))
-      throw InputError(path_.string(), option, "a directory (or a path to create one)", "an existing file");
-  } else {
-    std::filesystem::create_directories(path_, ec);
-    if (ec) throw InputError(path_.string(), option, "a directory that can be created", ec.message());
-    created_ = true;
-    slot_ = register_temporary(path_, true);
-  }
-  lock_fd_ = ::open(path_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (lock_fd_ >= 0 && ::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
-    ::close(lock_fd_);
-    lock_fd_ = -1;
-    created_ = false;  // not ours to remove
-    unregister_temporary(slot_);
-    slot_ = -1;
-    throw InputError(path_.string(), option, "a folder no other burrbench command is writing",
-                     "in use by another run");
-  }
-}
-
-OutputFolder::~OutputFolder() {
-  unregister_temporary(slot_);
-  std::error_code ec;
-  if (created_ && std::filesystem::is_empty(path_, ec)) std::filesystem::remove(path_, ec);
-  if (lock_fd_ >= 0) ::close(lock_fd_);
-}
-
-void OutputFolder::keep() {
-  created_ = false;
-  unregister_temporary(slot_);
-  slot_ = -1;
 }
 
 void copy_file_atomic(const std::filesystem::path& from, const std::filesystem::path& target) {

@@ -105,13 +105,13 @@ TEST(Report, BadInputsExitTwo) {
   EXPECT_EQ(r.rc, 2) << r.out;
   EXPECT_NE(r.out.find("nothing"), std::string::npos) << r.out;
   fs::create_directories(dir / "empty");
-  r = run(cli() + " report " + (dir / "empty").string() + " --out " + (dir / "r.html").string());
+  r = run(cli() + " report " + (dir / "empty").string() + " --out " + (dir / "rep" / "r.html").string());
   EXPECT_EQ(r.rc, 2) << r.out;
   EXPECT_NE(r.out.find("analysis.json"), std::string::npos) << r.out;
   write_analysis_input(dir, burrbench::testing::small_input());
-  r = run(cli() + " report " + dir.string() + " --out " + (dir / "r.html").string() + " --assets " +
+  r = run(cli() + " report " + dir.string() + " --out " + (dir / "rep" / "r.html").string() + " --assets " +
           (dir / "no-assets").string());
   EXPECT_EQ(r.rc, 2) << r.out;
   EXPECT_NE(r.out.find("template.html"), std::string::npos) << r.out;
-  EXPECT_FALSE(fs::exists(dir / "r.html"));
+  EXPECT_FALSE(fs::exists(dir / "rep")) << "nothing written, no folder left behind";
 }

@@ -79,3 +79,4 @@ def test_ctrl_c_leaves_no_empty_output_folder_and_a_busy_folder_is_refused(tmp_p
     assert p.returncode == -signal.SIGINT, err
     assert "burrbench: interrupted; unfinished files removed" in err, err
     assert not out.exists()
+    assert sorted(os.listdir(tmp_path)) == ["exp"], "no staging folder or temporary left behind"

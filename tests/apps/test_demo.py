@@ -18,7 +18,7 @@ def test_demo_recovers_truth_and_writes_report(tmp_path):
                          env={**os.environ, "DEMO_OUT": str(out)},
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stdout + run.stderr
-    assert f"report:   {out}/report.html" in run.stdout
+    assert f"report:   {out}/validate/report.html" in run.stdout
     assert "gate:     PASS" in run.stdout
 
     # every session was acquired over Modbus, not copied from the synthetic file
@@ -43,5 +43,5 @@ def test_demo_recovers_truth_and_writes_report(tmp_path):
     lags = [n for n in fit["nuisance"] if n["name"] == "lag"]
     assert lags and all(abs(n["estimate"] - 4.0) < 2.0 for n in lags), lags
 
-    html = (out / "report.html").read_text()
+    html = (out / "validate" / "report.html").read_text()
     assert "http://" not in html and "https://" not in html

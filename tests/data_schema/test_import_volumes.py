@@ -117,7 +117,7 @@ def test_flipped_and_permuted_directions_fold_into_data(tmp_path):
     np.testing.assert_array_equal(s["labels"], labels[:, :, ::-1])
     # swapping axes: index axis 0 along y, axis 1 along x
     write_nrrd(L, labels, directions=[(0, 0.5, 0), (0.5, 0, 0), (0, 0, 0.5)])
-    r = run("sample", "import", "--labels", L, "--out", out)
+    r = run("sample", "import", "--labels", L, "--out", out, "--overwrite")
     assert r.returncode == 0, r.stderr
     np.testing.assert_array_equal(load(out)["labels"], labels.transpose(0, 2, 1))
 

@@ -44,28 +44,6 @@ void write_file_atomic(const std::filesystem::path& target, std::string_view byt
 // output, criteria, parameters, predictions).
 void copy_file_atomic(const std::filesystem::path& from, const std::filesystem::path& target);
 
-// A command's output folder. Locked (flock) while the command writes it, so a second
-// run into the same folder is refused (exit 2) instead of mixing its files with ours.
-// A folder the command created is removed again (if still empty) when the command fails
-// or is interrupted, so Ctrl-C never leaves an empty folder behind. keep() once the
-// command's outputs are written.
-class OutputFolder {
- public:
-  // Creates `path` (and parents) unless it exists, then locks it; InputError(option) when
-  // it cannot be created or another command holds it.
-  OutputFolder(const std::filesystem::path& path, const std::string& option);
-  ~OutputFolder();
-  OutputFolder(const OutputFolder&) = delete;
-  OutputFolder& operator=(const OutputFolder&) = delete;
-  void keep();
-
- private:
-  std::filesystem::path path_;
-  bool created_ = false;
-  int slot_ = -1;
-  int lock_fd_ = -1;
-};
-
 // The last step of every writer, for writers that must own their temporary by path
 // (HDF5): fsync the finished temporary, rename it onto the target, fsync the folder.
 // std::runtime_error naming `target` on failure (the temporary is then removed).
@@ -74,6 +52,8 @@ void publish_temporary(const std::filesystem::path& tmp, const std::filesystem::
 // Temporaries of other writers (HDF5) that a SIGINT/SIGTERM must remove too. register
 // returns a slot (or -1 when the list is full: the file is then only removed on error).
 int register_temporary(const std::filesystem::path& tmp, bool folder = false);
+// A staging folder: on SIGINT/SIGTERM its files are unlinked, then the folder removed.
+int register_temporary_tree(const std::filesystem::path& folder);
 void unregister_temporary(int slot);
 
 }  // namespace burrbench::data_schema

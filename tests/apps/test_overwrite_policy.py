@@ -1,0 +1,148 @@
+"""The overwrite policy, the same in every verb (issue 12, README "overwrite policy"):
+no output replaces an existing file unless --overwrite; no output is ever an input, not
+even with --overwrite; folder outputs (calibrate, validate, report) must be new or empty
+and appear all together or not at all."""
+import hashlib
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+BURRBENCH = os.environ["BURRBENCH"]
+SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
+CRITERIA = SRC / "examples" / "criteria" / "release.toml"
+USERS = "a user's file\n"
+
+
+def run(*args):
+    return subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, timeout=300)
+
+
+def sha(path):
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def exp(tmp_path_factory):
+    d = tmp_path_factory.mktemp("synthetic")
+    subprocess.run(["sh", str(SRC / "examples/experiments/synthetic/make.sh"), BURRBENCH, str(d)],
+                   check=True, capture_output=True, timeout=300)
+    return d
+
+
+def users_file(path):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(USERS)
+    return path
+
+
+def no_leftovers(folder):
+    """No staging folder or temporary of ours is left anywhere below `folder`."""
+    left = [p for p in Path(folder).rglob("*") if ".staging-" in p.name or ".tmp-" in p.name]
+    assert not left, left
+
+
+@pytest.mark.parametrize("verb", ["sample synth", "synth --out", "synth --truth", "replay --out", "replay --csv",
+                                  "sample export-nrrd"])
+def test_no_output_replaces_an_existing_file_without_overwrite(exp, tmp_path, verb):
+    e = exp / "experiment.toml"
+    target = users_file(tmp_path / {"sample synth": "s.h5", "synth --out": "r.h5", "synth --truth": "t.json",
+                                    "replay --out": "p.h5", "replay --csv": "p.csv",
+                                    "sample export-nrrd": "x_labels.nrrd"}[verb])
+    args = {
+        "sample synth": ["sample", "synth", "--extent-mm", "2", "2", "1", "--voxel-mm", "0.2", "--out", target],
+        "synth --out": ["synth", "--sample", exp / "sample.h5", "--protocol", SRC / "examples/protocols/plunge.toml",
+                        "--params", exp / "params_true.toml", "--out", target, "--truth", tmp_path / "new.json"],
+        "synth --truth": ["synth", "--sample", exp / "sample.h5", "--protocol", SRC / "examples/protocols/plunge.toml",
+                          "--params", exp / "params_true.toml", "--out", tmp_path / "new.h5", "--truth", target],
+        "replay --out": ["replay", e, "--params", exp / "params_true.toml", "--out", target],
+        "replay --csv": ["replay", e, "--params", exp / "params_true.toml", "--out", tmp_path / "new.h5",
+                         "--csv", target],
+        "sample export-nrrd": ["sample", "export-nrrd", exp / "sample.h5", "--out-prefix", tmp_path / "x"],
+    }[verb]
+    p = run(*args)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert p.stderr.count("\n") == 1 and str(target) in p.stderr and "--overwrite" in p.stderr, p.stderr
+    assert target.read_text() == USERS
+    assert sorted(x.name for x in tmp_path.iterdir()) == [target.name], "refused before writing anything"
+    p = run(*args, "--overwrite")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert target.read_bytes() != USERS.encode()
+    no_leftovers(tmp_path)
+
+
+@pytest.mark.parametrize("verb", ["calibrate", "validate", "report"])
+def test_a_folder_output_must_be_new_or_empty(exp, tmp_path, verb):
+    out = tmp_path / "out"
+    mine = users_file(out / "notes.txt")
+    clash = users_file(out / {"calibrate": "fit.json", "validate": "metrics.json", "report": "report.html"}[verb])
+    if verb == "report":
+        assert run("validate", exp / "experiment.toml", "--params", exp / "params_true.toml", "--criteria", CRITERIA,
+                   "--out", tmp_path / "gate").returncode == 0
+    args = {
+        "calibrate": ["calibrate", exp / "experiment.toml", "--out", out, "--no-cross-validation", "--no-profiles",
+                      "--starts", "1", "--max-iterations", "2"],
+        "validate": ["validate", exp / "experiment.toml", "--params", exp / "params_true.toml", "--criteria",
+                     CRITERIA, "--out", out],
+        "report": ["report", tmp_path / "gate", "--out", out / "report.html"],
+    }[verb]
+    p = run(*args)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert p.stderr.startswith(f"burrbench: {out}: --out: expected a new or empty folder (--overwrite writes "
+                               "into an existing one, replacing files of the same names), got it holds 2 entries")
+    assert p.stderr.count("\n") == 1, p.stderr
+    assert "calibrate" not in p.stdout and mine.read_text() == USERS and clash.read_text() == USERS
+    # --overwrite: the command's files replace their namesakes, the user's other files stay.
+    p = run(*args, "--overwrite")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert mine.read_text() == USERS and clash.read_text() != USERS
+    no_leftovers(tmp_path)
+
+
+def test_an_input_named_like_an_output_is_never_replaced_not_even_with_overwrite(exp, tmp_path):
+    # Issue 12: a manifest called fit.json, criteria called metrics.json in the output folder.
+    work = tmp_path / "exp"
+    shutil.copytree(exp, work)
+    shutil.copy(work / "experiment.toml", work / "fit.json")
+    before = sha(work / "fit.json")
+    p = run("calibrate", work / "fit.json", "--out", work, "--overwrite", "--no-cross-validation")
+    assert p.returncode == 2 and p.stderr.count("\n") == 1, p.stdout + p.stderr
+    assert f"{work / 'fit.json'}: --out: expected an output that is not one of the inputs" in p.stderr, p.stderr
+    assert sha(work / "fit.json") == before
+    out = tmp_path / "gate"
+    users_file(out / "notes.txt")
+    shutil.copy(CRITERIA, out / "metrics.json")
+    before = sha(out / "metrics.json")
+    p = run("validate", exp / "experiment.toml", "--params", exp / "params_true.toml", "--criteria",
+            out / "metrics.json", "--out", out, "--overwrite")
+    assert p.returncode == 2 and "is the input" in p.stderr, p.stdout + p.stderr
+    assert sha(out / "metrics.json") == before and sorted(os.listdir(out)) == ["metrics.json", "notes.txt"]
+    no_leftovers(tmp_path)
+
+
+def test_outputs_appear_all_together_or_not_at_all(exp, tmp_path):
+    # A criterion about a recording the experiment lacks is found only after the replay:
+    # exit 2, and no output folder, no half-written files, no staging folder.
+    bad = tmp_path / "criteria.toml"
+    bad.write_text(CRITERIA.read_text() + '\n[[criterion]]\nname = "x"\nmetric = "r2"\naxis = "x"\n'
+                   'recording = "no-such-recording"\nmin = 0.5\n')
+    out = tmp_path / "gate"
+    p = run("validate", exp / "experiment.toml", "--params", exp / "params_true.toml", "--criteria", bad,
+            "--out", out)
+    assert p.returncode == 2 and "no-such-recording" in p.stderr, p.stdout + p.stderr
+    assert sorted(os.listdir(tmp_path)) == ["criteria.toml"], os.listdir(tmp_path)
+    # The same into an existing folder with --overwrite: its files are as they were.
+    users_file(out / "report.html")
+    p = run("validate", exp / "experiment.toml", "--params", exp / "params_true.toml", "--criteria", bad,
+            "--out", out, "--overwrite")
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert sorted(os.listdir(out)) == ["report.html"] and (out / "report.html").read_text() == USERS
+    # A successful run: every file at once.
+    p = run("validate", exp / "experiment.toml", "--params", exp / "params_true.toml", "--criteria", CRITERIA,
+            "--out", tmp_path / "ok")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert {"report.html", "metrics.json", "analysis.json", "predictions.csv", "residuals.csv",
+            "criteria.toml", "params.toml"} <= set(os.listdir(tmp_path / "ok"))
+    no_leftovers(tmp_path)
