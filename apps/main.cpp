@@ -3,6 +3,7 @@
 #include <csignal>
 #include <exception>
 #include <iostream>
+#include <new>
 
 #include <CLI/CLI.hpp>
 
@@ -47,6 +48,12 @@ int main(int argc, char** argv) {
   } catch (const InputError& e) {
     std::cerr << "burrbench: " << e.what() << "\n";
     return 2;
+  } catch (const std::bad_alloc&) {
+    const std::string& f = file_being_read();
+    std::cerr << "burrbench: " << (f.empty() ? std::string("error") : f)
+              << ": out of memory" << (f.empty() ? "" : " while reading it")
+              << " (a memory limit, or an input too large for this machine)\n";
+    return 3;
   } catch (const InvariantError& e) {
     std::cerr << "burrbench: " << e.what() << " — please report this\n";
     return 3;

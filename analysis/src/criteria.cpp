@@ -13,6 +13,7 @@
 namespace burrbench::analysis {
 
 Criteria read_criteria(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   const std::string file = path.string();
   const toml::table t = data_schema::parse_toml_file(path);
   const data_schema::TomlView root(t, file, "", "docs/report.md");

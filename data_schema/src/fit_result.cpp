@@ -242,6 +242,7 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
 }
 
 FitResult read_fit(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   const std::string file = path.string();
   const json j = read_json_file(path);
   JsonView root(j, file, "");

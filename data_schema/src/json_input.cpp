@@ -11,6 +11,7 @@
 namespace burrbench::data_schema {
 
 nlohmann::json read_json_file(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   const std::string file = path.string();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw InputError(file, "<file>", "an existing regular file");

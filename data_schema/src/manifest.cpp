@@ -260,6 +260,7 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
 }  // namespace
 
 ExperimentManifest read_manifest(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   return parse_manifest_table(parse_toml_file(path), path);
 }
 

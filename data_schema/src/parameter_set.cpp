@@ -71,6 +71,7 @@ void write_params(const std::filesystem::path& path, const ParameterSet& p) {
 }
 
 ParameterSet read_params(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   const std::string file = path.string();
   const toml::table t = parse_toml_file(path);
   TomlView root(t, file, "");

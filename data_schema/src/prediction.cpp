@@ -208,6 +208,7 @@ PR read_recording(const h5::Reader& r, const std::string& id) {
 }  // namespace
 
 Prediction read_prediction(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   h5::Reader r(path);
   const std::string file = r.file();
   h5::check_header(r, kPredictionFormat, kPredictionVersionMajor);

@@ -270,6 +270,7 @@ Stream read_stream(const h5::Reader& r, const std::string& name) {
 }  // namespace
 
 Recording read_recording(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   h5::Reader r(path);
   const std::string file = r.file();
   h5::check_header(r, kRecordingFormat, kRecordingVersionMajor);

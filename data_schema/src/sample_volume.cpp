@@ -165,6 +165,7 @@ SampleHeader read_sample_header(const std::filesystem::path& path) {
 }
 
 SampleVolume read_sample(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   h5::Reader r(path);
   const SampleHeader h = read_header(r);  // dims within budget before any allocation
   SampleVolume v;

@@ -130,6 +130,7 @@ Protocol parse_protocol(std::string_view text, const std::string& file) {
 }
 
 Protocol read_protocol(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), "<file>", "a readable protocol file");
   std::ostringstream ss;

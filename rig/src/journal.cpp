@@ -163,6 +163,7 @@ void JournalWriter::finish() {
 }
 
 JournalContents read_journal(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), "(file)", "a readable journal", "cannot open");
   JournalContents out;

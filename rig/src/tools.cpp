@@ -171,6 +171,7 @@ void write_tare(const std::filesystem::path& path, const Tare& t) {
 }
 
 Tare read_tare(const std::filesystem::path& path) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   const std::string file = path.string();
   const toml::table root = data_schema::parse_toml_file(path);
   const data_schema::TomlView v(root, file, "", "docs/rig.md");

@@ -302,3 +302,43 @@ def test_export_of_corrupt_sample_file(tmp_path):
     r = run("sample", "export-nrrd", p, "--out-prefix", tmp_path / "P")
     check(r, ["S.h5"], [p], before)
     assert not (tmp_path / "P_labels.nrrd").exists()
+
+
+def test_an_echoed_cell_is_cut_to_80_characters(tmp_path):
+    # Issue 12: a 100 MB header cell was echoed whole.
+    args, files = c_csv(tmp_path, HEAD.strip() + "," + "y" * 200_000 + "\n0,1,2,3,4,5,6,7\n")
+    r = run("recording", "import", *args, "--out", tmp_path / "R.h5")
+    check(r, ["R.csv", "column 8", "y" * 77 + "..."], files, digest(files), tmp_path / "R.h5")
+    assert len(r.stderr) < 400, len(r.stderr)
+
+
+def limited(limit_bytes, *args):
+    import resource
+
+    def cap():
+        resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
+    return subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, timeout=120, preexec_fn=cap)
+
+
+@pytest.mark.parametrize("where", ["header", "row"])
+def test_csv_memory_is_bounded_by_the_file(tmp_path, where):
+    # Issue 12: a 100 MB line of commas peaked at 4.2 GB (42 bytes per byte), then
+    # std::bad_alloc naming no file. 50 MB of commas now fit in 800 MB of address space
+    # (the program and its libraries take ~100 MB of it): exit 2 naming the line.
+    commas = "," * 50_000_000
+    text = (HEAD.strip() + commas + "\n0,1,2,3,4,5,6\n") if where == "header" else (HEAD + "0,1,2,3,4,5,6\n" + commas + "\n")
+    p = tmp_path / "R.csv"
+    p.write_text(text)
+    r = limited(800 << 20, "recording", "import", "--csv", p, "--out", tmp_path / "R.h5")
+    check(r, ["R.csv", "line 1 (header)" if where == "header" else "line 3", "columns"], [p], digest([p]),
+          tmp_path / "R.h5")
+
+
+def test_out_of_memory_is_exit_3_naming_the_file(tmp_path):
+    # A file too large for the memory at hand: one line naming it, exit 3 (not "std::bad_alloc").
+    p = tmp_path / "R.csv"
+    p.write_text(HEAD + "".join(f"{i * 0.001:.3f},1,2,3,4,5,6\n" for i in range(3_000_000)))
+    r = limited(300 << 20, "recording", "import", "--csv", p, "--out", tmp_path / "R.h5")
+    assert r.returncode == 3, (r.returncode, r.stderr)
+    assert r.stderr == f"burrbench: {p}: out of memory while reading it (a memory limit, or an input too large for this machine)\n"
+    assert not (tmp_path / "R.h5").exists()

@@ -16,6 +16,16 @@
 
 namespace burrbench::data_schema::import {
 namespace {
+
+// A recording's CSV has a few columns; a header of a million commas is not one, and the
+// cells of such a line would cost ~40 bytes each (issue 12: memory bounded by the file).
+constexpr std::size_t kMaxColumns = 1000;
+
+// A cell or name quoted in a message: at most 80 characters of it.
+std::string echo(std::string_view s) {
+  return s.size() <= 80 ? std::string(s) : std::string(s.substr(0, 77)) + "...";
+}
+
 using detail::to_double;
 using detail::trim;
 
@@ -86,14 +96,14 @@ CsvLayout parse_map(std::string_view text, const std::string& file) {
   TomlView v(t, file, "");
   if (v.str("format") != kCsvMapFormat) throw InputError(file, "format", fmt::format("\"{}\"", kCsvMapFormat));
   const std::string ver = v.str("format_version");
-  if (ver.rfind("1.", 0) != 0) throw InputError(file, "format_version", "1.x", "\"" + ver + "\"");
+  if (ver.rfind("1.", 0) != 0) throw InputError(file, "format_version", "1.x", "\"" + echo(ver) + "\"");
   CsvLayout L;
   if (auto d = v.opt_str("delimiter")) {
-    if (*d != "," && *d != ";" && *d != "\t" && *d != " ") throw InputError(file, "delimiter", "\",\", \";\", \"\\t\" or \" \"", "\"" + *d + "\"");
+    if (*d != "," && *d != ";" && *d != "\t" && *d != " ") throw InputError(file, "delimiter", "\",\", \";\", \"\\t\" or \" \"", "\"" + echo(*d) + "\"");
     L.delimiter = (*d)[0];
   }
   if (auto d = v.opt_str("decimal")) {
-    if (*d != "." && *d != ",") throw InputError(file, "decimal", "\".\" or \",\"", "\"" + *d + "\"");
+    if (*d != "." && *d != ",") throw InputError(file, "decimal", "\".\" or \",\"", "\"" + echo(*d) + "\"");
     L.decimal = (*d)[0];
   }
   if (v.has("header_line")) {
@@ -109,12 +119,12 @@ CsvLayout parse_map(std::string_view text, const std::string& file) {
     const std::string ch = c.str("channel");
     m.canonical = canonical_index(ch);
     if (m.canonical < 0) {
-      throw InputError(file, c.field("channel"), "one of t_s, x_mm, y_mm, z_mm, fx_N, fy_N, fz_N, tx_Nmm, ty_Nmm, tz_Nmm, spindle_rpm", "\"" + ch + "\"");
+      throw InputError(file, c.field("channel"), "one of t_s, x_mm, y_mm, z_mm, fx_N, fy_N, fz_N, tx_Nmm, ty_Nmm, tz_Nmm, spindle_rpm", "\"" + echo(ch) + "\"");
     }
     const Quantity q = kColumns[static_cast<std::size_t>(m.canonical)].q;
     if (auto u = c.opt_str("unit")) {
       auto f = unit_factor(q, *u);
-      if (!f) throw InputError(file, c.field("unit"), unit_list(q), "\"" + *u + "\"");
+      if (!f) throw InputError(file, c.field("unit"), unit_list(q), "\"" + echo(*u) + "\"");
       m.factor = *f;
     }
     if (auto s = c.opt_num("scale")) {
@@ -124,7 +134,7 @@ CsvLayout parse_map(std::string_view text, const std::string& file) {
     if (auto o = c.opt_num("offset")) m.offset = *o;
     c.done();
     for (const auto& [k, other] : L.by_csv_name) {
-      if (other.canonical == m.canonical) throw InputError(file, c.field("channel"), "each channel mapped once", "\"" + ch + "\" again");
+      if (other.canonical == m.canonical) throw InputError(file, c.field("channel"), "each channel mapped once", "\"" + echo(ch) + "\" again");
     }
     L.by_csv_name[key] = m;
   }
@@ -132,6 +142,17 @@ CsvLayout parse_map(std::string_view text, const std::string& file) {
   v.done();
   if (L.delimiter && *L.delimiter == ',' && L.decimal == ',') throw InputError(file, "decimal", "\".\" when the delimiter is \",\"");
   return L;
+}
+
+// The cells of one line, counted without allocating (delimiters outside quotes).
+std::size_t count_cells(std::string_view line, char delim) {
+  std::size_t n = 1;
+  bool quoted = false;
+  for (const char ch : line) {
+    if (ch == '"') quoted = !quoted;
+    else if (ch == delim && !quoted) ++n;
+  }
+  return n;
 }
 
 // Splits one line; "quoted, fields" keep their delimiters ("" is a literal quote).
@@ -148,14 +169,14 @@ std::vector<std::string> split(std::string_view line, char delim) {
     } else if (ch == '"') {
       quoted = true;
     } else if (ch == delim) {
-      out.push_back(trim(cur));
+      if (delim != ' ' || !cur.empty()) out.push_back(trim(cur));  // runs of spaces are one delimiter
       cur.clear();
+      if (out.size() > kMaxColumns) return out;  // too many: the caller says so, memory stays bounded
     } else {
       cur += ch;
     }
   }
-  out.push_back(trim(cur));
-  if (delim == ' ') out.erase(std::remove(out.begin(), out.end(), std::string()), out.end());
+  if (delim != ' ' || !cur.empty()) out.push_back(trim(cur));
   return out;
 }
 
@@ -191,7 +212,13 @@ Recording parse_csv_recording(std::string_view csv, const std::string& file, std
   if (delim == ',' && L.decimal == ',')
     throw InputError(mfile, "decimal", "\".\" when the delimiter is \",\" (set delimiter = \";\" or \"\\t\")",
                      fmt::format("\",\" with \",\" as the delimiter of {}", file));
+  if (const std::size_t n = count_cells(line, delim); delim != ' ' && n > kMaxColumns)
+    throw InputError(file, fmt::format("line {} (header)", lineno), fmt::format("at most {} columns", kMaxColumns),
+                     std::to_string(n));
   const auto header = split(line, delim);
+  if (header.size() > kMaxColumns)
+    throw InputError(file, fmt::format("line {} (header)", lineno), fmt::format("at most {} columns", kMaxColumns),
+                     std::to_string(header.size()));
   const long header_lineno = lineno;
 
   // column index → mapping
@@ -206,19 +233,19 @@ Recording parse_csv_recording(std::string_view csv, const std::string& file, std
     } else {
       const int c = canonical_index(header[i]);
       if (c < 0) {
-        throw InputError(file, fmt::format("line {}, column {} (\"{}\")", header_lineno, i + 1, header[i]),
+        throw InputError(file, fmt::format("line {}, column {} (\"{}\")", header_lineno, i + 1, echo(header[i])),
                          "a canonical name (t_s,x_mm,y_mm,z_mm,fx_N,fy_N,fz_N,tx_Nmm,ty_Nmm,tz_Nmm,spindle_rpm) or a --map");
       }
       cols[i] = ColumnMap{header[i], c};
     }
     const auto c = static_cast<std::size_t>(cols[i]->canonical);
-    if (where[c] >= 0) throw InputError(file, fmt::format("line {}, column {} (\"{}\")", header_lineno, i + 1, header[i]), "each channel once");
+    if (where[c] >= 0) throw InputError(file, fmt::format("line {}, column {} (\"{}\")", header_lineno, i + 1, echo(header[i])), "each channel once");
     where[c] = static_cast<int>(i);
   }
   if (map_toml) {
     for (const auto& [name, m] : L.by_csv_name) {
       if (std::find(header.begin(), header.end(), name) == header.end()) {
-        throw InputError(mfile, fmt::format("columns.\"{}\"", name), fmt::format("a column of {} line {}", file, header_lineno), "no such column");
+        throw InputError(mfile, fmt::format("columns.\"{}\"", echo(name)), fmt::format("a column of {} line {}", file, header_lineno), "no such column");
       }
     }
   }
@@ -238,6 +265,11 @@ Recording parse_csv_recording(std::string_view csv, const std::string& file, std
   std::array<double, kColumns.size()> row{};
   while (next(line)) {
     if (trim(line).empty()) continue;
+    if (delim != ' ') {  // spaces collapse: counted after the split, bounded by the line then
+      if (const std::size_t n = count_cells(line, delim); n != header.size())
+        throw InputError(file, fmt::format("line {}", lineno), fmt::format("{} columns like the header", header.size()),
+                         std::to_string(n));
+    }
     auto cells = split(line, delim);
     if (cells.size() != header.size()) {
       throw InputError(file, fmt::format("line {}", lineno), fmt::format("{} columns like the header", header.size()), std::to_string(cells.size()));
@@ -248,16 +280,16 @@ Recording parse_csv_recording(std::string_view csv, const std::string& file, std
       if (L.decimal == ',') std::replace(cell.begin(), cell.end(), ',', '.');
       const auto d = to_double(cell);
       if (!d) {
-        throw InputError(file, fmt::format("line {}, column {} (\"{}\")", lineno, i + 1, header[i]), "a finite number",
-                         "\"" + cells[i].substr(0, 40) + "\"");
+        throw InputError(file, fmt::format("line {}, column {} (\"{}\")", lineno, i + 1, echo(header[i])), "a finite number",
+                         "\"" + echo(cells[i]) + "\"");
       }
       const ColumnMap& m = *cols[i];
       const double val = m.factor * (m.scale * *d + m.offset);
-      if (!std::isfinite(val)) throw InputError(file, fmt::format("line {}, column {} (\"{}\")", lineno, i + 1, header[i]), "a finite value after scaling");
+      if (!std::isfinite(val)) throw InputError(file, fmt::format("line {}, column {} (\"{}\")", lineno, i + 1, echo(header[i])), "a finite value after scaling");
       row[static_cast<std::size_t>(m.canonical)] = val;
     }
     const double t = row[0];
-    const std::string tcol = fmt::format("line {}, column {} (\"{}\")", lineno, where[0] + 1, header[static_cast<std::size_t>(where[0])]);
+    const std::string tcol = fmt::format("line {}, column {} (\"{}\")", lineno, where[0] + 1, echo(header[static_cast<std::size_t>(where[0])]));
     if (std::abs(t) > 9e9) throw InputError(file, tcol, "a time within ±9e9 s");
     const auto t_ns = static_cast<std::int64_t>(std::llround(t * 1e9));
     if (!s.t_ns.empty() && (t <= last_t || t_ns <= s.t_ns.back())) {
@@ -287,6 +319,7 @@ Recording parse_csv_recording(std::string_view csv, const std::string& file, std
 }
 
 Recording read_csv_recording(const std::filesystem::path& csv, const std::optional<std::filesystem::path>& map) {
+  const ReadingFile reading(csv.string());  // names it if memory runs out
   const std::string text = detail::read_file_limited(csv, kMaxCsvBytes);
   std::optional<std::string> map_text;
   if (map) map_text = detail::read_file_limited(*map, 1u << 20);

@@ -42,6 +42,7 @@ bool natural_less(const std::string& a, const std::string& b) {
 }
 
 cv::Mat read_slice(const std::filesystem::path& p) {
+  const ReadingFile reading(p.string());  // names it if memory runs out
   try {
     return cv::imread(p.string(), cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {

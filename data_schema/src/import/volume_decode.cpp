@@ -66,6 +66,7 @@ std::size_t checked_voxel_count(const std::array<std::size_t, 3>& dims, VoxelTyp
 }
 
 std::string read_file_limited(const std::filesystem::path& p, std::size_t max_bytes) {
+  const ReadingFile reading(p.string());  // names it if memory runs out
   std::error_code ec;
   if (!std::filesystem::is_regular_file(p, ec)) throw InputError(p.string(), "<file>", "an existing regular file");
   const auto size = std::filesystem::file_size(p, ec);
@@ -83,6 +84,7 @@ std::string read_file_limited(const std::filesystem::path& p, std::size_t max_by
 }
 
 ImageVolume read_header_and_data(const std::filesystem::path& path, const ImportLimits& lim, HeaderParser parse) {
+  const ReadingFile reading(path.string());  // names it if memory runs out
   // The attached data may reach the budget; allow header slack.
   const std::size_t max_bytes = lim.max_bytes + (1u << 20);
   const std::string bytes = read_file_limited(path, max_bytes);

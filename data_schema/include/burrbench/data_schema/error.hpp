@@ -23,6 +23,24 @@ class InvariantError : public std::logic_error {
   using std::logic_error::logic_error;
 };
 
+// The input file a reader is reading, for failures that cannot name it themselves: an
+// std::bad_alloc from a file too large for this machine is reported as "FILE: out of
+// memory while reading it" (exit 3). Readers hold one for their duration; they nest.
+class ReadingFile {
+ public:
+  explicit ReadingFile(std::string path);
+  ~ReadingFile();
+  ReadingFile(const ReadingFile&) = delete;
+  ReadingFile& operator=(const ReadingFile&) = delete;
+
+ private:
+  std::string previous_;
+  int exceptions_;
+};
+// The innermost file being read when an exception left a reader (else the one being
+// read now, else "").
+const std::string& file_being_read();
+
 [[noreturn]] void invariant_failed(const char* expr, const char* file, int line,
                                    const std::string& detail);
 
