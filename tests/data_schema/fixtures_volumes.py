@@ -95,21 +95,26 @@ def write_png(path, img):
                 + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 
 
-def write_tiff(path, img):
-    """Baseline little-endian uncompressed greyscale TIFF, one strip, 8 or 16 bit."""
+def write_tiff(path, img, pages=1):
+    """Baseline little-endian uncompressed greyscale TIFF, one strip, 8 or 16 bit; `pages`
+    copies of the image as a multi-page TIFF (each page an IFD followed by its strip)."""
     h, w = img.shape
     bits = 16 if img.dtype == np.uint16 else 8
     data = img.astype("<u2" if bits == 16 else "u1").tobytes()
     entries = [(256, 4, w), (257, 4, h), (258, 3, bits), (259, 3, 1), (262, 3, 1), (273, 4, 0),
                (277, 3, 1), (278, 4, h), (279, 4, len(data))]
     ifd_size = 2 + 12 * len(entries) + 4
-    data_off = 8 + ifd_size
-    out = b"II*\x00" + struct.pack("<I", 8) + struct.pack("<H", len(entries))
-    for tag, typ, val in entries:
-        if tag == 273:
-            val = data_off
-        out += struct.pack("<HHI", tag, typ, 1) + (struct.pack("<HH", val, 0) if typ == 3 else struct.pack("<I", val))
-    out += struct.pack("<I", 0) + data
+    out = b"II*\x00" + struct.pack("<I", 8)
+    for page in range(pages):
+        ifd_off = len(out)
+        data_off = ifd_off + ifd_size
+        next_ifd = data_off + len(data) if page + 1 < pages else 0
+        out += struct.pack("<H", len(entries))
+        for tag, typ, val in entries:
+            if tag == 273:
+                val = data_off
+            out += struct.pack("<HHI", tag, typ, 1) + (struct.pack("<HH", val, 0) if typ == 3 else struct.pack("<I", val))
+        out += struct.pack("<I", next_ifd) + data
     with open(path, "wb") as f:
         f.write(out)
 

@@ -165,6 +165,15 @@ def c_tiff_corrupt(d):
     return ["--labels", s, "--spacing-mm", "1,1,1"], [s / f"s{z}.tif" for z in range(4)], ["s2.tif", "image"]
 
 
+def c_multipage_tiff(d):
+    # Issue 12: the first page was read and the others vanished without a word.
+    s = d / "stack"
+    s.mkdir()
+    write_tiff(s / "s0.tif", LAB[0])
+    write_tiff(s / "s1.tif", LAB[1], pages=3)
+    return ["--labels", s, "--spacing-mm", "1,1,1"], [s / "s0.tif", s / "s1.tif"], ["s1.tif", "pages", "3 pages"]
+
+
 def c_slice_size_mismatch(d):
     s = d / "slices"
     s.mkdir()
@@ -209,7 +218,7 @@ def c_out_is_input(d):
 VOLUME_CASES = [c_truncated_raw, c_truncated_gzip, c_corrupt_gzip, c_huge_sizes, c_huge_sizes_budget,
                 c_wrong_dimension, c_wrong_type, c_nan_fraction, c_inf_fraction, c_rotated, c_missing_data_file,
                 c_bad_magic, c_missing_spacing, c_unknown_field, c_mha_truncated, c_mha_huge, c_mha_type, c_mha_ndims,
-                c_zraw_corrupt, c_tiff_corrupt, c_slice_size_mismatch, c_slice_type_mismatch, c_label_not_integer,
+                c_zraw_corrupt, c_tiff_corrupt, c_multipage_tiff, c_slice_size_mismatch, c_slice_type_mismatch, c_label_not_integer,
                 c_fraction_out_of_range, c_geometry_mismatch, c_out_is_input]
 
 

@@ -44,6 +44,12 @@ bool natural_less(const std::string& a, const std::string& b) {
 cv::Mat read_slice(const std::filesystem::path& p) {
   const ReadingFile reading(p.string());  // names it if memory runs out
   try {
+    // imread returns the first page of a multi-page TIFF: the other slices would vanish.
+    if (const std::size_t pages = cv::imcount(p.string()); pages > 1)
+      throw InputError(p.string(), "pages",
+                       "one image per slice file (a multi-page TIFF holds a whole stack: save it as one "
+                       "file per slice, or as NRRD)",
+                       fmt::format("{} pages", pages));
     return cv::imread(p.string(), cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {
     throw InputError(p.string(), "image", "a readable 8/16-bit TIFF or PNG", e.what());
