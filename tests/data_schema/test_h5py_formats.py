@@ -224,6 +224,34 @@ def test_huge_claimed_size_refused_before_allocating(fx, tmp_path):
     assert_rejected(p, "H.h5: /labels: expected at most 858993459 voxels (4 GiB memory budget), got 4096×4096×4096")
 
 
+def test_huge_declared_strings_refused_before_allocating(fx, tmp_path):
+    # Issue 12: fixed-length strings declared at 1 GiB, nothing stored (a 13 KB file), were
+    # allocated before any size check: 3-4 GB. Now refused by their declared size.
+    def huge_string(f):
+        del f["segmentation_json"]
+        t = h5py.h5t.C_S1.copy()
+        t.set_size(2**30)
+        dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+        dcpl.set_fill_time(h5py.h5d.FILL_TIME_NEVER)
+        h5py.h5d.create(f.id, b"segmentation_json", t, h5py.h5s.create(h5py.h5s.SCALAR), dcpl=dcpl)
+
+    def huge_list(f):
+        names = f["classes/name"]
+        n = names.shape[0]
+        del f["classes/name"]
+        t = h5py.h5t.C_S1.copy()
+        t.set_size(2**29)
+        dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+        dcpl.set_fill_time(h5py.h5d.FILL_TIME_NEVER)
+        h5py.h5d.create(f.id, b"classes/name", t, h5py.h5s.create_simple((n,)), dcpl=dcpl)
+    p = edit(fx / "sample.h5", tmp_path / "HS.h5", huge_string)
+    assert p.stat().st_size < 1_000_000
+    assert_rejected(p, "HS.h5: /segmentation_json: expected strings of at most", "1 string of 1073741824 bytes declared")
+    p = edit(fx / "sample.h5", tmp_path / "HL.h5", huge_list)
+    assert_rejected(p, "HL.h5: /classes/name: expected strings of at most 67108864 bytes in all",
+                    "strings of 536870912 bytes declared")
+
+
 def test_truncated_and_foreign_files(fx, tmp_path):
     data = (fx / "recording.h5").read_bytes()
     for frac in (0.95, 0.5, 0.05):

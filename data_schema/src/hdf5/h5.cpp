@@ -183,18 +183,38 @@ std::uint64_t product(const std::vector<hsize_t>& d, std::uint64_t cap) {
   return n;
 }
 
-// Reads a string-typed attribute or dataset (fixed or variable length) into `out`.
+// Strings of an attribute: provenance, metadata, notes (a rig map is a dataset).
+constexpr std::uint64_t kMaxAttrStringBytes = 16u << 20;
+// All strings of one string dataset together (the per-element count is checked too).
+constexpr std::uint64_t kMaxStringsBytes = 64u << 20;
+
+// Reads a string-typed attribute or dataset (fixed or variable length) into `out`. A
+// fixed-length type declares its size: more than `max_bytes` in all is refused before
+// anything is allocated (a small file can declare 2 GiB strings with nothing stored).
 template <class ReadFn>
 bool read_string_values(hid_t type, std::size_t n, std::vector<std::string>& out, ReadFn read,
-                        hid_t space) {
+                        hid_t space, std::uint64_t max_bytes, const std::string& file, const std::string& field) {
   out.assign(n, {});
   if (n == 0) return true;
+  if (H5Tis_variable_str(type) <= 0) {
+    const std::uint64_t declared = H5Tget_size(type);
+    if (declared > max_bytes || n > max_bytes / std::max<std::uint64_t>(declared, 1))
+      throw InputError(file, field, fmt::format("strings of at most {} bytes in all", max_bytes),
+                       fmt::format("{} string{} of {} bytes declared", n, n == 1 ? "" : "s", declared));
+  }
   if (H5Tis_variable_str(type) > 0) {
     Handle mt = string_type();
     std::vector<char*> ptrs(n, nullptr);
     if (read(mt.get(), ptrs.data()) < 0) return false;
-    for (std::size_t i = 0; i < n; ++i) out[i] = ptrs[i] ? ptrs[i] : "";
+    // Variable length: stored in the file, so bounded by it; still held to the budget.
+    std::uint64_t total = 0;
+    for (std::size_t i = 0; i < n; ++i) total += ptrs[i] ? std::strlen(ptrs[i]) : 0;
+    if (total <= max_bytes)
+      for (std::size_t i = 0; i < n; ++i) out[i] = ptrs[i] ? ptrs[i] : "";
     H5Dvlen_reclaim(mt.get(), space, H5P_DEFAULT, ptrs.data());
+    if (total > max_bytes)
+      throw InputError(file, field, fmt::format("strings of at most {} bytes in all", max_bytes),
+                       fmt::format("{} bytes", total));
     return true;
   }
   // Fixed length (MATLAB, Fortran): one extra byte so a NULLTERM memory type keeps all
@@ -319,7 +339,7 @@ std::string Reader::attr_string(const std::string& obj_path, const std::string& 
   std::vector<std::string> out;
   const hid_t aid = a.get();
   if (!read_string_values(t.get(), 1, out, [aid](hid_t mt, void* buf) { return H5Aread(aid, mt, buf); },
-                          s.get()))
+                          s.get(), kMaxAttrStringBytes, file_, field))
     throw InputError(file_, field, "a readable string attribute (file corrupt?)");
   return out[0];
 }
@@ -412,7 +432,7 @@ std::vector<std::string> Reader::read_strings(const std::string& ds_path, std::u
   const hid_t did = d.get();
   if (!read_string_values(t.get(), dims[0], out,
                           [did](hid_t mt, void* buf) { return H5Dread(did, mt, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf); },
-                          s.get()))
+                          s.get(), kMaxStringsBytes, file_, ds_path))
     throw InputError(file_, ds_path, "readable strings", "read failed (file truncated or corrupt?)");
   return out;
 }
@@ -429,7 +449,7 @@ std::string Reader::read_string(const std::string& ds_path, std::uint64_t max_by
   const hid_t did = d.get();
   if (!read_string_values(t.get(), 1, out,
                           [did](hid_t mt, void* buf) { return H5Dread(did, mt, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf); },
-                          s.get()))
+                          s.get(), max_bytes + 1, file_, ds_path))
     throw InputError(file_, ds_path, "a readable string", "read failed (file truncated or corrupt?)");
   if (out[0].size() > max_bytes)
     throw InputError(file_, ds_path, fmt::format("at most {} bytes", max_bytes), std::to_string(out[0].size()));
