@@ -1,6 +1,7 @@
 // Fit result (JSON, format "burrbench.fit"): writer, reader, validator.
 // Non-finite numbers: NaN ↔ null, ±inf ↔ "inf"/"-inf" (JSON has neither).
 #include "burrbench/data_schema/fit_result.hpp"
+#include "burrbench/data_schema/sample_volume.hpp"
 
 #include <cmath>
 #include <fstream>
@@ -254,7 +255,8 @@ FitResult read_fit(const std::filesystem::path& path) {
     JsonView p(params[i], file, fmt::format("parameters[{}]", i));
     FitParameter fp;
     const auto id = p.count("class_id");
-    if (id < 1 || id > 255) throw InputError(file, p.field("class_id"), "a class id 1..255", std::to_string(id));
+    if (id < 1 || id > kMaxClassId)
+      throw InputError(file, p.field("class_id"), fmt::format("a class id 1..{}", kMaxClassId), std::to_string(id));
     fp.class_id = std::uint8_t(id);
     fp.class_name = p.str("class_name");
     fp.name = p.str("name");

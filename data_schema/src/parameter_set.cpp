@@ -9,6 +9,7 @@
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/sample_volume.hpp"
 #include "format_common.hpp"
 #include "toml_util.hpp"
 
@@ -83,7 +84,8 @@ ParameterSet read_params(const std::filesystem::path& path) {
   for (const auto& name : classes.keys()) {
     auto c = classes.table(name);
     const std::int64_t id = c.integer("id");
-    if (id < 1 || id > 255) throw InputError(file, c.field("id"), "a class id 1..255", std::to_string(id));
+    if (id < 1 || id > kMaxClassId)
+      throw InputError(file, c.field("id"), fmt::format("a class id 1..{}", kMaxClassId), std::to_string(id));
     ClassParams cp;
     cp.name = name;
     cp.alpha_N_per_mm2 = c.num_or_inf("alpha_N_per_mm2");

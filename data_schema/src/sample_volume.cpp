@@ -19,7 +19,7 @@ namespace burrbench::data_schema {
 
 namespace {
 
-constexpr std::uint64_t kMaxClassesStored = 255;
+constexpr std::uint64_t kMaxClassesStored = kMaxClassId;
 constexpr std::uint64_t kMaxTextBytes = 16ull << 20;
 
 void check_dims(const std::string& file, const std::string& field, const std::array<std::size_t, 3>& d) {

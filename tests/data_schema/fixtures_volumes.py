@@ -80,18 +80,21 @@ def write_metaimage(path, arr, spacing=(1.0, 1.0, 1.0), offset=(0.0, 0.0, 0.0), 
             f.write(data)
 
 
-def write_png(path, img):
-    """Greyscale PNG, 8 or 16 bit (img: 2-D uint8/uint16)."""
+def write_png(path, img, bad_text_crc=False):
+    """Greyscale PNG, 8 or 16 bit (img: 2-D uint8/uint16); with a tEXt comment whose CRC is
+    wrong when bad_text_crc (libpng warns about it and decodes the image)."""
     h, w = img.shape
     depth = 16 if img.dtype == np.uint16 else 8
     rows = img.astype(">u2" if depth == 16 else "u1")
     raw = b"".join(b"\x00" + rows[r].tobytes() for r in range(h))
 
-    def chunk(t, d):
-        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
+    def chunk(t, d, crc=None):
+        crc = zlib.crc32(t + d) if crc is None else crc
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", crc & 0xFFFFFFFF)
 
+    text = chunk(b"tEXt", b"Comment\0scanner note", crc=0) if bad_text_crc else b""
     with open(path, "wb") as f:
-        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, 0, 0, 0, 0))
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, 0, 0, 0, 0)) + text
                 + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 
 

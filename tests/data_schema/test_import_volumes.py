@@ -160,6 +160,20 @@ def test_slice_stack_sorted_by_name(tmp_path, writer, dtype):
     assert len(s["sources"]) == 12
 
 
+def test_library_warnings_do_not_reach_the_terminal(tmp_path):
+    # Issue 12: libpng printed "libpng warning: tEXt: CRC error" lines of its own beside
+    # ours. A damaged comment chunk changes no pixel: the stack imports, stderr stays empty.
+    labels, _ = phantom((3, 4, 6), seed=6)
+    d = tmp_path / "slices"
+    d.mkdir()
+    for z in range(3):
+        write_png(d / f"s{z}.png", labels[z].astype(np.uint8), bad_text_crc=True)
+    out = tmp_path / "S.h5"
+    r = run("sample", "import", "--labels", d, "--spacing-mm", "0.2,0.2,0.2", "--out", out)
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+    np.testing.assert_array_equal(load(out)["labels"], labels)
+
+
 def test_ct_segmentation_through_cli(tmp_path):
     # 24×24×30 voxels of 0.1 mm: air on top, a solid 1 mm slab, plates 1 voxel thick below.
     ct = np.zeros((30, 24, 24), np.int16)

@@ -1,7 +1,11 @@
 // TIFF/PNG slice stacks through OpenCV imgcodecs, and the by-extension dispatcher.
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
@@ -41,9 +45,35 @@ bool natural_less(const std::string& a, const std::string& b) {
   return a.size() - i < b.size() - j;
 }
 
+// libpng's default warning handler prints "libpng warning: ..." on stderr, and OpenCV
+// installs none: a damaged ancillary chunk (a text comment) would add lines to our one-line
+// messages. Such warnings change no pixel, so stderr is silenced while a slice is decoded;
+// real failures still come back as an empty image or a cv::Exception.
+class QuietStderr {
+ public:
+  QuietStderr() {
+    std::fflush(stderr);
+    saved_ = ::dup(2);
+    const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+    if (saved_ >= 0 && null >= 0) ::dup2(null, 2);
+    if (null >= 0) ::close(null);
+  }
+  ~QuietStderr() {
+    if (saved_ < 0) return;
+    ::dup2(saved_, 2);
+    ::close(saved_);
+  }
+  QuietStderr(const QuietStderr&) = delete;
+  QuietStderr& operator=(const QuietStderr&) = delete;
+
+ private:
+  int saved_ = -1;
+};
+
 cv::Mat read_slice(const std::filesystem::path& p) {
   const ReadingFile reading(p.string());  // names it if memory runs out
   try {
+    const QuietStderr quiet;
     // imread returns the first page of a multi-page TIFF: the other slices would vanish.
     if (const std::size_t pages = cv::imcount(p.string()); pages > 1)
       throw InputError(p.string(), "pages",

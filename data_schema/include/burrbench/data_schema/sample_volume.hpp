@@ -22,6 +22,9 @@ inline constexpr int kSampleVersionMinor = 0;
 inline constexpr std::uint8_t kEmpty = 0;
 inline constexpr std::uint8_t kCompact = 1;
 inline constexpr std::uint8_t kTrabecular = 2;
+// Class ids are labels of a uint8 volume: 1..255 in every format (0 is empty space). The
+// model replays fewer (model::kMaxClasses) and says so when a sample holds more.
+inline constexpr int kMaxClassId = 255;
 
 // How χ is stored on disk: float32, or the paper's 8-bit counter χ = n/255
 // (written as round(255·χ); read back as float(n)/255.0f).
