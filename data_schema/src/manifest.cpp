@@ -318,6 +318,13 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
     if (rr.spindle_rpm && !(std::abs(*rr.spindle_rpm) > 0 && std::abs(*rr.spindle_rpm) <= 1e6))
       throw InputError(file, r.field("spindle_rpm"), "a constant spindle speed, 0 < |rpm| ≤ 1e6 (sign = spin)",
                        fmt::format("{}", *rr.spindle_rpm));
+    if (r.has("waive")) {
+      rr.waive = r.strings("waive");
+      for (const auto& w : rr.waive)
+        if (w != "burr_radius_mm")
+          throw InputError(file, r.field("waive"), "names of recording metadata the manifest overrides: \"burr_radius_mm\"",
+                           "\"" + w.substr(0, 80) + "\"");
+    }
     auto g = r.table("registration");
     const bool fid = g.has("fiducials_rig_mm") || g.has("fiducials_vol_mm");
     const int given = int(g.has("rotation") || g.has("translation_mm")) + int(g.has("vol_from_rig")) +
@@ -469,6 +476,11 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
                    {"role", to_string(r.role)}, {"lag_ms", r.lag_ms},       {"registration", reg}};
     if (!segs.empty()) rt.insert("segments", segs);
     if (r.spindle_rpm) rt.insert("spindle_rpm", *r.spindle_rpm);
+    if (!r.waive.empty()) {
+      toml::array w;
+      for (const auto& s : r.waive) w.push_back(s);
+      rt.insert("waive", w);
+    }
     recordings.push_back(rt);
   }
   toml::table sensor{{"rotation_sensor_to_rig", rows(m.sensor.rotation_sensor_to_rig)},

@@ -209,6 +209,15 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     a.registration.method = ref.registration.given_as;
   }
   check_rotation(m.sensor.rotation_sensor_to_rig, mfile, "sensor.rotation_sensor_to_rig");
+  // The burr radius the rig logged (0: not stated) must be the one the model drills with.
+  const double rec_r = rec.meta.burr_radius_mm;
+  if (rec_r > 0 && std::abs(rec_r - m.burr.radius_mm) > 1e-9 * rec_r &&
+      std::find(ref.waive.begin(), ref.waive.end(), "burr_radius_mm") == ref.waive.end())
+    throw InputError(mfile, "burr.radius_mm",
+                     fmt::format("the burr radius recorded in {} (/meta/burr_radius_mm = {} mm), or "
+                                 "recordings[{}].waive = [\"burr_radius_mm\"] to override it",
+                                 file, rec_r, index),
+                     fmt::format("{} mm", m.burr.radius_mm));
   const double axis_len = glm::length(m.burr.shaft_axis_rig);
   if (!(axis_len > 0)) throw InputError(mfile, "burr.shaft_axis_rig", "a non-zero vector");
   if (!(m.burr.radius_mm > 0)) throw InputError(mfile, "burr.radius_mm", "a radius > 0");

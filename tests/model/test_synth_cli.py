@@ -244,3 +244,23 @@ def test_a_constant_spindle_speed_in_the_manifest_replaces_a_missing_channel(exp
     a, b = predicted(tmp_path / "with.h5"), predicted(tmp_path / "const.h5")
     assert np.abs(a).max() > 0.2
     np.testing.assert_array_equal(a, b)
+
+
+def test_a_burr_radius_contradicting_the_recording_is_refused_unless_waived(exp, tmp_path):
+    # Issue 12: the recording logs the burr radius; a manifest with another one replayed
+    # a different burr without a word.
+    text = (exp / "experiment.toml").read_text().replace("radius_mm = 1.0", "radius_mm = 1.2")
+    m = exp / "radius12.toml"
+    m.write_text(text)
+    p = run("replay", m, "--params", exp / "params_true.toml", "--out", tmp_path / "p.h5", check=False)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1, p.stderr
+    assert f"burrbench: {m}: burr.radius_mm: expected the burr radius recorded in" in p.stderr, p.stderr
+    assert "(/meta/burr_radius_mm = 1 mm)" in p.stderr and "got 1.2 mm" in p.stderr, p.stderr
+    assert not (tmp_path / "p.h5").exists()
+    # Waived for every recording: the manifest's radius is used.
+    m.write_text(text.replace('lag_ms = 0.0\n', 'lag_ms = 0.0\nwaive = ["burr_radius_mm"]\n'))
+    p = run("replay", m, "--params", exp / "params_true.toml", "--out", tmp_path / "p.h5", check=False)
+    assert p.returncode == 0, p.stderr
+    m.write_text(text.replace('lag_ms = 0.0\n', 'lag_ms = 0.0\nwaive = ["colour"]\n'))
+    p = run("replay", m, "--params", exp / "params_true.toml", "--out", tmp_path / "q.h5", check=False)
+    assert p.returncode == 2 and "waive" in p.stderr and "colour" in p.stderr, p.stderr

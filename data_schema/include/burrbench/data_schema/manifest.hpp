@@ -79,6 +79,9 @@ struct RecordingRef {
   double lag_ms = 0;           // initial / fixed position→force lag
   // Constant spindle speed (signed rpm) for a recording without a spindle_rpm channel.
   std::optional<double> spindle_rpm;
+  // Recording metadata the manifest may contradict on purpose (e.g. "burr_radius_mm" of a
+  // burr re-measured since): without a waiver a disagreement is refused.
+  std::vector<std::string> waive;
   Registration registration;
   std::vector<Segment> segments;  // empty: the whole recording
 };
