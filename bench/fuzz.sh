@@ -12,6 +12,7 @@ root=$(dirname "$here")
 secs=${FUZZ_SECONDS:-60}
 if [[ ${1:-} =~ ^[0-9]+$ ]]; then secs=$1; fi
 build=${FUZZ_BUILD:-$root/build-fuzz}
+PYTHON=/usr/bin/python3
 targets=(fuzz_nrrd fuzz_metaimage fuzz_csv fuzz_manifest)
 
 log=$(mktemp)
@@ -105,6 +106,20 @@ multistart = 4
   lag_bounds_ms = [-20.0, 20.0]
   depth_offset = false
 TOML
+
+# Nesting seeds (issue 12): 20 000 levels of dotted keys, inline tables and arrays (toml++
+# recursed once per level and overflowed the stack before the nesting pre-scan).
+"$PYTHON" - "$work/fuzz_manifest/seeds" <<'PY'
+import os, sys
+d = sys.argv[1]
+os.makedirs(d, exist_ok=True)
+n = 20000
+seeds = {"nest_dotted": "a" + ".a" * n + " = 1\n",
+         "nest_inline": "a = " + "{b = " * (n // 3) + "1" + "}" * (n // 3) + "\n",
+         "nest_array": "a = " + "[" * n + "]" * n + "\n"}
+for name, text in seeds.items():
+    open(os.path.join(d, name), "w").write('format = "burrbench.experiment"\nformat_version = "1.0"\n' + text)
+PY
 
 # --- run ---
 printf '%-40s | %-32s | %s\n' "figure (execs in ${secs} s)" "target" "ok?"

@@ -178,7 +178,8 @@ std::string parameter_section(const AnalysisInput& in, const json* fit) {
            td("[" + n("ci95_low") + ", " + n("ci95_high") + "]", true) +
            td("[" + n("bootstrap_ci95_low") + ", " + n("bootstrap_ci95_high") + "]", true) +
            td(p.value("fixed", false) ? "yes" : "no") +
-           td(ident ? esc(verdict) : "<b>" + esc(verdict) + "</b>: " + esc(p.value("reason", std::string()))) +
+           td(ident && verdict != "imprecise" ? esc(verdict)
+                                              : "<b>" + esc(verdict) + "</b>: " + esc(p.value("reason", std::string()))) +
            "</tr>";
     }
     h += "</table>";

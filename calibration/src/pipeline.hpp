@@ -65,6 +65,7 @@ struct Run {
   std::vector<Profile> profiles;     // free physics parameters that were profiled
   UncertaintyReport unc;
   std::vector<std::string> verdict;  // per x entry (physics only)
+  std::map<std::size_t, std::string> imprecise_reason;  // x entry → why "imprecise"
   std::vector<std::string> warnings;
 
   // resampling

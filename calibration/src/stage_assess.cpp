@@ -157,6 +157,17 @@ void assess(Run& run) {
                           to_string(p->kind));
       } else if (pr.lower.closed && pr.upper.closed) {
         v = "identifiable";
+        // Closed, but wider than the precision the lab asked for ([fit.precision]).
+        const auto& fs = run.exp.manifest.fit;
+        const auto asked = p->kind == PhysKind::kAlpha ? fs.precision_alpha
+                           : p->kind == PhysKind::kC1  ? fs.precision_c1
+                                                        : fs.precision_mu;
+        const double half = 0.5 * (std::exp(pr.upper.crossing) - std::exp(pr.lower.crossing)) / std::exp(xi);
+        if (asked && half > *asked) {
+          v = "imprecise";
+          why = fmt::format("95 % profile interval ±{:.1f} %, wider than the ±{:.1f} % asked (fit.precision.{})",
+                            100 * half, 100 * *asked, to_string(p->kind));
+        }
       } else if (pr.lower.closed || pr.upper.closed) {
         v = "practically_non_identifiable";
         const bool up_open = !pr.upper.closed;
@@ -181,7 +192,10 @@ void assess(Run& run) {
             break;
           }
       run.verdict[i] = v;
-      if (v != "identifiable") {
+      if (v == "imprecise") {
+        // Determined, only not as finely as asked: it keeps its estimate and covariance.
+        run.imprecise_reason[i] = why;
+      } else if (v != "identifiable") {
         flags.held[i] = true;
         flags.reason[i] = why;
       }
@@ -197,6 +211,7 @@ void assess(Run& run) {
     fp.verdict = !run.verdict[i].empty() ? run.verdict[i]
                  : fp.identifiable       ? "identifiable"
                                          : "non_identifiable";
+    if (const auto it = run.imprecise_reason.find(i); it != run.imprecise_reason.end()) fp.reason = it->second;
     for (const auto& pr : run.profiles)
       if (pr.entry == i) {
         fp.profile = profile_json(L, pr);

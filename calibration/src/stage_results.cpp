@@ -201,6 +201,7 @@ CalibrationOutput results(Run& run) {
                        std::isfinite(p.bootstrap_ci95_low)
                            ? fmt::format("; bootstrap [{:.6g}, {:.6g}]", p.bootstrap_ci95_low, p.bootstrap_ci95_high)
                            : "");
+      if (p.verdict == "imprecise") s += fmt::format("  {:<12} {:<5}   IMPRECISE: {}\n", p.class_name, p.name, p.reason);
     }
   }
   for (const auto& n : out.nuisance)

@@ -388,6 +388,19 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
         throw InputError(file, "fit.multistart", fmt::format("1..{}", kMaxMultistart), std::to_string(ms));
       f.multistart = int(ms);
     }
+    if (auto pr = fit->opt_table("precision")) {
+      auto read = [&](const char* key) -> std::optional<double> {
+        const auto v = pr->opt_num(key);
+        if (v && !(*v > 0 && *v <= 10))
+          throw InputError(file, std::string("fit.precision.") + key,
+                           "a relative half-width of the 95 % interval, 0 < x <= 10 (0.05 = ±5 %)", fmt::format("{}", *v));
+        return v;
+      };
+      f.precision_alpha = read("alpha");
+      f.precision_c1 = read("c1");
+      f.precision_mu = read("mu");
+      pr->done();
+    }
     if (auto classes = fit->opt_table("classes")) {
       for (const auto& key : classes->keys()) {
         auto c = classes->table(key);
@@ -501,6 +514,11 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
                                            {"lag_bounds_ms", toml::array{nu.lag_bounds_ms[0], nu.lag_bounds_ms[1]}},
                                            {"depth_offset", nu.depth_offset},
                                            {"pose", nu.pose}}}};
+  toml::table precision;
+  if (m.fit.precision_alpha) precision.insert("alpha", *m.fit.precision_alpha);
+  if (m.fit.precision_c1) precision.insert("c1", *m.fit.precision_c1);
+  if (m.fit.precision_mu) precision.insert("mu", *m.fit.precision_mu);
+  if (!precision.empty()) fit.insert("precision", precision);
   const toml::table root{
       {"format", kManifestFormat},
       {"format_version", detail::version_string(kManifestVersionMajor, kManifestVersionMinor)},

@@ -65,6 +65,9 @@ loss_scale = 2.5
 buried = "downweight"
 seed = 42
 multistart = 4
+  [fit.precision]
+  mu = 0.05
+  c1 = 0.02
   [fit.classes.compact]
   alpha = { initial = 20.0, lower = 0.1, upper = 1000.0, fixed = false }
   c1    = { initial = 10.0, lower = 0.01, upper = 1000.0 }
@@ -145,6 +148,9 @@ TEST(FormatsManifest, ReadsEveryFieldAndResolvesPaths) {
   EXPECT_EQ(m.fit.buried, bb::BuriedPolicy::kDownweight);
   EXPECT_EQ(m.fit.seed, 42u);
   EXPECT_EQ(m.fit.multistart, 4);
+  EXPECT_EQ(m.fit.precision_mu, 0.05);
+  EXPECT_EQ(m.fit.precision_c1, 0.02);
+  EXPECT_FALSE(m.fit.precision_alpha.has_value());
   ASSERT_EQ(m.fit.classes.size(), 2u);
   for (const auto& c : m.fit.classes) {
     if (c.key == "compact") {
@@ -191,6 +197,8 @@ TEST(FormatsManifest, WriteReadRoundTrip) {
   }
   EXPECT_EQ(b.fit.loss_scale, a.fit.loss_scale);
   EXPECT_EQ(b.fit.seed, a.fit.seed);
+  EXPECT_EQ(b.fit.precision_mu, a.fit.precision_mu);
+  EXPECT_EQ(b.fit.precision_alpha, a.fit.precision_alpha);
 }
 
 TEST(FormatsManifest, NewerMinorAcceptedUnknownMajorRejected) {
@@ -256,6 +264,7 @@ TEST(FormatsManifest, BoundsAndSegments) {
   f.expect_error("lag_bounds_ms = [-20.0, 20]", "lag_bounds_ms = [20.0, -20]", {"fit.nuisance.lag_bounds_ms"});
   f.expect_error("lag_ms = 1.5", "lag_ms = 25.0", {"recordings[0].lag_ms", "lag_bounds_ms"});
   f.expect_error("multistart = 4", "multistart = 0", {"fit.multistart"});
+  f.expect_error("mu = 0.05", "mu = 0", {"E.toml: fit.precision.mu: expected a relative half-width", "got 0"});
   f.expect_error("loss = \"cauchy\"", "loss = \"l1\"", {"fit.loss: expected none | huber | cauchy, got \"l1\""});
 }
 

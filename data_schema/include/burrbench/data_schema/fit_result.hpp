@@ -35,8 +35,10 @@ struct FitParameter {
   // unknown, e.g. a 1.0 file), the profile-likelihood verdict, its interval (NaN = open on
   // that side) and the profile's points [{"value", "delta_cost", "x": {...}}] (docs/calibration.md).
   double held = kNaN;
-  std::string verdict{};  // identifiable | practically_non_identifiable | non_identifiable |
-                        // at_bound | fixed ("" in 1.0 files)
+  std::string verdict{};  // identifiable | imprecise (identifiable, but its interval is wider
+                        // than [fit.precision] asks; `reason` says by how much) |
+                        // practically_non_identifiable | non_identifiable | at_bound | fixed
+                        // ("" in 1.0 files)
   double profile_ci95_low = kNaN, profile_ci95_high = kNaN;
   nlohmann::json profile = nlohmann::json::array();
 };

@@ -120,6 +120,10 @@ struct FitSpec {
   BuriedPolicy buried = BuriedPolicy::kExclude;
   std::uint64_t seed = 1;
   int multistart = 16;  // starts of the global search (docs/calibration.md)
+  // The precision a lab needs, as the relative half-width of the 95 % profile interval
+  // ([fit.precision] alpha, c1, mu; absent: none asked). A constant whose interval is
+  // wider gets the verdict "imprecise" instead of "identifiable".
+  std::optional<double> precision_alpha, precision_c1, precision_mu;
   std::vector<ClassFitSpec> classes;
   NuisanceSpec nuisance;
 };
