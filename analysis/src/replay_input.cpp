@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
 #include "burrbench/model/model_params.hpp"
+#include "burrbench/model/registration.hpp"
 #include "burrbench/model/replay.hpp"
 #include "burrbench/model/volume.hpp"
 
@@ -27,6 +29,31 @@ double nuisance(const ds::FitResult* fit, const std::string& rec, const std::str
   for (const auto& n : fit->nuisance)
     if (n.recording_id == rec && n.name == name && std::isfinite(n.estimate)) return n.estimate;
   return fallback;
+}
+
+// The registration's pose correction the fit held for a recording (fit.json
+// settings.registration.<id>.pose_correction), if one was fitted.
+std::optional<model::PoseCorrection> fitted_pose(const ds::FitResult* fit, const std::string& rec) {
+  if (!fit || !fit->settings.contains("registration")) return std::nullopt;
+  const auto& reg = fit->settings["registration"];
+  if (!reg.is_object() || !reg.contains(rec) || !reg[rec].is_object() || !reg[rec].contains("pose_correction"))
+    return std::nullopt;
+  const auto& pc = reg[rec]["pose_correction"];
+  const auto vec = [&](const char* key) {
+    const auto& a = pc.at(key);
+    if (!a.is_array() || a.size() != 3 || !a[0].is_number() || !a[1].is_number() || !a[2].is_number())
+      throw InputError("fit.json", fmt::format("settings.registration.{}.pose_correction.{}", rec, key),
+                       "3 numbers");
+    return glm::dvec3(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+  };
+  if (!pc.contains("rotation_rad") || !pc.contains("translation_mm") || !pc.contains("centre_vol_mm"))
+    throw InputError("fit.json", fmt::format("settings.registration.{}.pose_correction", rec),
+                     "rotation_rad, translation_mm and centre_vol_mm");
+  model::PoseCorrection p;
+  p.rotation_rad = vec("rotation_rad");
+  p.translation_mm = vec("translation_mm");
+  p.centre_vol_mm = vec("centre_vol_mm");
+  return p;
 }
 
 }  // namespace
@@ -55,7 +82,8 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
               {"buried samples", ds::to_string(ex.manifest.fit.buried)}};
   if (fit) {
     in.calibration = {{"method", "Ceres least squares on the recorded sensor force (burrbench calibrate)"},
-                      {"nuisances applied", "per-recording bias, lag, depth offset from fit.json"},
+                      {"nuisances applied", "per-recording bias, lag, depth offset and the registration's "
+                                            "pose correction per sample mounting, from fit.json"},
                       {"recordings without a fitted bias", opt.tare ? "tare: measured force minus its mean over samples with no predicted contact" : "none"}};
   } else {
     in.calibration = {{"method", "none: fixed parameters replayed (burrbench validate)"},
@@ -69,10 +97,15 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
       "The removed-bone picture shows, per voxel, the largest bone fraction any recording "
       "removed, summed along the volume z axis.",
       "Forces are compared in the sensor frame; the sensor's own calibration is taken as exact.",
-      "The registration (rig to volume) is taken as exact in the replay; its error shows in the "
-      "recordings' registration column (fiducial RMS and Fitzpatrick's predicted TRE along the "
-      "path): force is stiff in depth (about 20 N/mm at 0.5 mm immersion), so a TRE of a few "
-      "micrometres is already comparable to the sensor noise."};
+      fit ? "The registration (rig to volume) is a measurement: calibrate fitted its pose correction per "
+            "sample mounting, with the fiducial fit's covariance as its prior, so the parameter intervals "
+            "include the registration's uncertainty; this replay applies the fitted correction. The "
+            "registration column gives the fiducial RMS and Fitzpatrick's predicted TRE along the path."
+          : "The registration (rig to volume) is the manifest's (or the fiducial fit's) without a "
+            "correction: its uncertainty is not propagated into these metrics. The registration column "
+            "gives the fiducial RMS and Fitzpatrick's predicted TRE along the path: force is stiff in depth "
+            "(about 20 N/mm at 0.5 mm immersion), so a TRE of a few micrometres is already comparable to "
+            "the sensor noise."};
   for (const auto& [label, c] : params.classes)
     in.parameters.push_back({int(label), c.name, c.alpha_N_per_mm2, c.c1_N_per_mm2, c.mu});
 
@@ -90,7 +123,8 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     model::Volume vol = pristine.at(r.sample_id);
     const double lag_s = nuisance(fit, r.id, "lag", r.lag_s * 1000.0) / 1000.0;
     const double depth_mm = nuisance(fit, r.id, "depth_offset", 0.0);
-    const model::Trajectory tr = r.trajectory(lag_s, depth_mm);
+    const auto pose = fitted_pose(fit, r.id);
+    const model::Trajectory tr = r.trajectory(lag_s, depth_mm, pose ? &*pose : nullptr);
     // restore = false: the eroded state is what the removed-bone picture shows.
     const model::ReplayResult res = model::replay(vol, r.radius_mm, mp, tr, ropt, false, opt.progress);
     auto& rem = removed[r.sample_id];

@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/model/registration.hpp"
 #include "registration_fixture.hpp"
@@ -133,6 +135,29 @@ TEST(RegistrationFit, FiducialErrorIsFittedAndPropagated) {
   EXPECT_EQ(reg["method"], "fiducials");
   EXPECT_GT(reg["rms_mm"].get<double>(), 0.0);
   EXPECT_TRUE(reg["pose_correction"]["tre_after_fit_rms_mm"].is_number());
+  // The report of the calibrate directory replays what the fit held, pose correction
+  // included: its pooled RMSE reproduces fit.json's (without the correction it would not),
+  // and it shows the registration of each recording and no longer calls it exact.
+  ASSERT_EQ(run(fmt::format("report '{}' --out '{}'", (dir / "out").string(), (dir / "rep" / "report.html").string()),
+                log, dir / "rep.log"), 0) << log;
+  std::ifstream mf(dir / "rep" / "metrics.json");
+  const auto metrics = nlohmann::json::parse(mf);
+  double sq = 0;
+  int axes = 0;
+  for (const auto& row : metrics["rows"])
+    if (row["recording"] == "" && row["role"] == "calibrate" && row["segment"] == "all" && row["axis"] != "magnitude") {
+      sq += std::pow(row["rmse_N"].get<double>(), 2);
+      ++axes;
+    }
+  ASSERT_EQ(axes, 3);
+  EXPECT_NEAR(std::sqrt(sq / 3) / fit.metrics["calibration"]["rmse_N"].get<double>(), 1.0, 1e-6);
+  std::ifstream hf(dir / "rep" / "report.html");
+  const std::string html((std::istreambuf_iterator<char>(hf)), std::istreambuf_iterator<char>());
+  EXPECT_NE(html.find("registration from 4 fiducials: RMS"), std::string::npos);
+  EXPECT_NE(html.find("predicted TRE along the path"), std::string::npos);
+  EXPECT_NE(html.find("the parameter intervals include the registration"), std::string::npos);
+  EXPECT_EQ(html.find("taken as exact in the replay"), std::string::npos);
+  EXPECT_NE(html.find("imprecise"), std::string::npos) << "the verdict reaches the report";
   if (!HasFailure()) fs::remove_all(dir);
 }
 
