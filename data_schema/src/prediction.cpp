@@ -1,14 +1,17 @@
 // Prediction: validator, HDF5 writer and reader. Layout (docs/formats.md):
 //   /@format, /@format_version, /provenance, /recordings/<id>/{t_s, force_burr_vol_N,
 //   force_sensor_pred_N, force_sensor_meas_N, centre_vol_mm, normal_vol, depth_b_mm,
-//   class_mask, buried, use} (each with @unit), /recordings/<id>/@removed_mm3, @steps.
+//   class_mask, buried, use} (each with @unit), /recordings/<id>/@removed_mm3, @steps,
+//   @registration_* (2.1, optional).
 #include "burrbench/data_schema/prediction.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <set>
+#include <utility>
 
 #include "burrbench/data_schema/error.hpp"
 #include "hdf5/h5.hpp"
@@ -19,6 +22,14 @@ namespace burrbench::data_schema {
 namespace {
 
 using PR = PredictedRecording;
+
+// 2.1: the registration's numbers, attributes of the recording group (absent when NaN).
+constexpr std::array<std::pair<const char*, double PR::*>, 5> kRegistrationNumbers{{
+    {"registration_rms_mm", &PR::registration_rms_mm},
+    {"registration_max_mm", &PR::registration_max_mm},
+    {"fiducial_error_mm", &PR::fiducial_error_mm},
+    {"tre_path_rms_mm", &PR::tre_path_rms_mm},
+    {"tre_path_max_mm", &PR::tre_path_max_mm}}};
 
 // Per-sample datasets, in file order within their kind. Units are checked on reading:
 // the unit is part of the contract, not a comment.
@@ -145,6 +156,9 @@ void write_prediction(const std::filesystem::path& path, const Prediction& p) {
     }
     w.attr(b, "removed_mm3", std::vector<double>(r.removed_mm3.begin(), r.removed_mm3.end()));
     w.attr(b, "steps", r.steps);
+    if (!r.registration_method.empty()) w.attr(b, "registration_method", r.registration_method);
+    for (const auto& [name, m] : kRegistrationNumbers)
+      if (std::isfinite(r.*m)) w.attr(b, name, r.*m);
   }
   w.commit();
 }
@@ -202,6 +216,13 @@ PR read_recording(const h5::Reader& r, const std::string& id) {
   const auto removed = r.attr_doubles(b, "removed_mm3", kPredictionClasses);
   std::copy(removed.begin(), removed.end(), out.removed_mm3.begin());
   out.steps = r.attr_int64(b, "steps");
+  out.registration_method = r.attr_string_opt(b, "registration_method").value_or("");
+  for (const auto& [name, m] : kRegistrationNumbers)
+    if (r.has_attr(b, name)) {
+      out.*m = r.attr_double(b, name);
+      if (!(out.*m >= 0 && out.*m < 1e6))
+        throw InputError(r.file(), b + "/@" + name, "a distance in mm, 0..1e6", fmt::format("{}", out.*m));
+    }
   return out;
 }
 

@@ -16,6 +16,12 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
   const ReplayResult res = replay(volume, r.radius_mm, params, tr, options, true, progress);
   RecordingPrediction p;
   p.recording_id = r.id;
+  p.registration_method = r.registration.method;
+  p.registration_rms_mm = r.registration.rms_mm;
+  p.registration_max_mm = r.registration.max_mm;
+  p.fiducial_error_mm = r.registration.method == "fiducials" ? r.registration.fle_mm : NAN;
+  p.tre_path_rms_mm = r.registration.tre_path_rms_mm;
+  p.tre_path_max_mm = r.registration.tre_path_max_mm;
   p.t_s = tr.t_s;
   p.centre_vol_mm = tr.centre_vol_mm;
   p.force_sensor_meas_N = r.force_sensor_N;

@@ -44,6 +44,15 @@ bb::Prediction make_prediction(const std::filesystem::path& input) {
   // Not alphabetical: the file keeps replay order. One recording is empty.
   p.recordings = {make_recording("sweep", 40, 0.5), make_recording("plunge-ß", 25, 1.25),
                   make_recording("polish", 0, 0)};
+  // 2.1: the first was registered from fiducials, the second from a given transform.
+  auto& fid = p.recordings[0];
+  fid.registration_method = "fiducials";
+  fid.registration_rms_mm = 0.0057;
+  fid.registration_max_mm = 1.0 / 3.0 * 0.02;
+  fid.fiducial_error_mm = 0.005;
+  fid.tre_path_rms_mm = 0.0031;
+  fid.tre_path_max_mm = 0.0042;
+  p.recordings[1].registration_method = "vol_from_rig";
   p.provenance =
       input.empty() ? burrbench::make_provenance({}) : burrbench::make_provenance({input});
   p.provenance.command_line = "burrbench replay --out 'p.h5'";
@@ -179,7 +188,15 @@ TEST(FormatsPrediction, RoundTripIsExact) {
     EXPECT_EQ(rb.use, ra.use);
     EXPECT_EQ(std::memcmp(rb.removed_mm3.data(), ra.removed_mm3.data(), sizeof(ra.removed_mm3)), 0);
     EXPECT_EQ(rb.steps, ra.steps);
+    EXPECT_EQ(rb.registration_method, ra.registration_method);
+    for (auto m : {&bb::PredictedRecording::registration_rms_mm,
+                   &bb::PredictedRecording::registration_max_mm,
+                   &bb::PredictedRecording::fiducial_error_mm,
+                   &bb::PredictedRecording::tre_path_rms_mm, &bb::PredictedRecording::tre_path_max_mm})
+      EXPECT_TRUE(rb.*m == ra.*m || (std::isnan(rb.*m) && std::isnan(ra.*m))) << rb.*m;
   }
+  EXPECT_EQ(b.recordings[0].registration_rms_mm, 0.0057);
+  EXPECT_TRUE(std::isnan(b.recordings[1].tre_path_rms_mm));  // not stored for a given transform
   EXPECT_EQ(b.recordings[0].samples(), 40u);
   EXPECT_EQ(b.recordings[2].samples(), 0u);
   EXPECT_EQ(b.provenance.software_version, a.provenance.software_version);
@@ -203,8 +220,8 @@ TEST(FormatsPrediction, FileUsesFixedLengthStringsAndTheChecksummedFormat) {
   StringScan scan;
   ASSERT_GE(H5Ovisit2(f.id, H5_INDEX_NAME, H5_ITER_INC, scan_object, &scan, H5O_INFO_BASIC), 0);
   // format, format_version, 3 provenance attributes, 2 provenance string datasets and a
-  // unit on each of the 10 datasets of the 3 recordings.
-  EXPECT_EQ(scan.strings.size(), 2u + 3u + 2u + 3u * 10u);
+  // unit on each of the 10 datasets of the 3 recordings, and 2 registration methods.
+  EXPECT_EQ(scan.strings.size(), 2u + 3u + 2u + 3u * 10u + 2u);
   for (const auto& [name, variable] : scan.strings)
     EXPECT_FALSE(variable) << name << " is a variable-length string";
 }
@@ -265,6 +282,35 @@ TEST(FormatsPrediction, OtherMajorVersionsAreRejectedNewerMinorRead) {
   }
   set_string_attr(dir / "p.h5", "/", "format_version", "2.9");
   EXPECT_EQ(bb::read_prediction(dir / "p.h5").recordings.size(), 3u);
+}
+
+TEST(FormatsPrediction, Version20FilesReadWithoutRegistrationAndBadDistancesAreNamed) {
+  TempDir dir;
+  bb::write_prediction(dir / "p.h5", make_prediction({}));
+  set_string_attr(dir / "p.h5", "/", "format_version", "2.0");
+  for (const char* a : {"registration_method", "registration_rms_mm", "registration_max_mm",
+                        "fiducial_error_mm", "tre_path_rms_mm", "tre_path_max_mm"})
+    delete_attr(dir / "p.h5", "/recordings/sweep", a);
+  const auto old = bb::read_prediction(dir / "p.h5");
+  EXPECT_EQ(old.recordings[0].registration_method, "");
+  EXPECT_TRUE(std::isnan(old.recordings[0].registration_rms_mm));
+
+  bb::write_prediction(dir / "q.h5", make_prediction({}));
+  delete_attr(dir / "q.h5", "/recordings/sweep", "tre_path_max_mm");
+  {
+    File f(dir / "q.h5");
+    ASSERT_GE(f.id, 0);
+    const hid_t sp = H5Screate(H5S_SCALAR);
+    const hid_t a = H5Acreate_by_name(f.id, "/recordings/sweep", "tre_path_max_mm", H5T_IEEE_F64LE,
+                                      sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    ASSERT_GE(a, 0);
+    const double negative = -0.5;
+    EXPECT_GE(H5Awrite(a, H5T_NATIVE_DOUBLE, &negative), 0);
+    H5Aclose(a);
+    H5Sclose(sp);
+  }
+  expect_rejected_unchanged(dir / "q.h5", [&] { bb::read_prediction(dir / "q.h5"); },
+                            {"q.h5: /recordings/sweep/@tre_path_max_mm", "a distance in mm", "-0.5"});
 }
 
 TEST(FormatsPrediction, MissingOrMalformedFieldsAreNamed) {

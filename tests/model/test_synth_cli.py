@@ -264,3 +264,49 @@ def test_a_burr_radius_contradicting_the_recording_is_refused_unless_waived(exp,
     m.write_text(text.replace('lag_ms = 0.0\n', 'lag_ms = 0.0\nwaive = ["colour"]\n'))
     p = run("replay", m, "--params", exp / "params_true.toml", "--out", tmp_path / "q.h5", check=False)
     assert p.returncode == 2 and "waive" in p.stderr and "colour" in p.stderr, p.stderr
+
+
+def kabsch_rms(rig, vol):
+    """Independent rigid fit (Kabsch, SVD): the RMS residual at the beads, mm."""
+    rig, vol = np.asarray(rig, float), np.asarray(vol, float)
+    a, b = rig - rig.mean(axis=0), vol - vol.mean(axis=0)
+    u, _, vt = np.linalg.svd(a.T @ b)
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    r = vt.T @ np.diag([1, 1, d]) @ u.T
+    res = b - a @ r.T
+    return np.sqrt((res ** 2).sum(axis=1).mean()), np.sqrt((res ** 2).sum(axis=1)).max()
+
+
+def test_replay_prints_and_stores_the_registration(exp, tmp_path):
+    """Issue 17: a fiducial registration's RMS, largest residual and predicted TRE appear in
+    replay's output and in the prediction file; a given transform stores only its method."""
+    rec = tmp_path / "clean.h5"
+    synth(exp, rec, protocol="sweep")
+    rig = [[0, 0, 0], [20, 0, 0], [0, 20, 0], [0, 0, 20]]
+    jitter = [[0.004, 0, 0], [0, -0.003, 0], [0, 0, 0.005], [-0.002, 0.002, 0]]
+    vol = (np.asarray(rig, float) + jitter).tolist()
+    man = (exp / "experiment.toml").read_text().split("[[recordings]]")[0]
+    man = man.replace('path = "sample.h5"', f'path = "{exp / "sample.h5"}"')
+    man += (f'[[recordings]]\nid = "beads"\npath = "{rec}"\nsample = "S1"\n'
+            f'[recordings.registration]\nfiducials_rig_mm = {rig}\nfiducials_vol_mm = {vol}\n'
+            'fiducial_error_mm = 0.005\n'
+            f'[[recordings]]\nid = "given"\npath = "{rec}"\nsample = "S1"\n'
+            '[recordings.registration]\nrotation = [[1,0,0],[0,1,0],[0,0,1]]\ntranslation_mm = [0,0,0]\n')
+    (tmp_path / "e.toml").write_text(man)
+    p = run("replay", "--experiment", tmp_path / "e.toml", "--params", exp / "params_true.toml",
+            "--out", tmp_path / "p.h5")
+    rms, worst = kabsch_rms(rig, vol)
+    line = next(s for s in p.stdout.splitlines() if s.strip().startswith("beads:") and "fiducial" in s)
+    assert f"RMS {rms:.6f} mm, largest {kabsch_rms(rig, vol)[1]:.6f} mm" in line and "TRE" in line, line
+    with h5py.File(tmp_path / "p.h5", "r") as f:
+        assert f.attrs["format_version"].decode() == "2.1"
+        g = f["recordings/beads"].attrs
+        assert g["registration_method"].decode() == "fiducials"
+        assert g["registration_rms_mm"] == pytest.approx(rms, rel=1e-9)
+        assert g["registration_max_mm"] == pytest.approx(worst, rel=1e-9)
+        assert g["fiducial_error_mm"] == 0.005
+        # Fitzpatrick: TRE ≥ FLE/√N anywhere, and small for a path inside the beads' spread
+        assert 0.005 / 2 <= g["tre_path_rms_mm"] <= g["tre_path_max_mm"] < 0.05
+        h = f["recordings/given"].attrs
+        assert h["registration_method"].decode() == "vol_from_rig"
+        assert "registration_rms_mm" not in h and "tre_path_rms_mm" not in h

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <glm/glm.hpp>
 #include <string>
 #include <vector>
@@ -17,7 +18,7 @@ inline constexpr const char* kPredictionFormat = "burrbench.prediction";
 // 2.0: provenance in the /provenance group and fixed-length strings, as the other HDF5
 // formats (1.0 kept provenance as a JSON attribute; such files are refused by version).
 inline constexpr int kPredictionVersionMajor = 2;
-inline constexpr int kPredictionVersionMinor = 0;
+inline constexpr int kPredictionVersionMinor = 1;  // 2.1: the registration per recording
 // Class labels 0..7 whose removed volume is recorded (the model's label range).
 inline constexpr std::size_t kPredictionClasses = 8;
 
@@ -37,6 +38,16 @@ struct PredictedRecording {
   std::vector<std::uint8_t> use;          // 1: inside a used segment
   std::array<double, kPredictionClasses> removed_mm3{};  // eroded bone by class label
   std::int64_t steps = 0;                                // internal replay steps
+  // 2.1: the registration the replay used (issue 17): "fiducials" (fitted from beads) or
+  // how the transform was given (vol_from_rig | rig_from_vol); for fiducials the RMS and
+  // largest residual at the beads, the localisation error assumed and Fitzpatrick's
+  // predicted TRE along the path (mm; NaN otherwise, or in 2.0 files).
+  std::string registration_method;
+  double registration_rms_mm = std::numeric_limits<double>::quiet_NaN();
+  double registration_max_mm = std::numeric_limits<double>::quiet_NaN();
+  double fiducial_error_mm = std::numeric_limits<double>::quiet_NaN();
+  double tre_path_rms_mm = std::numeric_limits<double>::quiet_NaN();
+  double tre_path_max_mm = std::numeric_limits<double>::quiet_NaN();
   std::size_t samples() const { return t_s.size(); }
 };
 
