@@ -10,12 +10,14 @@
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
-#include "burrbench/data_schema/nesting.hpp"
+#include "burrbench/data_schema/format_version.hpp"
+#include "burrbench/data_schema/json_input.hpp"
 #include "csv.hpp"
 
 namespace burrbench::analysis {
 namespace fs = std::filesystem;
 using nlohmann::json;
+using data_schema::JsonView;
 
 namespace {
 
@@ -25,71 +27,10 @@ constexpr const char* kCsvHeader =
     "recording_id,t_s,measured_x_N,measured_y_N,measured_z_N,predicted_x_N,predicted_y_N,"
     "predicted_z_N,used";
 
-json provenance_to_json(const Provenance& p) {
-  json inputs = json::array();
-  for (const auto& f : p.inputs) inputs.push_back({{"path", f.path}, {"sha256", f.sha256}});
-  return {{"software_version", p.software_version}, {"command_line", p.command_line},
-          {"created_utc", p.created_utc}, {"inputs", inputs}};
-}
-
-// Strict JSON object reader: every key must be known, required ones present, types right.
-class Obj {
- public:
-  Obj(const json& j, std::string file, std::string where, std::set<std::string> known)
-      : j_(j), file_(std::move(file)), where_(std::move(where)) {
-    if (!j_.is_object()) throw InputError(file_, where_, "a JSON object");
-    for (const auto& [k, v] : j_.items())
-      if (!known.count(k)) throw InputError(file_, path(k), "a known key", "unknown key");
-  }
-  std::string path(const std::string& k) const { return where_.empty() ? k : where_ + "." + k; }
-  bool has(const std::string& k) const { return j_.contains(k); }
-  const json& at(const std::string& k) const {
-    if (!j_.contains(k)) throw InputError(file_, path(k), "a value", "missing");
-    return j_.at(k);
-  }
-  std::string str(const std::string& k, bool required = true) const {
-    if (!required && !has(k)) return {};
-    const auto& v = at(k);
-    if (!v.is_string()) throw InputError(file_, path(k), "a string");
-    return v.get<std::string>();
-  }
-  double num(const std::string& k, bool required = true) const {
-    if (!required && !has(k)) return 0;
-    const auto& v = at(k);
-    if (!v.is_number()) throw InputError(file_, path(k), "a number");
-    const double d = v.get<double>();
-    if (!std::isfinite(d)) throw InputError(file_, path(k), "a finite number");
-    return d;
-  }
-  const json& arr(const std::string& k, bool required = true) const {
-    static const json empty = json::array();
-    if (!required && !has(k)) return empty;
-    const auto& v = at(k);
-    if (!v.is_array()) throw InputError(file_, path(k), "an array");
-    return v;
-  }
-  const std::string& file() const { return file_; }
-
- private:
-  const json& j_;
-  std::string file_, where_;
-};
-
 std::string role_checked(const std::string& role, const std::string& file, const std::string& f) {
   if (role != "calibrate" && role != "validate")
     throw InputError(file, f, "\"calibrate\" or \"validate\"", role);
   return role;
-}
-
-Provenance provenance_from_json(const json& j, const std::string& file) {
-  Obj o(j, file, "provenance", {"software_version", "command_line", "created_utc", "inputs"});
-  Provenance p{o.str("software_version"), o.str("command_line"), o.str("created_utc"), {}};
-  std::size_t i = 0;
-  for (const auto& f : o.arr("inputs")) {
-    Obj fo(f, file, fmt::format("provenance.inputs[{}]", i++), {"path", "sha256"});
-    p.inputs.push_back({fo.str("path"), fo.str("sha256")});
-  }
-  return p;
 }
 
 }  // namespace
@@ -98,7 +39,7 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
   fs::create_directories(dir);
   json j;
   j["format"] = kAnalysisFormat;
-  j["format_version"] = fmt::format("{}.{}", kAnalysisVersionMajor, kAnalysisVersionMinor);
+  j["format_version"] = data_schema::version_string(kAnalysisVersionMajor, kAnalysisVersionMinor);
   j["mode"] = in.mode;
   j["experiment"] = {{"name", in.experiment_name}, {"description", in.experiment_description},
                      {"path", in.experiment_path}, {"sha256", in.experiment_sha256}};
@@ -133,7 +74,7 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
                                {"registration", r.registration},
                                {"segments", segs}, {"samples", r.t_s.size()}});
   }
-  j["provenance"] = provenance_to_json(in.provenance);
+  j["provenance"] = data_schema::provenance_json(in.provenance);
   data_schema::write_file_atomic(dir / "analysis.json", j.dump(1) + "\n");
   data_schema::AtomicFile f(dir / "predictions.csv");
   f << kCsvHeader << "\n";
@@ -152,30 +93,18 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
 AnalysisInput read_analysis_input(const fs::path& dir) {
   const fs::path meta_path = dir / "analysis.json";
   const std::string file = meta_path.string();
-  std::ifstream mf(meta_path);
-  if (!mf) throw InputError(file, "file", "a readable burrbench.analysis JSON file", "cannot open");
-  const std::string text((std::istreambuf_iterator<char>(mf)), std::istreambuf_iterator<char>());
-  data_schema::check_json_nesting(text, file);  // before nlohmann::json recurses
-  json j;
-  try {
-    j = json::parse(text);
-  } catch (const json::exception& e) {
-    throw InputError(file, "file", "valid JSON", e.what());
-  }
-  Obj o(j, file, "",
+  const json j = data_schema::read_json_file(meta_path);
+  JsonView o(j, file, "",
         {"format", "format_version", "mode", "experiment", "context_of_use", "params",
          "criteria", "seed", "model", "calibration", "limitations", "parameters", "samples",
          "recordings", "provenance"});
-  if (o.str("format") != kAnalysisFormat)
-    throw InputError(file, "format", std::string("\"") + kAnalysisFormat + "\"", o.str("format"));
-  const std::string ver = o.str("format_version");
-  if (ver.rfind(std::to_string(kAnalysisVersionMajor) + ".", 0) != 0)
-    throw InputError(file, "format_version", fmt::format("{}.x", kAnalysisVersionMajor), ver);
+  data_schema::check_format(file, "format", o.str("format"), kAnalysisFormat);
+  data_schema::check_version(file, "format_version", o.str("format_version"), kAnalysisVersionMajor);
 
   AnalysisInput in;
   in.mode = role_checked(o.str("mode"), file, "mode");
   {
-    Obj e(o.at("experiment"), file, "experiment", {"name", "description", "path", "sha256"});
+    JsonView e(o.get("experiment"), file, "experiment", {"name", "description", "path", "sha256"});
     in.experiment_name = e.str("name");
     in.experiment_description = e.str("description");
     in.experiment_path = e.str("path");
@@ -183,82 +112,82 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
   }
   in.context_of_use = o.str("context_of_use");
   {
-    Obj p(o.at("params"), file, "params", {"path", "sha256"});
+    JsonView p(o.get("params"), file, "params", {"path", "sha256"});
     in.params_path = p.str("path");
     in.params_sha256 = p.str("sha256");
-    Obj c(o.at("criteria"), file, "criteria", {"path", "sha256"});
+    JsonView c(o.get("criteria"), file, "criteria", {"path", "sha256"});
     in.criteria_path = c.str("path");
     in.criteria_sha256 = c.str("sha256");
   }
-  if (!o.at("seed").is_number_unsigned()) throw InputError(file, "seed", "an unsigned integer");
-  in.seed = o.at("seed").get<std::uint64_t>();
-  if (!o.at("model").is_object()) throw InputError(file, "model", "a JSON object");
-  if (!o.at("calibration").is_object()) throw InputError(file, "calibration", "a JSON object");
-  in.model = o.at("model");
-  in.calibration = o.at("calibration");
-  for (const auto& l : o.arr("limitations")) {
+  if (!o.get("seed").is_number_unsigned()) throw InputError(file, "seed", "an unsigned integer");
+  in.seed = o.get("seed").get<std::uint64_t>();
+  if (!o.get("model").is_object()) throw InputError(file, "model", "a JSON object");
+  if (!o.get("calibration").is_object()) throw InputError(file, "calibration", "a JSON object");
+  in.model = o.get("model");
+  in.calibration = o.get("calibration");
+  for (const auto& l : o.array("limitations")) {
     if (!l.is_string()) throw InputError(file, "limitations", "strings");
     in.limitations.push_back(l.get<std::string>());
   }
   std::size_t i = 0;
-  for (const auto& pj : o.arr("parameters")) {
-    Obj p(pj, file, fmt::format("parameters[{}]", i++),
+  for (const auto& pj : o.array("parameters")) {
+    JsonView p(pj, file, fmt::format("parameters[{}]", i++),
           {"class_label", "class_name", "alpha_N_per_mm2", "c1_N_per_mm2", "mu"});
-    in.parameters.push_back({int(p.num("class_label")), p.str("class_name"),
-                             p.num("alpha_N_per_mm2"), p.num("c1_N_per_mm2"), p.num("mu")});
+    in.parameters.push_back({int(p.finite("class_label")), p.str("class_name"),
+                             p.finite("alpha_N_per_mm2"), p.finite("c1_N_per_mm2"), p.finite("mu")});
   }
   i = 0;
-  for (const auto& sj : o.arr("samples")) {
-    Obj s(sj, file, fmt::format("samples[{}]", i++),
+  for (const auto& sj : o.array("samples")) {
+    JsonView s(sj, file, fmt::format("samples[{}]", i++),
           {"id", "path", "sha256", "voxel_mm", "nx", "ny", "removed_depth_mm",
            "removed_volume_mm3"});
-    SampleInfo si{s.str("id"), s.str("path"), s.str("sha256"), s.num("voxel_mm"), 0, 0, {}, 0};
-    const double nx = s.num("nx"), ny = s.num("ny");
+    SampleInfo si{s.str("id"), s.str("path"), s.str("sha256"), s.finite("voxel_mm"), 0, 0, {}, 0};
+    const double nx = s.finite("nx"), ny = s.finite("ny");
     if (nx < 0 || ny < 0 || nx * ny > double(kMaxMapCells) || nx != std::floor(nx) ||
         ny != std::floor(ny))
-      throw InputError(file, s.path("nx"), fmt::format("integers with nx·ny ≤ {}", kMaxMapCells));
+      throw InputError(file, s.field("nx"), fmt::format("integers with nx·ny ≤ {}", kMaxMapCells));
     si.nx = std::size_t(nx);
     si.ny = std::size_t(ny);
-    const auto& depth = s.arr("removed_depth_mm");
+    const auto& depth = s.array("removed_depth_mm");
     if (depth.size() != si.nx * si.ny)
-      throw InputError(file, s.path("removed_depth_mm"), fmt::format("nx·ny = {} values", si.nx * si.ny),
+      throw InputError(file, s.field("removed_depth_mm"), fmt::format("nx·ny = {} values", si.nx * si.ny),
                        std::to_string(depth.size()));
     si.removed_depth_mm.reserve(depth.size());
     for (const auto& v : depth) {
       if (!v.is_number() || !std::isfinite(v.get<double>()))
-        throw InputError(file, s.path("removed_depth_mm"), "finite numbers");
+        throw InputError(file, s.field("removed_depth_mm"), "finite numbers");
       si.removed_depth_mm.push_back(v.get<float>());
     }
-    si.removed_volume_mm3 = s.num("removed_volume_mm3");
+    si.removed_volume_mm3 = s.finite("removed_volume_mm3");
     in.samples.push_back(std::move(si));
   }
   std::map<std::string, std::size_t> by_id;
   std::vector<std::size_t> expected_rows;
   i = 0;
-  for (const auto& rj : o.arr("recordings")) {
-    Obj r(rj, file, fmt::format("recordings[{}]", i++),
+  for (const auto& rj : o.array("recordings")) {
+    JsonView r(rj, file, fmt::format("recordings[{}]", i++),
           {"id", "sample", "role", "path", "sha256", "notes", "registration", "segments", "samples"});
     RecordingSeries rs;
     rs.id = r.str("id");
     rs.sample_id = r.str("sample");
-    rs.role = role_checked(r.str("role"), file, r.path("role"));
+    rs.role = role_checked(r.str("role"), file, r.field("role"));
     rs.path = r.str("path");
     rs.sha256 = r.str("sha256");
     rs.notes = r.str("notes");
-    rs.registration = r.str("registration", false);
+    rs.registration = r.str_or("registration", "");
     std::size_t k = 0;
-    for (const auto& sj : r.arr("segments")) {
-      Obj s(sj, file, r.path(fmt::format("segments[{}]", k++)), {"label", "start_s", "end_s"});
-      SegmentSpan span{s.str("label"), s.num("start_s"), s.num("end_s")};
+    for (const auto& sj : r.array("segments")) {
+      JsonView s(sj, file, r.field(fmt::format("segments[{}]", k++)), {"label", "start_s", "end_s"});
+      SegmentSpan span{s.str("label"), s.finite("start_s"), s.finite("end_s")};
       if (!(span.start_s < span.end_s))
-        throw InputError(file, s.path("end_s"), "end_s > start_s");
+        throw InputError(file, s.field("end_s"), "end_s > start_s");
       rs.segments.push_back(span);
     }
-    const double rows = r.num("samples");
+    const double rows = r.finite("samples");
     if (rows < 0 || rows > double(kMaxRows) || rows != std::floor(rows))
-      throw InputError(file, r.path("samples"), fmt::format("an integer in [0, {}]", kMaxRows));
+      throw InputError(file, r.field("samples"), fmt::format("an integer in [0, {}]", kMaxRows));
     if (!by_id.emplace(rs.id, in.recordings.size()).second)
-      throw InputError(file, r.path("id"), "a unique recording id", rs.id);
+      throw InputError(file, r.field("id"), "a unique recording id", rs.id);
     expected_rows.push_back(std::size_t(rows));
     rs.t_s.reserve(std::size_t(rows));
     rs.measured_N.reserve(std::size_t(rows));
@@ -266,7 +195,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
     rs.used.reserve(std::size_t(rows));
     in.recordings.push_back(std::move(rs));
   }
-  in.provenance = provenance_from_json(o.at("provenance"), file);
+  in.provenance = data_schema::read_provenance(o.sub("provenance", {"software_version", "command_line", "created_utc", "inputs"}));
 
   const fs::path csv_path = dir / "predictions.csv";
   const std::string cfile = csv_path.string();

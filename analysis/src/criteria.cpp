@@ -7,6 +7,7 @@
 #include <toml++/toml.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/format_version.hpp"
 #include "burrbench/data_schema/toml_input.hpp"
 #include "burrbench/data_schema/toml_view.hpp"
 
@@ -18,10 +19,8 @@ Criteria read_criteria(const std::filesystem::path& path) {
   const toml::table t = data_schema::parse_toml_file(path);
   const data_schema::TomlView root(t, file, "", "docs/report.md");
   root.allow({"format", "format_version", "criterion"});
-  if (root.str("format") != "burrbench.criteria")
-    root.fail("format", "\"burrbench.criteria\"", "\"" + root.str("format") + "\"");
-  const std::string ver = root.str("format_version");
-  if (ver.rfind("1.", 0) != 0) root.fail("format_version", "1.x", ver);
+  data_schema::check_format(file, "format", root.str("format"), "burrbench.criteria");
+  data_schema::check_version(file, "format_version", root.str("format_version"), 1);
   const auto tables = root.tables("criterion");
   if (tables.empty()) root.fail("criterion", "an array of ≥ 1 [[criterion]] tables", "none");
 

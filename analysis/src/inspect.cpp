@@ -7,6 +7,7 @@
 #include "burrbench/analysis/analysis_input.hpp"
 #include "burrbench/analysis/criteria.hpp"
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/format_version.hpp"
 #include "burrbench/data_schema/json_input.hpp"
 
 namespace burrbench::analysis {
@@ -25,9 +26,8 @@ std::string describe_criteria(const std::filesystem::path& path) {
 std::string describe_metrics(const std::filesystem::path& path) {
   const std::string file = path.string();
   const auto j = data_schema::read_json_file(path);
-  if (!j.is_object()) throw InputError(file, "<file>", "a JSON object", "another JSON value");
-  const auto v = j.value("format_version", std::string());
-  if (v.rfind("1.", 0) != 0) throw InputError(file, "format_version", "1.x", "\"" + v + "\"");
+  data_schema::JsonView o(j, file, "");  // a summary: other keys are not checked here
+  data_schema::check_version(file, "format_version", o.str("format_version"), 1);
   if (!j.contains("rows") || !j["rows"].is_array()) throw InputError(file, "rows", "an array of metric rows", "missing");
   std::string s = fmt::format("metrics (burrbench.metrics), {} rows", j["rows"].size());
   if (j.contains("pass") && j["pass"].is_boolean())

@@ -19,7 +19,7 @@
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/error.hpp"
-#include "burrbench/data_schema/nesting.hpp"
+#include "burrbench/data_schema/json_input.hpp"
 #include "burrbench/data_schema/version.hpp"
 
 extern "C" int H5get_libversion(unsigned* majnum, unsigned* minnum, unsigned* relnum);
@@ -360,14 +360,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   }
   json fit;
   if (has_fit) {
-    std::ifstream f(dir / "fit.json");
-    const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    data_schema::check_json_nesting(text, (dir / "fit.json").string());  // before nlohmann::json recurses
-    try {
-      fit = json::parse(text);
-    } catch (const json::exception& e) {
-      throw InputError((dir / "fit.json").string(), "file", "valid JSON", e.what());
-    }
+    fit = data_schema::read_json_file(dir / "fit.json");
   }
 
   fs::create_directories(out_dir);
@@ -570,11 +563,9 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
                                 {"value", std::isfinite(r.value) ? json(r.value) : json(nullptr)},
                                 {"pass", r.pass}});
   }
-  const auto prov = make_provenance({});
-  json inputs = json::array();
-  for (const auto& f : in.provenance.inputs) inputs.push_back({{"path", f.path}, {"sha256", f.sha256}});
-  mj["provenance"] = {{"software_version", prov.software_version}, {"command_line", prov.command_line},
-                      {"created_utc", prov.created_utc}, {"inputs", inputs}};
+  Provenance prov = make_provenance({});  // this run, over the inputs the analysis read
+  prov.inputs = in.provenance.inputs;
+  mj["provenance"] = data_schema::provenance_json(prov);
   data_schema::write_file_atomic(out_dir / "metrics.json", mj.dump(1) + "\n");
   return sum;
 }

@@ -23,78 +23,9 @@ using nlohmann::json;
 namespace {
 
 
-json num(double x) {
-  if (std::isnan(x)) return nullptr;
-  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
-  return x;
-}
-
-// Strict object reader: names the JSON path in errors, rejects unknown keys in done().
-class JsonView {
- public:
-  JsonView(const json& j, std::string file, std::string path) : j_(&j), file_(std::move(file)), path_(std::move(path)) {
-    if (!j.is_object()) throw InputError(file_, path_.empty() ? "<root>" : path_, "a JSON object", j.type_name());
-  }
-  std::string field(const std::string& k) const { return path_.empty() ? k : path_ + "." + k; }
-  const json& get(const std::string& k) {
-    used_.insert(k);
-    const auto it = j_->find(k);
-    if (it == j_->end()) throw InputError(file_, field(k), "a value", "missing");
-    return *it;
-  }
-  bool has(const std::string& k) const { return j_->contains(k); }
-  std::string str(const std::string& k) {
-    const json& v = get(k);
-    if (!v.is_string()) throw InputError(file_, field(k), "a string", v.type_name());
-    return v.get<std::string>();
-  }
-  // A number, null (NaN) or "inf"/"-inf".
-  double number(const std::string& k) {
-    const json& v = get(k);
-    if (v.is_null()) return kNaN;
-    if (v.is_number()) return v.get<double>();
-    if (v == "inf") return INFINITY;
-    if (v == "-inf") return -INFINITY;
-    throw InputError(file_, field(k), "a number, null or \"inf\"", v.type_name());
-  }
-  double opt_number(const std::string& k) { return has(k) ? number(k) : kNaN; }
-  std::uint64_t count(const std::string& k) {
-    const json& v = get(k);
-    if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<std::int64_t>() >= 0))
-      throw InputError(file_, field(k), "a non-negative integer", v.is_number() ? v.dump() : v.type_name());
-    return v.get<std::uint64_t>();
-  }
-  bool boolean(const std::string& k) {
-    const json& v = get(k);
-    if (!v.is_boolean()) throw InputError(file_, field(k), "true or false", v.type_name());
-    return v.get<bool>();
-  }
-  const json& array(const std::string& k) {
-    const json& v = get(k);
-    if (!v.is_array()) throw InputError(file_, field(k), "an array", v.type_name());
-    return v;
-  }
-  const json& object(const std::string& k) {
-    const json& v = get(k);
-    if (!v.is_object()) throw InputError(file_, field(k), "an object", v.type_name());
-    return v;
-  }
-  JsonView sub(const std::string& k) { return JsonView(get(k), file_, field(k)); }
-  void done() const {
-    for (auto it = j_->begin(); it != j_->end(); ++it)
-      if (!used_.count(it.key())) throw InputError(file_, field(it.key()), "a known key (see docs/formats.md)", "unknown key");
-  }
-  const std::string& file() const { return file_; }
-
- private:
-  const json* j_;
-  std::string file_, path_;
-  std::set<std::string> used_;
-};
-
 json matrix_json(const NamedMatrix& m) {
   json values = json::array();
-  for (double x : m.matrix) values.push_back(num(x));
+  for (double x : m.matrix) values.push_back(json_number(x));
   return json{{"names", m.names}, {"matrix", values}};
 }
 
@@ -114,30 +45,6 @@ NamedMatrix read_matrix(JsonView v) {
   }
   v.done();
   return m;
-}
-
-json provenance_json(const Provenance& p) {
-  json inputs = json::array();
-  for (const auto& f : p.inputs) inputs.push_back({{"path", f.path}, {"sha256", f.sha256}});
-  return {{"software_version", p.software_version},
-          {"command_line", p.command_line},
-          {"created_utc", p.created_utc},
-          {"inputs", inputs}};
-}
-
-Provenance read_provenance(JsonView v) {
-  Provenance p;
-  p.software_version = v.str("software_version");
-  p.command_line = v.str("command_line");
-  p.created_utc = v.str("created_utc");
-  const json& inputs = v.array("inputs");
-  for (std::size_t i = 0; i < inputs.size(); ++i) {
-    JsonView f(inputs[i], v.file(), v.field(fmt::format("inputs[{}]", i)));
-    p.inputs.push_back({f.str("path"), f.str("sha256")});
-    f.done();
-  }
-  v.done();
-  return p;
 }
 
 const std::set<std::string> kParamNames{"alpha", "c1", "mu"};
@@ -198,39 +105,39 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
   json params = json::array();
   for (const auto& p : f.parameters) {
     json j{{"class_id", p.class_id}, {"class_name", p.class_name}, {"name", p.name},
-           {"unit", p.unit},         {"estimate", num(p.estimate)}, {"std_error", num(p.std_error)},
-           {"ci95_low", num(p.ci95_low)}, {"ci95_high", num(p.ci95_high)}, {"fixed", p.fixed},
+           {"unit", p.unit},         {"estimate", json_number(p.estimate)}, {"std_error", json_number(p.std_error)},
+           {"ci95_low", json_number(p.ci95_low)}, {"ci95_high", json_number(p.ci95_high)}, {"fixed", p.fixed},
            {"identifiable", p.identifiable}, {"reason", p.reason}};
-    if (!std::isnan(p.bootstrap_ci95_low)) j["bootstrap_ci95_low"] = num(p.bootstrap_ci95_low);
-    if (!std::isnan(p.bootstrap_ci95_high)) j["bootstrap_ci95_high"] = num(p.bootstrap_ci95_high);
-    j["held"] = num(p.held);
+    if (!std::isnan(p.bootstrap_ci95_low)) j["bootstrap_ci95_low"] = json_number(p.bootstrap_ci95_low);
+    if (!std::isnan(p.bootstrap_ci95_high)) j["bootstrap_ci95_high"] = json_number(p.bootstrap_ci95_high);
+    j["held"] = json_number(p.held);
     j["verdict"] = p.verdict;
-    j["profile_ci95_low"] = num(p.profile_ci95_low);
-    j["profile_ci95_high"] = num(p.profile_ci95_high);
+    j["profile_ci95_low"] = json_number(p.profile_ci95_low);
+    j["profile_ci95_high"] = json_number(p.profile_ci95_high);
     j["profile"] = p.profile;
     params.push_back(j);
   }
   json nuisance = json::array();
   for (const auto& n : f.nuisance)
     nuisance.push_back({{"recording_id", n.recording_id}, {"name", n.name}, {"unit", n.unit},
-                        {"estimate", num(n.estimate)}, {"std_error", num(n.std_error)},
-                        {"ci95_low", num(n.ci95_low)}, {"ci95_high", num(n.ci95_high)}, {"fixed", n.fixed}});
+                        {"estimate", json_number(n.estimate)}, {"std_error", json_number(n.std_error)},
+                        {"ci95_low", json_number(n.ci95_low)}, {"ci95_high", json_number(n.ci95_high)}, {"fixed", n.fixed}});
   json cv = json::array();
   for (const auto& c : f.cross_validation) cv.push_back({{"held_out", c.held_out}, {"metrics", c.metrics}});
   const auto& r = f.residuals_summary;
   const auto& s = f.solver;
   const json root{
       {"format", kFitFormat},
-      {"format_version", detail::version_string(kFitVersionMajor, kFitVersionMinor)},
+      {"format_version", version_string(kFitVersionMajor, kFitVersionMinor)},
       {"parameters", params},
       {"nuisance", nuisance},
       {"covariance", matrix_json(f.covariance)},
       {"correlation", matrix_json(f.correlation)},
       {"residuals_summary", {{"samples_used", r.samples_used}, {"samples_buried", r.samples_buried},
-                             {"samples_excluded", r.samples_excluded}, {"sigma_N", num(r.sigma_N)},
-                             {"rms_normalised", num(r.rms_normalised)}}},
-      {"solver", {{"iterations", s.iterations}, {"initial_cost", num(s.initial_cost)},
-                  {"final_cost", num(s.final_cost)}, {"wall_s", num(s.wall_s)}, {"replays", s.replays},
+                             {"samples_excluded", r.samples_excluded}, {"sigma_N", json_number(r.sigma_N)},
+                             {"rms_normalised", json_number(r.rms_normalised)}}},
+      {"solver", {{"iterations", s.iterations}, {"initial_cost", json_number(s.initial_cost)},
+                  {"final_cost", json_number(s.final_cost)}, {"wall_s", json_number(s.wall_s)}, {"replays", s.replays},
                   {"termination", s.termination}, {"multistart", s.multistart}, {"stages", s.stages}}},
       {"cross_validation", cv},
       {"multistart", f.multistart},
@@ -247,8 +154,8 @@ FitResult read_fit(const std::filesystem::path& path) {
   const std::string file = path.string();
   const json j = read_json_file(path);
   JsonView root(j, file, "");
-  detail::check_format(file, "format", root.str("format"), kFitFormat);
-  detail::check_version(file, "format_version", root.str("format_version"), kFitVersionMajor);
+  check_format(file, "format", root.str("format"), kFitFormat);
+  check_version(file, "format_version", root.str("format_version"), kFitVersionMajor);
   FitResult f;
   const json& params = root.array("parameters");
   for (std::size_t i = 0; i < params.size(); ++i) {

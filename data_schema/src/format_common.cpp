@@ -10,6 +10,22 @@
 
 namespace burrbench::data_schema::detail {
 
+Provenance stamped(Provenance p) {
+  if (p.software_version.empty() || p.created_utc.empty()) {
+    const Provenance now = make_provenance({});
+    if (p.software_version.empty()) p.software_version = now.software_version;
+    if (p.created_utc.empty()) p.created_utc = now.created_utc;
+    if (p.command_line.empty()) p.command_line = now.command_line;
+  }
+  return p;
+}
+
+bool finite(double x) { return std::isfinite(x); }
+
+}  // namespace burrbench::data_schema::detail
+
+namespace burrbench::data_schema {
+
 std::string version_string(int major, int minor) { return fmt::format("{}.{}", major, minor); }
 
 void check_version(const std::string& file, const std::string& field, const std::string& version,
@@ -35,16 +51,4 @@ void check_format(const std::string& file, const std::string& field, const std::
   if (got != want) throw InputError(file, field, "\"" + want + "\"", "\"" + got + "\"");
 }
 
-Provenance stamped(Provenance p) {
-  if (p.software_version.empty() || p.created_utc.empty()) {
-    const Provenance now = make_provenance({});
-    if (p.software_version.empty()) p.software_version = now.software_version;
-    if (p.created_utc.empty()) p.created_utc = now.created_utc;
-    if (p.command_line.empty()) p.command_line = now.command_line;
-  }
-  return p;
-}
-
-bool finite(double x) { return std::isfinite(x); }
-
-}  // namespace burrbench::data_schema::detail
+}  // namespace burrbench::data_schema

@@ -272,8 +272,8 @@ namespace {
 ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesystem::path& path) {
   const std::string file = path.string();
   TomlView root(t, file, "");
-  detail::check_format(file, "format", root.str("format"), kManifestFormat);
-  detail::check_version(file, "format_version", root.str("format_version"), kManifestVersionMajor);
+  check_format(file, "format", root.str("format"), kManifestFormat);
+  check_version(file, "format_version", root.str("format_version"), kManifestVersionMajor);
   ExperimentManifest m;
   m.file = std::filesystem::absolute(path).lexically_normal();
   const std::filesystem::path base = m.file.parent_path();
@@ -521,7 +521,7 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
   if (!precision.empty()) fit.insert("precision", precision);
   const toml::table root{
       {"format", kManifestFormat},
-      {"format_version", detail::version_string(kManifestVersionMajor, kManifestVersionMinor)},
+      {"format_version", version_string(kManifestVersionMajor, kManifestVersionMinor)},
       {"name", m.name},
       {"description", m.description},
       {"samples", samples},

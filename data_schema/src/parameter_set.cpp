@@ -59,7 +59,7 @@ void write_params(const std::filesystem::path& path, const ParameterSet& p) {
     classes.insert(c.name, ct);
   }
   const toml::table root{{"format", kParamsFormat},
-                         {"format_version", detail::version_string(kParamsVersionMajor, kParamsVersionMinor)},
+                         {"format_version", version_string(kParamsVersionMajor, kParamsVersionMinor)},
                          {"notes", p.notes},
                          {"classes", classes},
                          {"provenance", detail::provenance_to_toml(detail::stamped(p.provenance))}};
@@ -76,8 +76,8 @@ ParameterSet read_params(const std::filesystem::path& path) {
   const std::string file = path.string();
   const toml::table t = parse_toml_file(path);
   TomlView root(t, file, "");
-  detail::check_format(file, "format", root.str("format"), kParamsFormat);
-  detail::check_version(file, "format_version", root.str("format_version"), kParamsVersionMajor);
+  check_format(file, "format", root.str("format"), kParamsFormat);
+  check_version(file, "format_version", root.str("format_version"), kParamsVersionMajor);
   ParameterSet p;
   p.notes = root.opt_str("notes").value_or("");
   auto classes = root.table("classes");

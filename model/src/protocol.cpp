@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/format_version.hpp"
 #include "burrbench/data_schema/toml_input.hpp"
 #include "burrbench/data_schema/toml_view.hpp"
 
@@ -93,13 +94,8 @@ Protocol parse_protocol(std::string_view text, const std::string& file) {
   const TomlView r(root, file, "", "docs/replay.md");
   r.allow({"format", "format_version", "name", "description", "sample_rate_hz", "spindle_rpm", "burr", "start",
            "moves"});
-  if (r.str("format") != kProtocolFormat)
-    r.fail("format", fmt::format("\"{}\"", kProtocolFormat), "\"" + r.str("format") + "\"");
-  const std::string version = r.str("format_version");
-  if (version.rfind(fmt::format("{}.", kProtocolVersionMajor), 0) != 0)
-    r.fail("format_version",
-           fmt::format("major version {} (\"{}.x\")", kProtocolVersionMajor, kProtocolVersionMajor),
-           "\"" + version + "\"");
+  data_schema::check_format(file, "format", r.str("format"), kProtocolFormat);
+  data_schema::check_version(file, "format_version", r.str("format_version"), kProtocolVersionMajor);
   Protocol p;
   p.file = file;
   p.name = r.str_or("name", "");

@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/json_input.hpp"
 #include "burrbench/data_schema/version.hpp"
 
 namespace burrbench::model {
@@ -164,8 +165,6 @@ nlohmann::json truth_json(const SynthResult& r, const data_schema::SampleVolume&
   const RigidTransform reg = o.rig_to_vol.value_or(RigidTransform{});
   json rot = json::array();
   for (int row = 0; row < 3; ++row) rot.push_back({reg.R[0][row], reg.R[1][row], reg.R[2][row]});
-  json inputs = json::array();
-  for (const auto& in : prov.inputs) inputs.push_back({{"path", in.path}, {"sha256", in.sha256}});
   return {
       {"format", "burrbench.synth_truth"},
       {"format_version", "1.0"},
@@ -199,11 +198,7 @@ nlohmann::json truth_json(const SynthResult& r, const data_schema::SampleVolume&
         {"torque", "torque_Nmm is written as zero (not modelled)"}}},
       // the step actually used: the default (0) is half the sample period (replay.hpp)
       {"replay_step_s", o.replay.step_s > 0 ? o.replay.step_s : 0.5 / p.sample_rate_hz},
-      {"provenance",
-       {{"software_version", prov.software_version},
-        {"command_line", prov.command_line},
-        {"created_utc", prov.created_utc},
-        {"inputs", inputs}}},
+      {"provenance", data_schema::provenance_json(prov)},
   };
 }
 

@@ -11,6 +11,7 @@
 #include <toml++/toml.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/format_version.hpp"
 #include "burrbench/data_schema/recording.hpp"
 #include "burrbench/data_schema/toml_input.hpp"
 #include "burrbench/data_schema/toml_view.hpp"
@@ -332,9 +333,8 @@ RigMap parse_rig_map(std::string_view text, const std::string& file) {
   const TomlView r(root, file, "", "docs/rig.md");
   r.allow({"format", "format_version", "rig_id", "sensor_model", "sensor_serial",
            "sensor_calibration_date", "devices"});
-  if (r.str("format") != "burrbench.rig") r.fail("format", "\"burrbench.rig\"", "\"" + r.str("format") + "\"");
-  const auto version = r.str("format_version");
-  if (version.rfind("1.", 0) != 0) r.fail("format_version", "1.x", "\"" + version + "\"");
+  data_schema::check_format(file, "format", r.str("format"), "burrbench.rig");
+  data_schema::check_version(file, "format_version", r.str("format_version"), 1);
   RigMap m;
   m.file = file;
   m.source_toml = std::string(text);

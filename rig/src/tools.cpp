@@ -15,6 +15,7 @@
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/format_version.hpp"
 #include "burrbench/data_schema/toml_input.hpp"
 #include "burrbench/data_schema/toml_view.hpp"
 #include "burrbench/rig/decode.hpp"
@@ -175,9 +176,8 @@ Tare read_tare(const std::filesystem::path& path) {
   const std::string file = path.string();
   const toml::table root = data_schema::parse_toml_file(path);
   const data_schema::TomlView v(root, file, "", "docs/rig.md");
-  if (v.str("format") != "burrbench.tare") v.fail("format", "\"burrbench.tare\"", "\"" + v.str("format") + "\"");
-  const auto version = v.str_or("format_version", "1.0");
-  if (version.rfind("1.", 0) != 0) v.fail("format_version", "1.x", "\"" + version + "\"");
+  data_schema::check_format(file, "format", v.str("format"), "burrbench.tare");
+  data_schema::check_version(file, "format_version", v.str_or("format_version", "1.0"), 1);
   Tare t;
   t.device = v.str_or("device", "");
   t.bias = v.numbers("bias", 6);

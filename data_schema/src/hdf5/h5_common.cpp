@@ -12,7 +12,7 @@ constexpr std::uint64_t kMaxListed = 1u << 20;  // input files / strings we acce
 void write_header(Writer& w, const char* format, int major, int minor, const Provenance& prov) {
   const Provenance p = detail::stamped(prov);
   w.attr("/", "format", std::string(format));
-  w.attr("/", "format_version", detail::version_string(major, minor));
+  w.attr("/", "format_version", version_string(major, minor));
   w.group("/provenance");
   w.attr("/provenance", "software_version", p.software_version);
   w.attr("/provenance", "command_line", p.command_line);
@@ -21,9 +21,9 @@ void write_header(Writer& w, const char* format, int major, int minor, const Pro
 }
 
 std::string check_header(const Reader& r, const char* format, int major) {
-  detail::check_format(r.file(), "/@format", r.attr_string("/", "format"), format);
+  check_format(r.file(), "/@format", r.attr_string("/", "format"), format);
   const std::string v = r.attr_string("/", "format_version");
-  detail::check_version(r.file(), "/@format_version", v, major);
+  check_version(r.file(), "/@format_version", v, major);
   return v;
 }
 

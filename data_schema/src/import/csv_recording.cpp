@@ -11,6 +11,7 @@
 #include <toml++/toml.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/format_version.hpp"
 #include "import/volume_decode.hpp"
 #include "toml_util.hpp"
 
@@ -94,9 +95,8 @@ struct CsvLayout {
 CsvLayout parse_map(std::string_view text, const std::string& file) {
   const toml::table t = parse_toml_text(text, file);
   TomlView v(t, file, "");
-  if (v.str("format") != kCsvMapFormat) throw InputError(file, "format", fmt::format("\"{}\"", kCsvMapFormat));
-  const std::string ver = v.str("format_version");
-  if (ver.rfind("1.", 0) != 0) throw InputError(file, "format_version", "1.x", "\"" + echo(ver) + "\"");
+  check_format(file, "format", echo(v.str("format")), kCsvMapFormat);
+  check_version(file, "format_version", echo(v.str("format_version")), 1);
   CsvLayout L;
   if (auto d = v.opt_str("delimiter")) {
     if (*d != "," && *d != ";" && *d != "\t" && *d != " ") throw InputError(file, "delimiter", "\",\", \";\", \"\\t\" or \" \"", "\"" + echo(*d) + "\"");
