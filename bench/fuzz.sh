@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Fuzzes the NRRD, MetaImage, CSV-recording and experiment-manifest parsers with libFuzzer
+# Fuzzes the NRRD, MetaImage, CSV-recording, experiment-manifest (TOML) and fit (JSON)
+# parsers with libFuzzer
 # (clang, AddressSanitizer + UndefinedBehaviorSanitizer) for a set time each and prints
 #   figure (execs) | target (no finding) | ok?
 # Usage: bench/fuzz.sh [SECONDS]      (default 60 per target; env FUZZ_SECONDS also works)
@@ -13,7 +14,7 @@ secs=${FUZZ_SECONDS:-60}
 if [[ ${1:-} =~ ^[0-9]+$ ]]; then secs=$1; fi
 build=${FUZZ_BUILD:-$root/build-fuzz}
 PYTHON=/usr/bin/python3
-targets=(fuzz_nrrd fuzz_metaimage fuzz_csv fuzz_manifest)
+targets=(fuzz_nrrd fuzz_metaimage fuzz_csv fuzz_manifest fuzz_fit_json)
 
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
@@ -119,6 +120,25 @@ seeds = {"nest_dotted": "a" + ".a" * n + " = 1\n",
          "nest_array": "a = " + "[" * n + "]" * n + "\n"}
 for name, text in seeds.items():
     open(os.path.join(d, name), "w").write('format = "burrbench.experiment"\nformat_version = "1.0"\n' + text)
+PY
+
+# The fit seed: a whole fit.json as calibrate writes it (from the regular build's fixture
+# writer when it exists), and the same nesting bombs in JSON.
+bb=${BURRBENCH:-$root/build/apps/burrbench}
+if [[ -x $bb ]]; then
+  fx=$(mktemp -d)
+  "$bb" debug write-fixtures "$fx" >/dev/null 2>&1 && [[ -f $fx/fit.json ]] && seed fuzz_fit_json fixture <"$fx/fit.json"
+  rm -rf "$fx"
+fi
+printf '{"format": "burrbench.fit", "format_version": "1.0", "parameters": [], "nuisance": [], "x": null}\n' \
+  | seed fuzz_fit_json minimal
+"$PYTHON" - "$work/fuzz_fit_json/seeds" <<'PY'
+import os, sys
+d = sys.argv[1]
+os.makedirs(d, exist_ok=True)
+n = 20000
+for name, text in {"nest_array": "[" * n + "]" * n, "nest_object": '{"a":' * n + "1" + "}" * n}.items():
+    open(os.path.join(d, name), "w").write('{"format": "burrbench.fit", "format_version": "1.0", "x": ' + text + "}")
 PY
 
 # --- run ---

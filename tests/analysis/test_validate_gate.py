@@ -15,6 +15,7 @@ import pytest
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import browser_check  # noqa: E402
+from bad_input import assert_refused
 
 BURRBENCH = os.environ.get("BURRBENCH", "burrbench")
 SRC = os.environ.get("BURRBENCH_SOURCE_DIR", os.path.join(HERE, "..", ".."))
@@ -68,7 +69,7 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
         assert r.returncode == 0 and want in r.stdout and r.stdout.endswith("valid\n"), r.stdout + r.stderr
     (out / "metrics.json").write_text('{"format": "burrbench.metrics", "format_version": "1.0"}')
     r = run("inspect", str(out / "metrics.json"))
-    assert r.returncode == 2 and f"{out / 'metrics.json'}: rows: expected" in r.stderr, r.stderr
+    assert_refused(r.returncode, r.stderr, out / "metrics.json", f"{out / 'metrics.json'}: rows: expected")
 
     html = open(out / "report.html", encoding="utf-8").read()
     assert "http://" not in html and "https://" not in html
@@ -122,12 +123,12 @@ def test_bad_criteria_exit_2(exp, tmp_path, name):
 
 def test_missing_and_broken_files_exit_2(exp, tmp_path):
     r = validate(exp, tmp_path / "g1", params=tmp_path / "missing.toml")
-    assert r.returncode == 2 and "missing.toml" in r.stderr, r.stderr
+    assert_refused(r.returncode, r.stderr, tmp_path / "missing.toml")
     broken = tmp_path / "experiment.toml"
     shutil.copy(exp / "experiment.toml", broken)
     broken.write_text(open(broken).read().replace('path = "plunge.h5"', 'path = "gone.h5"'))
     r = validate(exp, tmp_path / "g2", experiment=broken)
-    assert r.returncode == 2 and "experiment.toml" in r.stderr, r.stderr
+    assert_refused(r.returncode, r.stderr, broken, "expected an existing file")
     blocker = tmp_path / "file"
     blocker.write_text("x")
     r = validate(exp, blocker)

@@ -4,6 +4,8 @@ import shutil
 import subprocess
 from pathlib import Path
 
+from bad_input import assert_refused
+
 BURRBENCH = os.environ.get("BURRBENCH", "burrbench")
 
 
@@ -28,9 +30,6 @@ def assert_rejected(path: Path, *fragments):
     """`inspect` must exit 2 with one stderr line holding every fragment and leave the bytes alone."""
     before = path.read_bytes()
     rc, out, err = run("inspect", path)
-    assert rc == 2, (rc, out, err)
-    assert len(err.strip().splitlines()) == 1, err
-    for frag in fragments:
-        assert frag in err, (frag, err)
+    assert_refused(rc, err, path, *fragments)
     assert path.read_bytes() == before, "input file was modified"
     return err

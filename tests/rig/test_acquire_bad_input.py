@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import rig_helpers as rh
+from bad_input import assert_refused
 from virtual_helpers import start_virtual_rig
 
 GOOD = rh.tcp_device("ft_sensor", 5020, 9, 180, 42, 100, rh.FT_CHANNELS, counter=220)
@@ -23,25 +24,24 @@ GOOD = rh.tcp_device("ft_sensor", 5020, 9, 180, 42, 100, rh.FT_CHANNELS, counter
 def test_bad_maps_exit_2_naming_the_field(tmp_path, change, field):
     rig_map = rh.write_map(tmp_path, GOOD.replace(*change, 1))
     p = rh.run(["acquire", "--rig", rig_map, "--out", os.path.join(str(tmp_path), "r.h5"), "--duration", "1"])
-    assert p.returncode == 2, p.stdout + p.stderr
-    assert f"{rig_map}: {field}: expected" in p.stderr, p.stderr
+    assert_refused(p.returncode, p.stderr, rig_map, f"{rig_map}: {field}: expected")
     assert not os.path.exists(os.path.join(str(tmp_path), "r.h5.journal"))
 
 
 def test_write_requests_are_refused_as_read_only(tmp_path):
     rig_map = rh.write_map(tmp_path, GOOD + "write_registers = [[180, 0]]\n")
     p = rh.run(["rig", "check", "--rig", rig_map])
-    assert p.returncode == 2 and "read-only" in p.stderr, p.stderr
+    assert_refused(p.returncode, p.stderr, rig_map, "read-only")
 
 
 def test_missing_map_and_bad_journal(tmp_path):
     p = rh.run(["acquire", "--rig", os.path.join(str(tmp_path), "none.toml"), "--out", "x.h5"])
-    assert p.returncode == 2 and "none.toml" in p.stderr
+    assert_refused(p.returncode, p.stderr, "none.toml")
     junk = os.path.join(str(tmp_path), "junk.journal")
     with open(junk, "wb") as f:
         f.write(os.urandom(3 * 4096))
     p = rh.run(["recover", junk, "--out", os.path.join(str(tmp_path), "r.h5")])
-    assert p.returncode == 2 and "junk.journal" in p.stderr, p.stderr
+    assert_refused(p.returncode, p.stderr, junk)
 
 
 def test_existing_journal_is_not_overwritten(tmp_path):
@@ -50,7 +50,7 @@ def test_existing_journal_is_not_overwritten(tmp_path):
     with open(out + ".journal", "wb") as f:
         f.write(b"left by a crash")
     p = rh.run(["acquire", "--rig", rig_map, "--out", out, "--duration", "1"])
-    assert p.returncode == 2 and "recover" in p.stderr, p.stderr
+    assert_refused(p.returncode, p.stderr, out + ".journal", "recover")
     with open(out + ".journal", "rb") as f:
         assert f.read() == b"left by a crash"
 
@@ -101,8 +101,7 @@ def test_outputs_never_replace_inputs(tmp_path):
     for args, victim in cases:
         before = open(victim, "rb").read()
         p = rh.run(args, timeout=20)
-        assert p.returncode == 2, (args, p.stdout + p.stderr)
-        assert "different from the inputs" in p.stderr and victim in p.stderr, p.stderr
+        assert_refused(p.returncode, p.stderr, victim, "different from the inputs")
         assert open(victim, "rb").read() == before, args
 
 
@@ -119,10 +118,10 @@ def test_rig_check_refuses_bad_maps_before_connecting(tmp_path, channel, key, va
     chans[channel][key] = value
     rig_map = rh.write_map(tmp_path, rh.tcp_device("ft_sensor", rh.free_port(), 9, 180, 42, 100, chans))
     p = rh.run(["rig", "check", "--rig", rig_map], timeout=20)
-    assert p.returncode == 2, p.stdout + p.stderr
-    assert f"{rig_map}: {field}: expected" in p.stderr and "connect" not in p.stderr, p.stderr
+    assert_refused(p.returncode, p.stderr, rig_map, f"{rig_map}: {field}: expected")
+    assert "connect" not in p.stderr, p.stderr
     p = rh.run(["acquire", "--rig", rig_map, "--out", os.path.join(str(tmp_path), "r.h5"), "--duration", "1"], timeout=20)
-    assert p.returncode == 2 and f"{rig_map}: {field}" in p.stderr, p.stderr
+    assert_refused(p.returncode, p.stderr, rig_map, f"{rig_map}: {field}")
     assert not os.path.exists(os.path.join(str(tmp_path), "r.h5.journal"))
 
 
@@ -130,7 +129,7 @@ def test_position_in_micrometres_is_refused(tmp_path):
     chans = [dict(rh.STAGE_CHANNELS[0], unit="um")]
     rig_map = rh.write_map(tmp_path, rh.tcp_device("stage", rh.free_port(), 1, 0, 8, 100, chans))
     p = rh.run(["rig", "check", "--rig", rig_map], timeout=20)
-    assert p.returncode == 2 and f"{rig_map}: devices[0].channels[0].unit: expected \"mm\"" in p.stderr, p.stderr
+    assert_refused(p.returncode, p.stderr, rig_map, f"{rig_map}: devices[0].channels[0].unit: expected \"mm\"")
 
 
 def test_existing_recording_is_never_replaced(tmp_path):
@@ -141,7 +140,7 @@ def test_existing_recording_is_never_replaced(tmp_path):
     with open(out, "wb") as f:
         f.write(b"the lab's only copy of yesterday's session")
     p = rh.run(["acquire", "--rig", rig_map, "--out", out, "--duration", "1"], timeout=20)
-    assert p.returncode == 2 and f"{out}: --out: expected" in p.stderr and "--overwrite" in p.stderr, p.stderr
+    assert_refused(p.returncode, p.stderr, out, f"{out}: --out: expected", "--overwrite")
     assert open(out, "rb").read() == b"the lab's only copy of yesterday's session"
     assert not os.path.exists(out + ".journal")
 
@@ -208,7 +207,7 @@ def test_recover_never_replaces_an_existing_recording(tmp_path):
         out = rh.acquire(tmp_path, rig_map, 0.5, extra=["--keep-journal"])
     before = open(out, "rb").read()
     p = rh.run(["recover", out + ".journal", "--out", out])
-    assert p.returncode == 2 and f"{out}: --out: expected a file that does not exist yet" in p.stderr, p.stderr
+    assert_refused(p.returncode, p.stderr, out, f"{out}: --out: expected a file that does not exist yet")
     assert open(out, "rb").read() == before
     p = rh.run(["recover", out + ".journal", "--out", out, "--overwrite"])
     assert p.returncode == 0, p.stderr
