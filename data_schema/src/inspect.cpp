@@ -48,8 +48,11 @@ std::string describe_recording(const std::filesystem::path& path) {
   const auto& m = r.meta;
   std::string s = fmt::format("recording (burrbench.recording)\n");
   s += fmt::format("sample {} · rig {} · operator {}\n", m.sample_id, m.rig_id, m.operator_name);
-  s += fmt::format("burr radius {} mm, axis_rig [{}, {}, {}], spin {:+d}\n", m.burr_radius_mm, m.burr_axis_rig.x,
-                   m.burr_axis_rig.y, m.burr_axis_rig.z, m.spin_sign);
+  s += fmt::format("burr radius {}, axis_rig {}, spin {}\n",
+                   m.burr_radius_mm > 0 ? fmt::format("{} mm", m.burr_radius_mm) : "not stated",
+                   m.axis_stated() ? fmt::format("[{}, {}, {}]", m.burr_axis_rig.x, m.burr_axis_rig.y, m.burr_axis_rig.z)
+                                   : "not stated",
+                   m.spin_sign ? fmt::format("{:+d}", m.spin_sign) : "not stated");
   s += fmt::format("sensor {} serial {} calibration {} ({}), bias {}\n", m.sensor_model, m.sensor_serial,
                    m.sensor_calibration.empty() ? "none" : "6×6", m.sensor_calibration_date,
                    m.bias.empty() ? "none" : "6 values");

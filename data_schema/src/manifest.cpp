@@ -321,8 +321,10 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
     if (r.has("waive")) {
       rr.waive = r.strings("waive");
       for (const auto& w : rr.waive)
-        if (w != "burr_radius_mm")
-          throw InputError(file, r.field("waive"), "names of recording metadata the manifest overrides: \"burr_radius_mm\"",
+        if (w != "burr_radius_mm" && w != "burr_axis_rig" && w != "spin_sign")
+          throw InputError(file, r.field("waive"),
+                           "names of recording metadata the manifest overrides: \"burr_radius_mm\", "
+                           "\"burr_axis_rig\", \"spin_sign\"",
                            "\"" + w.substr(0, 80) + "\"");
     }
     auto g = r.table("registration");

@@ -117,10 +117,11 @@ void validate(const Recording& rec, const std::string& file) {
     throw InputError(file, "/meta/@burr_radius_mm", "a finite radius >= 0 (0 = unknown)",
                      fmt::format("{}", m.burr_radius_mm));
   const double len = std::sqrt(glm::dot(m.burr_axis_rig, m.burr_axis_rig));
-  if (!std::isfinite(len) || std::abs(len - 1.0) > 1e-6)
-    throw InputError(file, "/meta/@burr_axis_rig", "a unit vector", fmt::format("length {}", len));
-  if (m.spin_sign != 1 && m.spin_sign != -1)
-    throw InputError(file, "/meta/@spin_sign", "+1 or -1", std::to_string(m.spin_sign));
+  if (!std::isfinite(len) || (len != 0 && std::abs(len - 1.0) > 1e-6))
+    throw InputError(file, "/meta/@burr_axis_rig", "a unit vector, or [0, 0, 0] (not stated)",
+                     fmt::format("length {}", len));
+  if (m.spin_sign < -1 || m.spin_sign > 1)
+    throw InputError(file, "/meta/@spin_sign", "+1, -1, or 0 (not stated)", std::to_string(m.spin_sign));
   if (!m.sensor_calibration.empty() && m.sensor_calibration.size() != 36)
     throw InputError(file, "/meta/sensor_calibration", "36 values (6×6) or none",
                      std::to_string(m.sensor_calibration.size()));
@@ -273,7 +274,7 @@ Recording read_recording(const std::filesystem::path& path) {
   const ReadingFile reading(path.string());  // names it if memory runs out
   h5::Reader r(path);
   const std::string file = r.file();
-  h5::check_header(r, kRecordingFormat, kRecordingVersionMajor);
+  const std::string version = h5::check_header(r, kRecordingFormat, kRecordingVersionMajor);
   r.expect_only("/", {"provenance", "meta", "streams", "events"});
   Recording rec;
   rec.provenance = h5::read_provenance(r);
@@ -287,8 +288,12 @@ Recording read_recording(const std::filesystem::path& path) {
   const auto axis = r.attr_doubles("/meta", "burr_axis_rig", 3);
   m.burr_axis_rig = {axis[0], axis[1], axis[2]};
   const std::int64_t spin = r.attr_int64("/meta", "spin_sign");
-  if (spin != 1 && spin != -1) throw InputError(file, "/meta/@spin_sign", "+1 or -1", std::to_string(spin));
+  if (spin < -1 || spin > 1) throw InputError(file, "/meta/@spin_sign", "+1, -1, or 0 (not stated)", std::to_string(spin));
   m.spin_sign = int(spin);
+  if (version.rfind("1.0", 0) == 0 && version.size() == 3) {
+    m.burr_axis_rig = glm::dvec3(0);  // 1.0 wrote [0, 0, 1] and +1 by default: not stated
+    m.spin_sign = 0;
+  }
   m.sensor_model = r.attr_string("/meta", "sensor_model");
   m.sensor_serial = r.attr_string("/meta", "sensor_serial");
   m.sensor_calibration_date = r.attr_string("/meta", "sensor_calibration_date");

@@ -220,6 +220,23 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
                      fmt::format("{} mm", m.burr.radius_mm));
   const double axis_len = glm::length(m.burr.shaft_axis_rig);
   if (!(axis_len > 0)) throw InputError(mfile, "burr.shaft_axis_rig", "a non-zero vector");
+  // The same for the shaft axis and the spin, when the recording states them (1.1).
+  const auto waived = [&](const char* f) { return std::find(ref.waive.begin(), ref.waive.end(), f) != ref.waive.end(); };
+  const glm::dvec3 rec_axis = rec.meta.burr_axis_rig;
+  if (rec.meta.axis_stated() && glm::length(rec_axis - m.burr.shaft_axis_rig / axis_len) > 1e-6 &&
+      !waived("burr_axis_rig"))
+    throw InputError(mfile, "burr.shaft_axis_rig",
+                     fmt::format("the shaft axis recorded in {} (/meta/burr_axis_rig = [{}, {}, {}]), or "
+                                 "recordings[{}].waive = [\"burr_axis_rig\"] to override it",
+                                 file, rec_axis.x, rec_axis.y, rec_axis.z, index),
+                     fmt::format("[{}, {}, {}]", m.burr.shaft_axis_rig.x, m.burr.shaft_axis_rig.y,
+                                 m.burr.shaft_axis_rig.z));
+  if (rec.meta.spin_sign != 0 && rec.meta.spin_sign != m.burr.spin_sign && !waived("spin_sign"))
+    throw InputError(mfile, "burr.spin_sign",
+                     fmt::format("the spin recorded in {} (/meta/spin_sign = {:+d}), or recordings[{}].waive = "
+                                 "[\"spin_sign\"] to override it",
+                                 file, rec.meta.spin_sign, index),
+                     fmt::format("{:+d}", m.burr.spin_sign));
   if (!(m.burr.radius_mm > 0)) throw InputError(mfile, "burr.radius_mm", "a radius > 0");
   if (m.burr.spin_sign != 1 && m.burr.spin_sign != -1)
     throw InputError(mfile, "burr.spin_sign", "1 or -1");

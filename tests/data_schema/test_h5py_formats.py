@@ -27,7 +27,7 @@ def text(v):
 def test_recording_values_read_with_h5py(fx):
     with h5py.File(fx / "recording.h5", "r") as f:
         assert text(f.attrs["format"]) == "burrbench.recording"
-        assert text(f.attrs["format_version"]) == "1.0"
+        assert text(f.attrs["format_version"]) == "1.1"
         m = f["meta"]
         assert text(m.attrs["sample_id"]) == "S1"
         assert text(m.attrs["rig_id"]) == "fixture-rig"
@@ -148,6 +148,15 @@ def test_matlab_style_fixed_length_strings_are_read(fx, tmp_path):
     p = edit(fx / "recording.h5", tmp_path / "m.h5", fixed)
     rc, out, err = run("inspect", p)
     assert rc == 0, err
+
+
+def test_a_recording_1_0_states_no_burr_axis_or_spin(fx, tmp_path):
+    # 1.0 writers wrote [0, 0, 1] and +1 whether the rig knew them or not: read as not stated.
+    p = edit(fx / "recording.h5", tmp_path / "old.h5", lambda f: f.attrs.__setitem__("format_version", np.bytes_("1.0")))
+    rc, out, err = run("inspect", p)
+    assert rc == 0 and "axis_rig not stated, spin not stated" in out, out + err
+    rc, out, err = run("inspect", fx / "recording.h5")
+    assert rc == 0 and "axis_rig [0, 0, 1], spin -1" in out, out + err
 
 
 def test_unknown_major_version(fx, tmp_path):

@@ -267,6 +267,47 @@ def test_a_burr_radius_contradicting_the_recording_is_refused_unless_waived(exp,
     assert_refused(p.returncode, p.stderr, m, "waive", "colour")
 
 
+@pytest.mark.parametrize("key,old,new,field,waive", [
+    ("axis", "shaft_axis_rig = [0.8, 0.0, 0.6]", "shaft_axis_rig = [0.6, 0.0, 0.8]", "burr.shaft_axis_rig", "burr_axis_rig"),
+    ("spin", "spin_sign = 1", "spin_sign = -1", "burr.spin_sign", "spin_sign")])
+def test_a_burr_axis_or_spin_contradicting_the_recording_is_refused_unless_waived(exp, tmp_path, key, old, new,
+                                                                                   field, waive):
+    # Issue 12: synth states the axis and spin it drilled with (recording 1.1); a manifest
+    # with another axis or spin replays another burr: refused naming both, unless waived.
+    text = (exp / "experiment.toml").read_text()
+    assert old in text
+    m = tmp_path / f"{key}.toml"
+    m.write_text(text.replace(old, new).replace('path = "', f'path = "{exp}/'))
+    p = run("replay", m, "--params", exp / "params_true.toml", "--out", tmp_path / "p.h5", check=False)
+    assert_refused(p.returncode, p.stderr, m, f"{field}: expected the", "/meta/", waive)
+    assert not (tmp_path / "p.h5").exists()
+    m.write_text(m.read_text().replace('lag_ms = 0.0\n', f'lag_ms = 0.0\nwaive = ["{waive}"]\n'))
+    p = run("replay", m, "--params", exp / "params_true.toml", "--out", tmp_path / "p.h5", check=False)
+    assert p.returncode == 0, p.stderr
+
+
+def test_a_recording_that_does_not_state_its_burr_is_not_compared(exp, tmp_path):
+    # recording import without --burr-axis/--spin states neither: any manifest axis goes.
+    csv = tmp_path / "r.csv"
+    csv.write_text("t_s,x_mm,y_mm,z_mm,fx_N,fy_N,fz_N,spindle_rpm\n" +
+                   "".join(f"{k * 0.001},0,0,{10 + k * 0.001},0,0,0,60000\n" for k in range(50)))
+    run("recording", "import", "--csv", csv, "--out", tmp_path / "r.h5")
+    with h5py.File(tmp_path / "r.h5", "r") as f:
+        assert f.attrs["format_version"].decode() == "1.1"
+        assert list(f["meta"].attrs["burr_axis_rig"]) == [0, 0, 0] and f["meta"].attrs["spin_sign"] == 0
+    assert "axis_rig not stated, spin not stated" in run("inspect", tmp_path / "r.h5").stdout
+    man = (exp / "experiment.toml").read_text().split("[[recordings]]")[0]
+    man = man.replace('path = "sample.h5"', f'path = "{exp / "sample.h5"}"')
+    man = man.replace("shaft_axis_rig = [0.8, 0.0, 0.6]", "shaft_axis_rig = [0.0, 0.0, 1.0]").replace(
+        "spin_sign = 1", "spin_sign = -1")
+    man += f'[[recordings]]\nid = "r"\npath = "{tmp_path / "r.h5"}"\nsample = "S1"\n' \
+           '[recordings.registration]\nrotation = [[1,0,0],[0,1,0],[0,0,1]]\ntranslation_mm = [0,0,0]\n'
+    (tmp_path / "e.toml").write_text(man)
+    p = run("replay", tmp_path / "e.toml", "--params", exp / "params_true.toml", "--out", tmp_path / "p.h5",
+            check=False)
+    assert p.returncode == 0, p.stderr
+
+
 def kabsch_rms(rig, vol):
     """Independent rigid fit (Kabsch, SVD): the RMS residual at the beads, mm."""
     rig, vol = np.asarray(rig, float), np.asarray(vol, float)

@@ -15,7 +15,9 @@ namespace burrbench::data_schema {
 
 inline constexpr const char* kRecordingFormat = "burrbench.recording";
 inline constexpr int kRecordingVersionMajor = 1;
-inline constexpr int kRecordingVersionMinor = 0;
+// 1.1: burr_axis_rig = [0, 0, 0] and spin_sign = 0 mean "not stated" (1.0 writers always
+// wrote [0, 0, 1] and +1, whether the rig knew them or not: read as not stated).
+inline constexpr int kRecordingVersionMinor = 1;
 
 // Canonical channel names (decoded, in MODEL.md units).
 inline constexpr const char* kForce = "force_N";        // n×3, sensor frame, force on sample
@@ -66,8 +68,11 @@ struct Event {
 struct RecordingMeta {
   std::string sample_id, rig_id, operator_name;
   double burr_radius_mm = 0;
-  glm::dvec3 burr_axis_rig{0, 0, 1};  // shaft direction, unit vector, rig frame
-  int spin_sign = 1;                   // +1: ω along burr_axis_rig, -1: against
+  // What the rig logged of its burr; 0 / zero vector = not stated. A stated value must
+  // agree with the manifest's [burr] (model/experiment.cpp) unless the manifest waives it.
+  glm::dvec3 burr_axis_rig{0, 0, 0};  // shaft direction, unit vector, rig frame
+  int spin_sign = 0;                   // +1: ω along burr_axis_rig, -1: against
+  bool axis_stated() const { return burr_axis_rig != glm::dvec3(0); }
   std::string sensor_model, sensor_serial;
   std::vector<double> sensor_calibration;  // 36 values (6×6 row-major) or empty
   std::string sensor_calibration_date;
