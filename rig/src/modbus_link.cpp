@@ -87,21 +87,46 @@ double ModbusLink::wire_time_s(const DeviceSpec& d) const {
 }
 
 ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& regs) {
-  ReadResult r;
   regs.resize(static_cast<std::size_t>(d.count));
   if (!connected_) {
+    ReadResult r;
     r.status = ReadStatus::Disconnected;
     r.t_send_ns = r.t_recv_ns = monotonic_ns();
     return r;
   }
   modbus_set_slave(ctx_, d.slave);
+  // A FIFO known by its records' counters is read from its newest block down: a window
+  // that moves on between two requests then repeats a record (taken once) rather than
+  // skipping one (which would hold the reader back until the next poll).
+  const bool newest_first = d.fifo && d.fifo->record_counter;
+  std::vector<std::size_t> at(d.blocks.size(), 0);
+  for (std::size_t k = 1; k < d.blocks.size(); ++k) at[k] = at[k - 1] + static_cast<std::size_t>(d.blocks[k - 1].count);
+  ReadResult all;
+  for (std::size_t i = 0; i < d.blocks.size(); ++i) {
+    const std::size_t k = newest_first ? d.blocks.size() - 1 - i : i;
+    const auto& b = d.blocks[k];
+    ReadResult r = read_block(d, b, regs.data() + at[k]);
+    if (i == 0) all.t_send_ns = r.t_send_ns;
+    all.t_recv_ns = r.t_recv_ns;
+    if (r.status != ReadStatus::Ok) {
+      all.status = r.status;
+      all.detail = d.blocks.size() > 1 ? fmt::format("block {} ({} registers from {}): {}", k, b.count, b.start, r.detail)
+                                       : r.detail;
+      return all;
+    }
+  }
+  return all;
+}
+
+ReadResult ModbusLink::read_block(const DeviceSpec& d, const BlockSpec& b, std::uint16_t* regs) {
+  ReadResult r;
   // RTU: drop anything already waiting (a reply that came after we gave up on it).
   if (settings_.transport == Transport::Rtu) modbus_flush(ctx_);
   r.t_send_ns = monotonic_ns();
   std::string mismatch;
-  const int rc = settings_.transport == Transport::Tcp ? read_tcp_checked(d, regs.data(), &mismatch)
-                 : d.function == 3 ? modbus_read_registers(ctx_, d.start, d.count, regs.data())
-                                   : modbus_read_input_registers(ctx_, d.start, d.count, regs.data());
+  const int rc = settings_.transport == Transport::Tcp ? read_tcp_checked(d, b, regs, &mismatch)
+                 : b.function == 3 ? modbus_read_registers(ctx_, b.start, b.count, regs)
+                                   : modbus_read_input_registers(ctx_, b.start, b.count, regs);
   const int err = errno;
   r.t_recv_ns = monotonic_ns();
   if (!mismatch.empty()) {
@@ -109,17 +134,17 @@ ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& reg
     r.detail = mismatch;
     return r;
   }
-  if (rc == d.count) {
+  if (rc == b.count) {
     // A reply faster than the wire allows was already on its way: it answers an
     // earlier request, so it is not this poll's data.
-    const double wire = wire_time_s(d);
+    const double wire = settings_.transport == Transport::Rtu ? rtu_frames_wire_s(b, d) : 0.0;
     if (wire > 0 && static_cast<double>(r.t_recv_ns - r.t_send_ns) * 1e-9 < 0.8 * wire) {
       r.status = ReadStatus::EarlyReply;
       r.detail = fmt::format("reply after {:.2f} ms, the wire needs {:.2f} ms", (r.t_recv_ns - r.t_send_ns) * 1e-6, wire * 1e3);
     }
     return r;
   }
-  r.detail = rc < 0 ? modbus_strerror(err) : fmt::format("{} registers instead of {}", rc, d.count);
+  r.detail = rc < 0 ? modbus_strerror(err) : fmt::format("{} registers instead of {}", rc, b.count);
   if (rc >= 0) r.status = ReadStatus::BadData;
   else if (err == ETIMEDOUT) r.status = ReadStatus::Timeout;
   else if (err > MODBUS_ENOBASE && err <= MODBUS_ENOBASE + MODBUS_EXCEPTION_GATEWAY_TARGET) r.status = ReadStatus::Exception;
@@ -133,10 +158,10 @@ ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& reg
 // (only the RTU backend compares the slave), so a gateway's reply for another unit would
 // pass as this device's data. The request goes out raw (libmodbus still frames it and
 // numbers it) and the reply's MBAP header and PDU are checked here.
-int ModbusLink::read_tcp_checked(const DeviceSpec& d, std::uint16_t* regs, std::string* mismatch) {
-  const std::uint8_t req[6] = {static_cast<std::uint8_t>(d.slave), static_cast<std::uint8_t>(d.function),
-                               static_cast<std::uint8_t>(d.start >> 8), static_cast<std::uint8_t>(d.start & 0xff),
-                               static_cast<std::uint8_t>(d.count >> 8), static_cast<std::uint8_t>(d.count & 0xff)};
+int ModbusLink::read_tcp_checked(const DeviceSpec& d, const BlockSpec& b, std::uint16_t* regs, std::string* mismatch) {
+  const std::uint8_t req[6] = {static_cast<std::uint8_t>(d.slave), static_cast<std::uint8_t>(b.function),
+                               static_cast<std::uint8_t>(b.start >> 8), static_cast<std::uint8_t>(b.start & 0xff),
+                               static_cast<std::uint8_t>(b.count >> 8), static_cast<std::uint8_t>(b.count & 0xff)};
   // A raw request goes out with transaction id 0 (libmodbus 3.1.6); after any failed read
   // the socket is closed (session.cpp), so no reply to an earlier request can be waiting.
   constexpr std::uint16_t tid = 0;
@@ -154,17 +179,17 @@ int ModbusLink::read_tcp_checked(const DeviceSpec& d, std::uint16_t* regs, std::
     *mismatch = fmt::format("reply from unit {}, expected unit {}", rsp[6], d.slave);
     return -1;
   }
-  if (rsp[7] == (d.function | 0x80)) {  // exception reply: errno as libmodbus sets it
+  if (rsp[7] == (b.function | 0x80)) {  // exception reply: errno as libmodbus sets it
     errno = MODBUS_ENOBASE + rsp[8];
     return -1;
   }
-  if (rsp[7] != d.function || rsp[8] != 2 * d.count || n != 9 + 2 * d.count) {
+  if (rsp[7] != b.function || rsp[8] != 2 * b.count || n != 9 + 2 * b.count) {
     *mismatch = fmt::format("reply function {} with {} data bytes in {}, expected function {} with {}", rsp[7],
-                            rsp[8], n, d.function, 2 * d.count);
+                            rsp[8], n, b.function, 2 * b.count);
     return -1;
   }
-  for (int i = 0; i < d.count; ++i) regs[i] = u16(9 + 2 * i);
-  return d.count;
+  for (int i = 0; i < b.count; ++i) regs[i] = u16(9 + 2 * i);
+  return b.count;
 }
 
 void ModbusLink::drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns, const std::atomic<bool>* stop) {

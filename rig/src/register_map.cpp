@@ -125,6 +125,30 @@ ChannelSpec parse_channel(const TomlView& r) {
   return c;
 }
 
+// The registers [addr, addr + n) in the poll's buffer (BlockSpec): each must be read by a
+// block, and consecutively (a field or FIFO region may run on into the next block only
+// if that block starts where the previous one ends, with the same function).
+int place(const TomlView& r, const std::string& what, int addr, int n, const std::vector<BlockSpec>& blocks) {
+  const auto at = [&](int a) {
+    int v = blocks.front().start;
+    for (const auto& b : blocks) {
+      if (a >= b.start && a < b.start + b.count) return v + (a - b.start);
+      v += b.count;
+    }
+    return -1;
+  };
+  const int v0 = at(addr);
+  std::string ranges;
+  for (const auto& b : blocks) ranges += fmt::format("{}[{}, {})", ranges.empty() ? "" : " ", b.start, b.start + b.count);
+  for (int i = 0; i < n; ++i)
+    if (v0 < 0 || at(addr + i) != v0 + i)
+      r.fail(what,
+             blocks.size() == 1 ? fmt::format("registers inside {}", ranges)
+                                : fmt::format("registers read consecutively by the device's blocks {}", ranges),
+             fmt::format("[{}, {})", addr, addr + n));
+  return v0;
+}
+
 void check_inside(const TomlView& r, const std::string& what, int addr, int n, int lo, int count) {
   if (addr < lo || addr + n > lo + count)
     r.fail(what, fmt::format("registers inside [{}, {})", lo, lo + count),
@@ -160,7 +184,7 @@ void check_disjoint(const TomlView& r, const ChannelSpec& c, std::map<int, std::
 
 DeviceSpec parse_device(const TomlView& r) {
   r.allow({"name", "transport", "host", "port", "serial", "baud", "parity", "data_bits", "stop_bits",
-           "slave", "rate_hz", "timeout_ms", "late_reply_ms", "reconnect_backoff_ms", "reconnect_max_ms", "mode", "function", "start", "count", "counter", "fifo",
+           "slave", "rate_hz", "timeout_ms", "late_reply_ms", "reconnect_backoff_ms", "reconnect_max_ms", "mode", "function", "start", "count", "blocks", "counter", "fifo",
            "calibration", "channels", "status"});
   DeviceSpec d;
   d.name = r.str("name");
@@ -208,13 +232,38 @@ DeviceSpec parse_device(const TomlView& r) {
   if (!(d.reconnect_max_ms >= d.reconnect_backoff_ms && d.reconnect_max_ms <= 600000))
     r.fail("reconnect_max_ms", fmt::format("a wait in [reconnect_backoff_ms = {}, 600000] ms", d.reconnect_backoff_ms),
            fmt::format("{}", d.reconnect_max_ms));
-  const auto function = r.str_or("function", "holding");
-  if (function == "holding") d.function = 3;
-  else if (function == "input") d.function = 4;
-  else r.fail("function", "\"holding\" or \"input\" (reads only)", "\"" + function + "\"");
-  d.start = static_cast<int>(r.integer("start", 0, 65535));
-  d.count = static_cast<int>(r.integer("count", 1, kMaxReadRegisters));
-  if (d.start + d.count > 65536) r.fail("count", "a block ending at or before address 65535");
+  const auto parse_block = [](const TomlView& b) {
+    BlockSpec k;
+    const auto function = b.str_or("function", "holding");
+    if (function == "holding") k.function = 3;
+    else if (function == "input") k.function = 4;
+    else b.fail("function", "\"holding\" or \"input\" (reads only)", "\"" + function + "\"");
+    k.start = static_cast<int>(b.integer("start", 0, 65535));
+    k.count = static_cast<int>(b.integer("count", 1, kMaxReadRegisters));
+    if (k.start + k.count > 65536) b.fail("count", "a block ending at or before address 65535");
+    return k;
+  };
+  if (r.has("blocks")) {
+    // Several requests per poll (e.g. input and holding registers of one unit, or a FIFO
+    // deeper than one request's 125 registers).
+    for (const char* k : {"function", "start", "count"})
+      if (r.has(k)) r.fail(k, "function, start and count inside blocks when blocks is given", "present");
+    const auto bs = r.tables("blocks");
+    if (bs.empty() || bs.size() > 32) r.fail("blocks", "1 to 32 blocks", std::to_string(bs.size()));
+    for (const auto& b : bs) {
+      b.allow({"function", "start", "count"});
+      const BlockSpec k = parse_block(b);
+      for (const auto& o : d.blocks)
+        if (k.start < o.start + o.count && o.start < k.start + k.count)
+          b.fail("start", "a block whose registers no other block of the device reads",
+                 fmt::format("[{}, {}) overlapping [{}, {})", k.start, k.start + k.count, o.start, o.start + o.count));
+      d.blocks.push_back(k);
+    }
+  } else {
+    d.blocks.push_back(parse_block(r));
+  }
+  d.start = d.blocks.front().start;
+  for (const auto& b : d.blocks) d.count += b.count;
   const auto mode = r.str_or("mode", "latest");
   if (mode == "latest") d.mode = Mode::Latest;
   else if (mode == "fifo") d.mode = Mode::Fifo;
@@ -223,24 +272,46 @@ DeviceSpec parse_device(const TomlView& r) {
   if (r.has("counter")) {
     const TomlView cr = r.table("counter");
     d.counter = parse_field(cr, true);
-    check_inside(cr, "register", d.counter->address, register_count(d.counter->type), d.start, d.count);
+    d.counter->address = place(cr, "register", d.counter->address, register_count(d.counter->type), d.blocks);
   }
   if (d.mode == Mode::Fifo) {
     if (!r.has("fifo")) r.fail("fifo", "a fifo table for mode = \"fifo\"", "missing");
     if (d.counter) r.fail("counter", "no separate counter in fifo mode (fifo.counter is used)", "present");
     const TomlView fr = r.table("fifo");
-    fr.allow({"counter", "first_register", "depth", "record_registers", "device_rate_hz"});
+    fr.allow({"counter", "first_register", "depth", "record_registers", "device_rate_hz", "record_counter"});
     FifoSpec f;
     const TomlView fcr = fr.table("counter");
     f.counter = parse_field(fcr, true);
-    check_inside(fcr, "register", f.counter.address, register_count(f.counter.type), d.start, d.count);
+    f.counter.address = place(fcr, "register", f.counter.address, register_count(f.counter.type), d.blocks);
     f.first_register = static_cast<int>(fr.integer("first_register", 0, 65535));
-    f.depth = static_cast<int>(fr.integer("depth", 1, kMaxReadRegisters));
+    f.depth = static_cast<int>(fr.integer("depth", 1, 32 * kMaxReadRegisters));
     f.record_registers = static_cast<int>(fr.integer("record_registers", 1, kMaxReadRegisters));
     f.device_rate_hz = fr.num("device_rate_hz");
     if (!(f.device_rate_hz > 0 && f.device_rate_hz <= 100000))
       fr.fail("device_rate_hz", "a rate in (0, 100000] Hz", fmt::format("{}", f.device_rate_hz));
-    check_inside(fr, "first_register", f.first_register, f.depth * f.record_registers, d.start, d.count);
+    f.first_register = place(fr, "first_register", f.first_register, f.depth * f.record_registers, d.blocks);
+    if (fr.has("record_counter")) {
+      const TomlView rcr = fr.table("record_counter");
+      f.record_counter = parse_field(rcr, true);
+      check_inside(rcr, "register", f.record_counter->address, register_count(f.record_counter->type), 0,
+                   f.record_registers);
+      // One request returns one consistent image; a record split between two requests
+      // could join two samples under one counter.
+      int block_end = d.start;
+      std::vector<int> ends;  // buffer offsets where a block ends
+      for (const auto& b : d.blocks) ends.push_back(block_end += b.count);
+      for (int slot = 0; slot < f.depth; ++slot) {
+        const int lo = f.first_register + slot * f.record_registers, hi = lo + f.record_registers;
+        for (const int e : ends)
+          if (lo < e && e < hi)
+            fr.fail("record_registers", "records that each lie inside one block (a record split between two requests "
+                    "may join two samples)", fmt::format("record {} split at a block's end", slot));
+      }
+    } else if (d.blocks.size() > 1) {
+      // Without record counters a window that moves between two requests of one poll
+      // would shift the later blocks' records: taken twice, or as the wrong sample.
+      fr.fail("record_counter", "each record's own counter when a FIFO device is read in several blocks", "missing");
+    }
     // Polling must outpace the FIFO or records are lost by design.
     if (d.rate_hz * f.depth < f.device_rate_hz * 1.5)
       r.fail("rate_hz", fmt::format("≥ 1.5 × device_rate_hz / depth = {} Hz so the FIFO never overruns",
@@ -254,16 +325,21 @@ DeviceSpec parse_device(const TomlView& r) {
   if (chans.empty()) r.fail("channels", "at least one channel", "none");
   std::set<std::string> names;
   std::map<int, std::string> owner;  // register → the channel that reads it
-  const int base = d.mode == Mode::Fifo ? 0 : d.start;
-  const int span = d.mode == Mode::Fifo ? d.fifo->record_registers : d.count;
+  // Latest mode: addresses are placed in the poll's buffer; FIFO mode: offsets in a record.
+  const bool fifo = d.mode == Mode::Fifo;
+  const auto locate = [&](const TomlView& t, const std::string& what, int addr, int n) {
+    if (!fifo) return place(t, what, addr, n, d.blocks);
+    check_inside(t, what, addr, n, 0, d.fifo->record_registers);
+    return addr;
+  };
   for (const auto& cr : chans) {
     auto c = parse_channel(cr);
     if (!names.insert(c.name).second) cr.fail("name", "a name unique within the device", "\"" + c.name + "\"");
-    for (std::size_t k = 0; k < c.registers.size(); ++k)
-      check_inside(cr, fmt::format("registers[{}]", k), c.registers[k], register_count(c.type), base, span);
-    if (c.negate_if_register) check_inside(cr, "negate_if_register", *c.negate_if_register, 1, base, span);
     check_canonical(cr, c);
-    check_disjoint(cr, c, owner);
+    check_disjoint(cr, c, owner);  // on the map's own addresses
+    for (std::size_t k = 0; k < c.registers.size(); ++k)
+      c.registers[k] = locate(cr, fmt::format("registers[{}]", k), c.registers[k], register_count(c.type));
+    if (c.negate_if_register) c.negate_if_register = locate(cr, "negate_if_register", *c.negate_if_register, 1);
     d.channels.push_back(std::move(c));
   }
   if (r.has("status")) {
@@ -277,7 +353,7 @@ DeviceSpec parse_device(const TomlView& r) {
     const auto bits = register_count(st.field.type) * 16;
     st.invalid_mask = static_cast<std::uint32_t>(
         sr.integer("invalid_mask", 1, bits == 16 ? 0xFFFF : 0xFFFFFFFFLL));
-    check_inside(sr, "register", st.field.address, register_count(st.field.type), base, span);
+    st.field.address = locate(sr, "register", st.field.address, register_count(st.field.type));
     d.status = st;
   }
   if (r.has("calibration")) {
@@ -306,11 +382,17 @@ double rtu_byte_s(const DeviceSpec& d) {
 }
 }  // namespace
 
-double rtu_frames_wire_s(const DeviceSpec& d) { return (8 + 5 + 2 * d.count) * rtu_byte_s(d); }
+double rtu_frames_wire_s(const BlockSpec& b, const DeviceSpec& d) { return (8 + 5 + 2 * b.count) * rtu_byte_s(d); }
+
+double rtu_frames_wire_s(const DeviceSpec& d) {
+  double s = 0;
+  for (const auto& b : d.blocks) s += rtu_frames_wire_s(b, d);
+  return s;
+}
 
 double rtu_poll_wire_s(const DeviceSpec& d) {
   const double silence_s = d.baud > 19200 ? 1.75e-3 : 3.5 * rtu_byte_s(d);
-  return rtu_frames_wire_s(d) + 2 * silence_s;
+  return rtu_frames_wire_s(d) + 2 * silence_s * static_cast<double>(d.blocks.size());
 }
 
 std::vector<BusBudget> rtu_bus_budgets(const std::vector<DeviceSpec>& devices) {

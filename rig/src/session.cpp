@@ -9,6 +9,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstring>
+#include <limits>
 #include <map>
 
 #include <fmt/format.h>
@@ -232,6 +233,15 @@ struct Session::Impl {
     const double max_advance =
         f.device_rate_hz * 1.5 * (static_cast<double>(r.t_recv_ns - st.last_ok_before_ns) * 1e-9) + 2.0;
     const std::int64_t newest = take_counter(st, raw, f.counter.type, max_advance);
+    if (f.record_counter) {
+      if (st.last_counter >= 0 && newest < st.last_counter) {
+        event(st.index, "counter_reset", fmt::format("fifo counter {} → {} (device restarted: it went back further than a wrap of its {}-bit range explains)",
+                                                     st.last_counter, newest, register_count(f.counter.type) * 16));
+        st.last_counter = -1;  // start afresh from the newest record
+      }
+      take_counted_records(st, r, regs, newest);
+      return;
+    }
     std::int64_t from = newest;  // first poll or after a reset: the newest record only
     if (st.last_counter >= 0 && newest >= st.last_counter) {
       from = st.last_counter + 1;
@@ -260,6 +270,54 @@ struct Session::Impl {
       ++st.status.samples;
     }
     st.last_counter = newest;
+  }
+
+  // FIFO records that carry their own counters (FifoSpec::record_counter), read in several
+  // blocks: the window may have moved between two requests, so a record is known by its
+  // counter, not its slot. Taken in counter order from last_counter + 1 while they follow
+  // one another; at a hole the rest waits for the next poll (still in the FIFO), unless
+  // the hole is older than every record the FIFO still holds: then it is an overrun.
+  void take_counted_records(DeviceState& st, const ReadResult& r, const std::vector<std::uint16_t>& regs,
+                            std::int64_t newest) {
+    const auto& d = *st.spec;
+    const auto& f = *d.fifo;
+    const auto& rc = *f.record_counter;
+    const std::int64_t range = counter_range(rc.type);
+    const int first_off = f.first_register - d.start;
+    std::map<std::int64_t, int> slot_of;  // unwrapped record counter → slot
+    std::int64_t oldest_held = std::numeric_limits<std::int64_t>::max();
+    for (int slot = 0; slot < f.depth; ++slot) {
+      const auto* rec = regs.data() + first_off + slot * f.record_registers;
+      const std::int64_t raw = decode_integer(rec + rc.address, rc.type, rc.order);
+      // Nearest to the header's newest counter, either side (a later block may be newer).
+      std::int64_t delta = ((raw - newest) % range + range) % range;
+      if (delta >= range / 2) delta -= range;
+      const std::int64_t c = newest + delta;
+      if (c < 0) continue;  // a slot not yet written
+      slot_of.emplace(c, slot);
+      oldest_held = std::min(oldest_held, c);
+    }
+    std::int64_t next = st.last_counter + 1;
+    if (st.last_counter < 0) next = slot_of.empty() ? 0 : slot_of.rbegin()->first;  // first poll: the newest only
+    else if (!slot_of.count(next) && oldest_held > next && oldest_held != std::numeric_limits<std::int64_t>::max()) {
+      event(st.index, "gap", fmt::format("fifo overrun: counter {} → {}, {} records lost", st.last_counter,
+                                         oldest_held, oldest_held - next));
+      st.status.lost += static_cast<std::uint64_t>(oldest_held - next);
+      next = oldest_held;
+    }
+    if (st.pending_gap) {
+      event(st.index, "reconnect_gap", fmt::format("no poll for {:.1f} ms, fifo resumed at record {}",
+                                                   (r.t_send_ns - st.gap_since_ns) * 1e-6, next));
+      st.pending_gap = false;
+    }
+    for (auto it = slot_of.find(next); it != slot_of.end() && it->first == next; ++it, ++next) {
+      const auto* rec = regs.data() + first_off + it->second * f.record_registers;
+      std::vector<std::uint16_t> one(rec, rec + f.record_registers);
+      note_values(st, one, 0);
+      push({st.index, r.t_send_ns, r.t_recv_ns, next, std::move(one)});
+      ++st.status.samples;
+    }
+    st.last_counter = std::max(st.last_counter, next - 1);
   }
 
   // The unwrapped counter; after a restart (unwrap_counter gives nothing) the raw value

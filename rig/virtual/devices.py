@@ -20,8 +20,9 @@ _UNITS = {"ft": (R.FT_UNIT, R.FT_SIZE), "stage": (R.STAGE_UNIT, R.STAGE_SIZE),
 class Playback:
     """Shared clock and register images of every device."""
 
-    def __init__(self, source, counter_start=0, status_every=0):
+    def __init__(self, source, counter_start=0, status_every=0, ft_fifo_depth=0):
         self.source = source
+        self.ft_fifo_depth = ft_fifo_depth  # the deep FIFO's records (0: off)
         self.status_every = status_every  # ft sample k with k % N == 0 sets the overload bit
         self.start_ns = time.monotonic_ns()
         # Subtracted from the sample index: -counter_start at first, the index of the
@@ -62,7 +63,13 @@ class Playback:
         counter = k - self.counter_base[device]
         if device == "ft":
             overload = bool(self.status_every) and k % self.status_every == 0
-            return R.ft_image(counter, src.value("ft", k), self._fifo(device, k, R.FIFO_DEPTH), overload)
+            deep = ()
+            if self.ft_fifo_depth:
+                base = self.counter_base[device]
+                deep = [(i - base, w) if w is not None else None
+                        for i, w in zip(range(k - self.ft_fifo_depth + 1, k + 1),
+                                        self._fifo(device, k, self.ft_fifo_depth))]
+            return R.ft_image(counter, src.value("ft", k), self._fifo(device, k, R.FIFO_DEPTH), overload, deep)
         if device == "stage":
             return R.stage_image(counter, src.value("stage", k), self._fifo(device, k, R.STAGE_FIFO_DEPTH))
         return R.spindle_image(counter, src.value("spindle", k))
@@ -87,6 +94,8 @@ class DeviceContext(IModbusSlaveContext):
         self.playback = playback
         self.device = device
         self.unit, self.size = _UNITS[device]
+        if device == "ft":
+            self.size = R.ft_size(playback.ft_fifo_depth)
 
     def __str__(self):
         return f"virtual {self.device} (unit {self.unit})"

@@ -29,6 +29,14 @@ FIFO_DEPTH = 8
 STAGE_FIFO_COUNTER = 100
 STAGE_FIFO_DATA = 102
 STAGE_FIFO_DEPTH = 16  # 16 x 6 registers: one request covers 16 samples
+# A deep FIFO (--ft-fifo-depth N, off by default): more records than one request's 125
+# registers carry, read in several blocks. Each record holds its own counter, so a reader
+# whose blocks straddle a new sample (the window moves between requests) still knows
+# which record is which: u32 counter ABCD + Fx..Tz float32 ABCD = 14 registers.
+DEEP_FIFO_COUNTER = 1000
+DEEP_FIFO_DATA = 1002
+DEEP_FIFO_RECORD = 14
+DEEP_FIFO_MAX = 4000
 CONST_FLOAT = 400  # 123456.0 in ABCD, CDAB, BADC, DCBA
 CONST_INT = 410    # 123456 in ABCD, CDAB, BADC, DCBA
 CONST_VALUE = 123456
@@ -88,14 +96,20 @@ def _constant_block():
 CONST_FLOAT_REGS, CONST_INT_REGS = _constant_block()
 
 
-def ft_image(counter, wrench, fifo, overload=False):
+def ft_size(deep_depth):
+    """Addresses on unit 9: 0..419, and the deep FIFO's when it is on."""
+    return DEEP_FIFO_DATA + DEEP_FIFO_RECORD * deep_depth if deep_depth else FT_SIZE
+
+
+def ft_image(counter, wrench, fifo, overload=False, deep=()):
     """Unit 9 address space.
 
     counter: device sample counter of the current sample.
     wrench: (Fx, Fy, Fz N, Tx, Ty, Tz N*mm) of the current sample.
     fifo: the newest FIFO_DEPTH wrenches, oldest first (None = not yet sampled, zeros).
+    deep: the deep FIFO's records, (counter, wrench) oldest first (None = not yet sampled).
     """
-    regs = [0] * FT_SIZE
+    regs = [0] * ft_size(len(deep))
     fx, fy, fz, tx, ty, tz = wrench
     regs[FT_INT16:FT_INT16 + 6] = [
         u16(sat_int16(fx * 100.0)), u16(sat_int16(fy * 100.0)), u16(sat_int16(fz * 100.0)),
@@ -113,6 +127,14 @@ def ft_image(counter, wrench, fifo, overload=False):
         if w is not None:
             regs[at:at + 12] = struct.unpack(">12H", struct.pack(">6f", *w))
         at += 12
+    if deep:
+        regs[DEEP_FIFO_COUNTER:DEEP_FIFO_COUNTER + 2] = u32_words(counter)
+        at = DEEP_FIFO_DATA
+        for rec in deep:
+            if rec is not None:
+                regs[at:at + 2] = u32_words(rec[0])
+                regs[at + 2:at + DEEP_FIFO_RECORD] = struct.unpack(">12H", struct.pack(">6f", *rec[1]))
+            at += DEEP_FIFO_RECORD
     regs[CONST_FLOAT:CONST_FLOAT + 8] = CONST_FLOAT_REGS
     regs[CONST_INT:CONST_INT + 8] = CONST_INT_REGS
     return regs

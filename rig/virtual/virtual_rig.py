@@ -73,6 +73,10 @@ def parse_args(argv):
     p.add_argument("--counter-start", type=int, default=0, metavar="N",
                    help="device counters start at N instead of 0 (e.g. 65236: a uint16 counter read "
                         "from the low word wraps 0.3 s in at 1 kHz)")
+    p.add_argument("--ft-fifo-depth", type=int, default=0, metavar="N",
+                   help="unit 9 also serves a deep FIFO of N records from register 1000 (counter) "
+                        "and 1002 (records of 14 registers: u32 counter, Fx..Tz float32), read in "
+                        "several blocks (default 0: off)")
     p.add_argument("--served-log", metavar="FILE",
                    help="write one CSV line per read reply sent: t_mono_ns,unit,address,count,counter")
     p.add_argument("-v", "--verbose", action="store_true", help="pymodbus debug logging")
@@ -96,6 +100,8 @@ def parse_args(argv):
             bad.append(f"--{name.replace('_', '-')}: expected >= 0")
     if a.late_reply_every and a.late_ms <= 0:
         bad.append("--late-ms: expected > 0 with --late-reply-every")
+    if not 0 <= a.ft_fifo_depth <= 4000:
+        bad.append("--ft-fifo-depth: expected 0..4000")
     if not 0 <= a.counter_start < 2 ** 32:
         bad.append("--counter-start: expected 0 <= N < 2^32 (the counter registers are uint32)")
     if a.rtu and a.drop_every_s:
@@ -114,7 +120,7 @@ async def serve(args, source):
                     args.drop_every_s, args.restart_at_s, args.restart_down_s,
                     args.restart_resets_counter, args.busy_at_s, args.busy_for_s, args.wrong_unit_every,
                     args.late_sample_every, args.late_sample_ms)
-    playback = Playback(source, args.counter_start, args.status_every)
+    playback = Playback(source, args.counter_start, args.status_every, args.ft_fifo_depth)
     contexts = make_contexts(playback)
     served = ServedLog(args.served_log, playback) if args.served_log else None
     FaultMixin.served_log = served

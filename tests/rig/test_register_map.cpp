@@ -212,3 +212,43 @@ TEST(RegisterMap, StatusWordIsParsedAndChecked) {
   EXPECT_NE(message_of(with("count = 6", "count = 6\nstatus = { register = 185 }")).find("m.toml: devices[0].status.invalid_mask"),
             std::string::npos);
 }
+
+TEST(RegisterMap, SeveralBlocksAreLaidEndToEndAndEachCostsAFrameOnTheWire) {
+  // Input registers 300..309 and holding registers 100..103 of one unit, in one poll.
+  const std::string text = R"(
+format = "burrbench.rig"
+format_version = "1.0"
+[[devices]]
+name = "ft"
+transport = "rtu"
+serial = "/dev/null"
+baud = 19200
+slave = 9
+rate_hz = 10
+blocks = [{ function = "input", start = 300, count = 10 }, { function = "holding", start = 100, count = 4 }]
+counter = { register = 102, type = "uint32" }
+  [[devices.channels]]
+  name = "force_N"
+  unit = "N"
+  type = "int16"
+  registers = [300, 301, 309]
+)";
+  const auto m = parse_rig_map(text, "m.toml");
+  const auto& d = m.devices[0];
+  ASSERT_EQ(d.blocks.size(), 2u);
+  EXPECT_EQ(d.blocks[0].function, 4);
+  EXPECT_EQ(d.blocks[1].function, 3);
+  EXPECT_EQ(d.start, 300);
+  EXPECT_EQ(d.count, 14);
+  // In the poll's buffer: block 0 at 300..309, block 1 right after it at 310..313.
+  EXPECT_EQ(d.channels[0].registers, (std::vector<int>{300, 301, 309}));
+  EXPECT_EQ(d.counter->address, 312);
+  // Two requests (8 bytes) and replies (5 + 2·count bytes), each frame with its silence,
+  // at 10 bits a byte and 19200 baud.
+  EXPECT_NEAR(rtu_poll_wire_s(d) * 1e3, ((8 + 5 + 20) * 10 + (8 + 5 + 8) * 10 + 4 * 3.5 * 10) / 19.2, 1e-9);
+  // A field that runs from one block into a register no block reads is refused.
+  EXPECT_NE(message_of(std::string(text).replace(text.find("register = 102"), 14, "register = 103")).find(
+                "m.toml: devices[0].counter.register: expected registers read consecutively by the device's blocks "
+                "[300, 310) [100, 104), got [103, 105)"),
+            std::string::npos);
+}

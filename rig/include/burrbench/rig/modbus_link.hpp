@@ -34,7 +34,10 @@ class ModbusLink {
   bool connect(std::string* error);
   void close();
   bool connected() const { return connected_; }
-  // Reads d's block into regs (resized to d.count).
+  // Reads d's blocks, one request each, into regs (resized to d.count, laid end to end);
+  // t_send_ns is the first request's, t_recv_ns the last reply's. In order, except a FIFO
+  // with record counters: from the last block (its newest records) to the first. The first failure ends
+  // the poll (its status and detail, naming the block when there are several).
   ReadResult read(const DeviceSpec& d, std::vector<std::uint16_t>& regs);
   // RTU after a failed request: wait out the latest possible reply, then drop any bytes,
   // so a late reply is never taken as the answer to the next request.
@@ -48,7 +51,9 @@ class ModbusLink {
  private:
   // TCP read sent raw, its reply checked here (see modbus_link.cpp); returns rc as
   // modbus_read_registers would, with errno set the same way.
-  int read_tcp_checked(const DeviceSpec& d, std::uint16_t* regs, std::string* mismatch);
+  int read_tcp_checked(const DeviceSpec& d, const BlockSpec& b, std::uint16_t* regs, std::string* mismatch);
+  // One request of a poll.
+  ReadResult read_block(const DeviceSpec& d, const BlockSpec& b, std::uint16_t* regs);
   DeviceSpec settings_;
   modbus_t* ctx_ = nullptr;
   bool connected_ = false;

@@ -47,6 +47,10 @@ struct FifoSpec {
   int depth = 0;               // records exposed
   int record_registers = 0;    // registers per record
   double device_rate_hz = 0;   // the device's own sample rate
+  // Each record's own counter (offset in the record), when the device stores one: records
+  // are then taken by their counters, not by their slots, which a FIFO read in several
+  // blocks needs (the window may move between two requests of one poll).
+  std::optional<Field> record_counter;
 };
 
 // A device's status word: a sample whose status has any of invalid_mask's bits set is
@@ -59,6 +63,12 @@ struct StatusSpec {
 struct CalibrationSpec {
   std::string input;               // a 6-column raw channel (e.g. strain gauges)
   std::array<double, 36> matrix{};  // row-major; rows 0-2 → force_N, 3-5 → torque_Nmm
+};
+
+// One read request of a poll: a function code and a register range.
+struct BlockSpec {
+  int function = 3;   // 3 = holding, 4 = input registers
+  int start = 0, count = 0;
 };
 
 struct DeviceSpec {
@@ -78,8 +88,12 @@ struct DeviceSpec {
   // reconnect_backoff_ms, doubling up to reconnect_max_ms.
   double reconnect_backoff_ms = 20, reconnect_max_ms = 1000;
   Mode mode = Mode::Latest;
-  int function = 3;                // 3 = holding, 4 = input registers
-  int start = 0, count = 0;        // the one block read per poll
+  // The blocks read per poll, one request each, in this order, one time base (the first
+  // request's send, the last reply). Their registers are laid end to end in one buffer:
+  // block k's register a sits at start + Σ_{j<k} count_j + (a − blocks[k].start), so a
+  // map's addresses are stored translated to that buffer (identical with one block).
+  std::vector<BlockSpec> blocks;
+  int start = 0, count = 0;        // blocks[0].start; Σ counts (registers per poll)
   std::vector<ChannelSpec> channels;
   std::optional<Field> counter;    // latest mode: device sample counter
   std::optional<FifoSpec> fifo;    // fifo mode
@@ -110,7 +124,8 @@ inline constexpr double kMaxBusLoad = 0.9;  // headroom for the devices' own tur
 // each frame (fixed 1.75 ms above 19200 baud, Modbus over serial line §2.5.1.1).
 double rtu_poll_wire_s(const DeviceSpec& d);
 // The request and reply frames alone (no silences): the fastest a reply can come.
-double rtu_frames_wire_s(const DeviceSpec& d);
+double rtu_frames_wire_s(const DeviceSpec& d);                       // all blocks
+double rtu_frames_wire_s(const BlockSpec& b, const DeviceSpec& d);  // one request
 std::vector<BusBudget> rtu_bus_budgets(const std::vector<DeviceSpec>& devices);
 
 // Throws InputError (file, field, expected, got) on any defect, unknown key or write request.

@@ -1,0 +1,86 @@
+"""Issue 11, fault 7: a FIFO deeper than one Modbus request, read in several blocks per
+poll, loses nothing through host stalls that an 8-deep FIFO cannot survive. The stalls
+are real: the acquiring process is stopped (SIGSTOP) for 60 ms at a time."""
+import os
+import signal
+import subprocess
+import threading
+import time
+
+import numpy as np
+
+import rig_helpers as rh
+from bad_input import assert_refused
+from virtual_helpers import playback_start_ns, start_virtual_rig
+
+STALL_S = 0.060
+
+
+def acquire_with_stalls(tmp_path, rig_map, duration_s, stalls, out):
+    """Runs acquire for duration_s and stops it for STALL_S at each time in stalls (s)."""
+    out = os.path.join(str(tmp_path), out)
+    p = subprocess.Popen([rh.BURRBENCH, "acquire", "--rig", rig_map, "--out", out, "--duration", str(duration_s)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    def stall():
+        t0 = time.monotonic()
+        for at in stalls:
+            time.sleep(max(0.0, t0 + at - time.monotonic()))
+            os.kill(p.pid, signal.SIGSTOP)
+            time.sleep(STALL_S)
+            os.kill(p.pid, signal.SIGCONT)
+    t = threading.Thread(target=stall)
+    t.start()
+    stdout, stderr = p.communicate(timeout=60)
+    t.join()
+    assert p.returncode == 0, stdout + stderr
+    return rh.read_recording(out)
+
+
+def test_a_deep_fifo_read_in_blocks_survives_host_stalls(tmp_path):
+    stalls = [0.8, 1.6, 2.4]
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "1000", "--ft-fifo-depth", "96"]) as (proc, host, port):
+        deep = rh.write_map(tmp_path, rh.preset("virtual-fifo-deep", port), "deep.toml")
+        rec = acquire_with_stalls(tmp_path, deep, 3.2, stalls, "deep.h5")
+        start = playback_start_ns(proc)
+        shallow = rh.write_map(tmp_path, rh.preset("virtual-fifo", port), "shallow.toml")
+        old = acquire_with_stalls(tmp_path, shallow, 3.2, stalls, "shallow.h5")
+    ft = rec["ft_sensor"]
+    k = ft["device_counter"]
+    assert k.size > 2500, k.size
+    holes = [(int(a), int(b)) for a, b in zip(k[:-1], k[1:]) if b != a + 1]
+    assert not holes, ("every record exactly once, in order, across the stalls", holes[:5],
+                       [e[1:] for e in rec["_events"] if e[2] == "ft_sensor"][:5])
+    rh.assert_ramp_exact(ft)  # each record decoded as the sample its own counter names
+    assert not rh.events(rec, "gap", "ft_sensor"), rh.events(rec, "gap", "ft_sensor")
+    # Device time = counter × period fitted to host time: close to when the rig took it.
+    err_ms = (ft["t_ns"] - (start + k * 1e6)) / 1e6
+    assert np.median(np.abs(err_ms)) < 1.0, (np.median(np.abs(err_ms)), err_ms.min(), err_ms.max())
+    # The 8-deep FIFO (8 ms at 1 kHz) cannot hold a 60 ms stall: records are lost, each
+    # inside a recorded gap event.
+    lost = rh.assert_losses_recorded(old, "ft_sensor")
+    assert lost >= 3 * 40, lost
+
+
+def test_blocks_are_checked_before_connecting(tmp_path):
+    text = rh.preset("virtual-fifo-deep", rh.free_port())
+    cases = [
+        # two blocks reading the same registers
+        (text.replace("{ start = 1114, count = 112 }", "{ start = 1100, count = 112 }"),
+         "devices[0].blocks[1].start", "no other block"),
+        # a FIFO region with a hole: one block left out
+        (text.replace("  { start = 1114, count = 112 },\n", ""), "devices[0].fifo.first_register", "consecutively"),
+        # a record split between two requests
+        (text.replace("{ start = 1000, count = 114 },\n  { start = 1114, count = 112 }",
+                      "{ start = 1000, count = 115 },\n  { start = 1115, count = 111 }"),
+         "devices[0].fifo.record_registers", "inside one block"),
+        # several blocks without each record's counter
+        (text.replace(", record_counter = { register = 0, type = \"uint32\" }", ""),
+         "devices[0].fifo.record_counter", "several blocks"),
+        # blocks and a single block's keys together
+        (text.replace('mode = "fifo"\nblocks', 'mode = "fifo"\nstart = 1000\nblocks', 1), "devices[0].start", "inside blocks"),
+    ]
+    for i, (body, field, why) in enumerate(cases):
+        rig_map = rh.write_map(tmp_path, body, f"bad{i}.toml")
+        p = rh.run(["rig", "check", "--rig", rig_map], timeout=20)
+        assert_refused(p.returncode, p.stderr, rig_map, f"{rig_map}: {field}: expected", why)
