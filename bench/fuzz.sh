@@ -4,7 +4,7 @@
 # (clang, AddressSanitizer + UndefinedBehaviorSanitizer) for a set time each and prints
 #   figure (execs) | target (no finding) | ok?
 # Usage: bench/fuzz.sh [SECONDS]      (default 60 per target; env FUZZ_SECONDS also works)
-# `make fuzz` runs it (`make bench` does not). A non-number $1 is ignored. The fuzz build
+# `make fuzz` runs it (`make bench` does not). Env FUZZ_TARGETS (space-separated) runs a subset. A non-number $1 is ignored. The fuzz build
 # lives in its own dir (env FUZZ_BUILD, default build-fuzz). Seeds are written here, the
 # growing corpus and any crash artifacts land in $FUZZ_BUILD/fuzz-work/<target>/.
 set -euo pipefail
@@ -15,6 +15,7 @@ if [[ ${1:-} =~ ^[0-9]+$ ]]; then secs=$1; fi
 build=${FUZZ_BUILD:-$root/build-fuzz}
 PYTHON=/usr/bin/python3
 targets=(fuzz_nrrd fuzz_metaimage fuzz_csv fuzz_manifest fuzz_fit_json)
+if [[ -n ${FUZZ_TARGETS:-} ]]; then read -r -a targets <<<"$FUZZ_TARGETS"; fi  # e.g. FUZZ_TARGETS=fuzz_fit_json
 
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT

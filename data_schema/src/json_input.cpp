@@ -29,6 +29,9 @@ nlohmann::json read_json_file(const std::filesystem::path& path) {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(file, fmt::format("byte {}", e.byte), "valid JSON", e.what());
+  } catch (const nlohmann::json::exception& e) {
+    // e.g. out_of_range 406: a number beyond double's range ("1e999"); found by fuzz_fit_json
+    throw InputError(file, "<file>", "valid JSON with numbers in double's range", e.what());
   }
 }
 

@@ -52,8 +52,8 @@ namespace {
 // FIFO device time: t = a + b·counter. b is the least-squares slope of the polls'
 // midpoints against their newest record's counter (kept only within 1 % of the nominal
 // period). a is pinned by what each poll proves about its newest record: it was taken
-// before the reply came (t ≤ t_recv) and at most one period before the request reached
-// the device (t > t_send − period). The intersection of those bounds over all polls is
+// before the reply came (t ≤ t_recv) and, while the device keeps sampling, at most one
+// period before the request reached the device (t > t_send − period). The intersection of those bounds over all polls is
 // narrow; a is its middle. A counter reset starts a new segment. Returns what a reader of
 // the timestamps must know: where the fit fell back (a wrong device_rate_hz shows here).
 std::vector<std::string> fit_fifo_time(data_schema::Stream& s, double device_rate_hz) {
@@ -89,11 +89,18 @@ std::vector<std::string> fit_fifo_time(data_schema::Stream& s, double device_rat
       }
     }
     double lo = -1e300, hi = 1e300;
-    for (const auto& p : pts) {
-      lo = std::max(lo, (p.send - t0) - b - b * (p.c - c0));
+    for (std::size_t q = 0; q < pts.size(); ++q) {
+      const auto& p = pts[q];
       hi = std::min(hi, (p.recv - t0) - b * (p.c - c0));
+      // The lower bound holds for a device that kept sampling: a poll whose newest record
+      // advanced less than the time since the previous poll explains (a device that
+      // paused or stopped, e.g. a played recording at its end) proves nothing about it.
+      if (q > 0 && (p.c - pts[q - 1].c) + 2.0 < (p.send - pts[q - 1].send) / b) continue;
+      lo = std::max(lo, (p.send - t0) - b - b * (p.c - c0));
     }
-    if (lo > hi)
+    // Within one period the bounds may touch the sampling itself (a record taken just as
+    // a request arrived): pinned to the reply bound without a word. Beyond it, say so.
+    if (lo > hi + b)
       notes.push_back(fmt::format("the polls' time bounds do not overlap ({:.3f} ms apart; is device_rate_hz "
                                   "right?): timestamps pinned to the latest reply bound", (lo - hi) * 1e-6));
     const double a = t0 + (lo <= hi ? 0.5 * (lo + hi) : hi);

@@ -112,6 +112,9 @@ TEST(FormatsFit, BadFilesAreRejected) {
   bad("\"format\": \"burrbench.fit\"", "\"format\": \"burrbench.fitt\"", {"F.json: format: expected \"burrbench.fit\""});
   bad("\"termination\"", "\"termination\" \"", {"F.json", "valid JSON"});
   bad("\"matrix\": [", "\"matrix\": [1.0, ", {"correlation.matrix", "2×2 values"});
+  // Beyond double's range: nlohmann throws out_of_range, not parse_error (found by fuzz_fit_json).
+  bad("\"samples_used\": 1000", "\"samples_used\": 1e956349715",
+      {"F.json: <file>: expected valid JSON with numbers in double's range", "number overflow"});
 }
 
 // Seeded corruption of a valid file: every outcome is a result or an InputError.

@@ -55,6 +55,9 @@ def test_fit_errors(fx):
     j["solver"]["gradient_norm"] = 1e-9
     (fx / "F2.json").write_text(json.dumps(j))
     assert_rejected(fx / "F2.json", "F2.json: solver.gradient_norm: expected a known key")
+    # a number beyond double's range: not JSON a double can hold (read_fit's case is in test_formats_fit.cpp)
+    (fx / "F3.json").write_text(json.dumps(j).replace('"gradient_norm": 1e-09', '"gradient_norm": 1e956349715'))
+    assert_rejected(fx / "F3.json", "F3.json: <file>: expected an HDF5, TOML or JSON burrbench file")
 
 
 def test_unrecognised_files(fx):
