@@ -106,7 +106,10 @@ ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& reg
     const std::size_t k = newest_first ? d.blocks.size() - 1 - i : i;
     const auto& b = d.blocks[k];
     ReadResult r = read_block(d, b, regs.data() + at[k]);
-    if (i == 0) all.t_send_ns = r.t_send_ns;
+    if (i == 0) {
+      all.t_send_ns = r.t_send_ns;
+      all.t_first_recv_ns = r.t_recv_ns;
+    }
     all.t_recv_ns = r.t_recv_ns;
     if (r.status != ReadStatus::Ok) {
       all.status = r.status;

@@ -275,8 +275,11 @@ struct Session::Impl {
   // FIFO records that carry their own counters (FifoSpec::record_counter), read in several
   // blocks: the window may have moved between two requests, so a record is known by its
   // counter, not its slot. Taken in counter order from last_counter + 1 while they follow
-  // one another; at a hole the rest waits for the next poll (still in the FIFO), unless
-  // the hole is older than every record the FIFO still holds: then it is an overrun.
+  // one another, up to the newest record of the poll's first request (its newest block):
+  // so each record taken was held before that reply, which is the t_recv the records get
+  // (the clock fit's bound; later blocks only repeat or add records newer than it, which
+  // wait for the next poll). At a hole the rest waits too (still in the FIFO), unless the
+  // hole is older than every record the FIFO still holds: then it is an overrun.
   void take_counted_records(DeviceState& st, const ReadResult& r, const std::vector<std::uint16_t>& regs,
                             std::int64_t newest) {
     const auto& d = *st.spec;
@@ -286,6 +289,9 @@ struct Session::Impl {
     const int first_off = f.first_register - d.start;
     std::map<std::int64_t, int> slot_of;  // unwrapped record counter → slot
     std::int64_t oldest_held = std::numeric_limits<std::int64_t>::max();
+    // Slots the poll's first request read: the last block's (ModbusLink reads newest first).
+    const int first_slot = (d.count - d.blocks.back().count - first_off + f.record_registers - 1) / f.record_registers;
+    std::int64_t newest_first = -1;
     for (int slot = 0; slot < f.depth; ++slot) {
       const auto* rec = regs.data() + first_off + slot * f.record_registers;
       const std::int64_t raw = decode_integer(rec + rc.address, rc.type, rc.order);
@@ -296,9 +302,10 @@ struct Session::Impl {
       if (c < 0) continue;  // a slot not yet written
       slot_of.emplace(c, slot);
       oldest_held = std::min(oldest_held, c);
+      if (slot >= first_slot) newest_first = std::max(newest_first, c);
     }
     std::int64_t next = st.last_counter + 1;
-    if (st.last_counter < 0) next = slot_of.empty() ? 0 : slot_of.rbegin()->first;  // first poll: the newest only
+    if (st.last_counter < 0) next = newest_first;  // first poll: the newest only
     else if (!slot_of.count(next) && oldest_held > next && oldest_held != std::numeric_limits<std::int64_t>::max()) {
       event(st.index, "gap", fmt::format("fifo overrun: counter {} → {}, {} records lost", st.last_counter,
                                          oldest_held, oldest_held - next));
@@ -310,11 +317,11 @@ struct Session::Impl {
                                                    (r.t_send_ns - st.gap_since_ns) * 1e-6, next));
       st.pending_gap = false;
     }
-    for (auto it = slot_of.find(next); it != slot_of.end() && it->first == next; ++it, ++next) {
+    for (auto it = slot_of.find(next); it != slot_of.end() && it->first == next && next <= newest_first; ++it, ++next) {
       const auto* rec = regs.data() + first_off + it->second * f.record_registers;
       std::vector<std::uint16_t> one(rec, rec + f.record_registers);
       note_values(st, one, 0);
-      push({st.index, r.t_send_ns, r.t_recv_ns, next, std::move(one)});
+      push({st.index, r.t_send_ns, r.t_first_recv_ns, next, std::move(one)});
       ++st.status.samples;
     }
     st.last_counter = std::max(st.last_counter, next - 1);

@@ -20,6 +20,7 @@ const char* to_string(ReadStatus s);
 struct ReadResult {
   ReadStatus status = ReadStatus::Ok;
   std::int64_t t_send_ns = 0, t_recv_ns = 0;
+  std::int64_t t_first_recv_ns = 0;  // reply to the poll's first request (= t_recv_ns with one block)
   std::string detail;  // libmodbus error text when not Ok
 };
 
