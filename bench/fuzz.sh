@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Fuzzes the NRRD, MetaImage, CSV-recording, experiment-manifest (TOML) and fit (JSON)
-# parsers with libFuzzer
-# (clang, AddressSanitizer + UndefinedBehaviorSanitizer) for a set time each and prints
+# parsers with libFuzzer (clang, AddressSanitizer + UndefinedBehaviorSanitizer) for a set
+# time each and prints
 #   figure (execs) | target (no finding) | ok?
 # Usage: bench/fuzz.sh [SECONDS]      (default 60 per target; env FUZZ_SECONDS also works)
-# `make fuzz` runs it (`make bench` does not). Env FUZZ_TARGETS (space-separated) runs a subset. A non-number $1 is ignored. The fuzz build
-# lives in its own dir (env FUZZ_BUILD, default build-fuzz). Seeds are written here, the
+# `make fuzz` runs it (`make bench` does not). Env FUZZ_TARGETS (space-separated) runs a
+# subset. A non-number $1 is ignored. The fuzz build lives in its own dir (env
+# FUZZ_BUILD, default build-fuzz). Seeds are written here, the
 # growing corpus and any crash artifacts land in $FUZZ_BUILD/fuzz-work/<target>/.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
