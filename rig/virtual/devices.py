@@ -20,9 +20,10 @@ _UNITS = {"ft": (R.FT_UNIT, R.FT_SIZE), "stage": (R.STAGE_UNIT, R.STAGE_SIZE),
 class Playback:
     """Shared clock and register images of every device."""
 
-    def __init__(self, source, counter_start=0, status_every=0, ft_fifo_depth=0):
+    def __init__(self, source, counter_start=0, status_every=0, ft_fifo_depth=0, stage_fifo_depth=0):
         self.source = source
-        self.ft_fifo_depth = ft_fifo_depth  # the deep FIFO's records (0: off)
+        # the deep FIFOs' records (0: off)
+        self.deep_depth = {"ft": ft_fifo_depth, "stage": stage_fifo_depth}
         self.status_every = status_every  # ft sample k with k % N == 0 sets the overload bit
         self.start_ns = time.monotonic_ns()
         # Subtracted from the sample index: -counter_start at first, the index of the
@@ -63,17 +64,22 @@ class Playback:
         counter = k - self.counter_base[device]
         if device == "ft":
             overload = bool(self.status_every) and k % self.status_every == 0
-            deep = ()
-            if self.ft_fifo_depth:
-                base = self.counter_base[device]
-                deep = [(i - base, w) if w is not None else None
-                        for i, w in zip(range(k - self.ft_fifo_depth + 1, k + 1),
-                                        self._fifo(device, k, self.ft_fifo_depth))]
-            return R.ft_image(counter, src.value("ft", k), self._fifo(device, k, R.FIFO_DEPTH), overload, deep)
+            return R.ft_image(counter, src.value("ft", k), self._fifo(device, k, R.FIFO_DEPTH), overload,
+                              self._deep(device, k))
         if device == "stage":
-            return R.stage_image(counter, src.value("stage", k), self._fifo(device, k, R.STAGE_FIFO_DEPTH))
+            return R.stage_image(counter, src.value("stage", k), self._fifo(device, k, R.STAGE_FIFO_DEPTH),
+                                 self._deep(device, k))
         return R.spindle_image(counter, src.value("spindle", k))
 
+
+    def _deep(self, device, k):
+        """The deep FIFO's (counter, value) records, oldest first; () when it is off."""
+        depth = self.deep_depth.get(device, 0)
+        if not depth:
+            return ()
+        base = self.counter_base[device]
+        return [(i - base, v) if v is not None else None
+                for i, v in zip(range(k - depth + 1, k + 1), self._fifo(device, k, depth))]
 
     def _fifo(self, device, k, depth):
         """Samples k-depth+1..k, oldest first; None before sample 0 or the last reset."""
@@ -95,7 +101,9 @@ class DeviceContext(IModbusSlaveContext):
         self.device = device
         self.unit, self.size = _UNITS[device]
         if device == "ft":
-            self.size = R.ft_size(playback.ft_fifo_depth)
+            self.size = R.ft_size(playback.deep_depth["ft"])
+        elif device == "stage":
+            self.size = R.stage_size(playback.deep_depth["stage"])
 
     def __str__(self):
         return f"virtual {self.device} (unit {self.unit})"

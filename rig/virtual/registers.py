@@ -33,9 +33,12 @@ STAGE_FIFO_DEPTH = 16  # 16 x 6 registers: one request covers 16 samples
 # registers carry, read in several blocks. Each record holds its own counter, so a reader
 # whose blocks straddle a new sample (the window moves between requests) still knows
 # which record is which: u32 counter ABCD + Fx..Tz float32 ABCD = 14 registers.
+# The stage's (--stage-fifo-depth N) at the same addresses on unit 1: u32 counter ABCD +
+# x, y, z int32 µm ABCD = 8 registers a record.
 DEEP_FIFO_COUNTER = 1000
 DEEP_FIFO_DATA = 1002
 DEEP_FIFO_RECORD = 14
+STAGE_DEEP_FIFO_RECORD = 8
 DEEP_FIFO_MAX = 4000
 CONST_FLOAT = 400  # 123456.0 in ABCD, CDAB, BADC, DCBA
 CONST_INT = 410    # 123456 in ABCD, CDAB, BADC, DCBA
@@ -101,6 +104,22 @@ def ft_size(deep_depth):
     return DEEP_FIFO_DATA + DEEP_FIFO_RECORD * deep_depth if deep_depth else FT_SIZE
 
 
+def stage_size(deep_depth):
+    """Addresses on unit 1: 0..197, and the deep FIFO's when it is on."""
+    return DEEP_FIFO_DATA + STAGE_DEEP_FIFO_RECORD * deep_depth if deep_depth else STAGE_SIZE
+
+
+def _deep_fifo(regs, counter, deep, record_len, words):
+    """Writes a deep FIFO: the newest counter, then each record's counter and words(value)."""
+    regs[DEEP_FIFO_COUNTER:DEEP_FIFO_COUNTER + 2] = u32_words(counter)
+    at = DEEP_FIFO_DATA
+    for rec in deep:
+        if rec is not None:
+            regs[at:at + 2] = u32_words(rec[0])
+            regs[at + 2:at + record_len] = words(rec[1])
+        at += record_len
+
+
 def ft_image(counter, wrench, fifo, overload=False, deep=()):
     """Unit 9 address space.
 
@@ -128,13 +147,7 @@ def ft_image(counter, wrench, fifo, overload=False, deep=()):
             regs[at:at + 12] = struct.unpack(">12H", struct.pack(">6f", *w))
         at += 12
     if deep:
-        regs[DEEP_FIFO_COUNTER:DEEP_FIFO_COUNTER + 2] = u32_words(counter)
-        at = DEEP_FIFO_DATA
-        for rec in deep:
-            if rec is not None:
-                regs[at:at + 2] = u32_words(rec[0])
-                regs[at + 2:at + DEEP_FIFO_RECORD] = struct.unpack(">12H", struct.pack(">6f", *rec[1]))
-            at += DEEP_FIFO_RECORD
+        _deep_fifo(regs, counter, deep, DEEP_FIFO_RECORD, lambda w: struct.unpack(">12H", struct.pack(">6f", *w)))
     regs[CONST_FLOAT:CONST_FLOAT + 8] = CONST_FLOAT_REGS
     regs[CONST_INT:CONST_INT + 8] = CONST_INT_REGS
     return regs
@@ -147,12 +160,13 @@ def _position_words(position_mm):
     return regs
 
 
-def stage_image(counter, position_mm, fifo):
+def stage_image(counter, position_mm, fifo, deep=()):
     """Unit 1: position x,y,z int32 micrometres ABCD, counter uint32 ABCD; FIFO block.
 
     fifo: the newest STAGE_FIFO_DEPTH positions, oldest first (None = not yet sampled).
+    deep: the deep FIFO's records, (counter, position) oldest first (None = not yet sampled).
     """
-    regs = [0] * STAGE_SIZE
+    regs = [0] * stage_size(len(deep))
     regs[0:8] = _position_words(position_mm) + u32_words(counter)
     regs[STAGE_FIFO_COUNTER:STAGE_FIFO_COUNTER + 2] = u32_words(counter)
     at = STAGE_FIFO_DATA
@@ -160,6 +174,8 @@ def stage_image(counter, position_mm, fifo):
         if p is not None:
             regs[at:at + 6] = _position_words(p)
         at += 6
+    if deep:
+        _deep_fifo(regs, counter, deep, STAGE_DEEP_FIFO_RECORD, _position_words)
     return regs
 
 

@@ -77,6 +77,9 @@ def parse_args(argv):
                    help="unit 9 also serves a deep FIFO of N records from register 1000 (counter) "
                         "and 1002 (records of 14 registers: u32 counter, Fx..Tz float32), read in "
                         "several blocks (default 0: off)")
+    p.add_argument("--stage-fifo-depth", type=int, default=0, metavar="N",
+                   help="unit 1 also serves a deep FIFO of N records from register 1000 (counter) "
+                        "and 1002 (records of 8 registers: u32 counter, x, y, z int32 um) (default 0: off)")
     p.add_argument("--served-log", metavar="FILE",
                    help="write one CSV line per read reply sent: t_mono_ns,unit,address,count,counter")
     p.add_argument("-v", "--verbose", action="store_true", help="pymodbus debug logging")
@@ -100,8 +103,9 @@ def parse_args(argv):
             bad.append(f"--{name.replace('_', '-')}: expected >= 0")
     if a.late_reply_every and a.late_ms <= 0:
         bad.append("--late-ms: expected > 0 with --late-reply-every")
-    if not 0 <= a.ft_fifo_depth <= 4000:
-        bad.append("--ft-fifo-depth: expected 0..4000")
+    for name in ("ft_fifo_depth", "stage_fifo_depth"):
+        if not 0 <= getattr(a, name) <= 4000:
+            bad.append(f"--{name.replace('_', '-')}: expected 0..4000")
     if not 0 <= a.counter_start < 2 ** 32:
         bad.append("--counter-start: expected 0 <= N < 2^32 (the counter registers are uint32)")
     if a.rtu and a.drop_every_s:
@@ -120,7 +124,7 @@ async def serve(args, source):
                     args.drop_every_s, args.restart_at_s, args.restart_down_s,
                     args.restart_resets_counter, args.busy_at_s, args.busy_for_s, args.wrong_unit_every,
                     args.late_sample_every, args.late_sample_ms)
-    playback = Playback(source, args.counter_start, args.status_every, args.ft_fifo_depth)
+    playback = Playback(source, args.counter_start, args.status_every, args.ft_fifo_depth, args.stage_fifo_depth)
     contexts = make_contexts(playback)
     served = ServedLog(args.served_log, playback) if args.served_log else None
     FaultMixin.served_log = served

@@ -39,7 +39,8 @@ def acquire_with_stalls(tmp_path, rig_map, duration_s, stalls, out):
 
 def test_a_deep_fifo_read_in_blocks_survives_host_stalls(tmp_path):
     stalls = [0.8, 1.6, 2.4]
-    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "1000", "--ft-fifo-depth", "96"]) as (proc, host, port):
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "1000", "--ft-fifo-depth", "96",
+                            "--stage-fifo-depth", "96"]) as (proc, host, port):
         deep = rh.write_map(tmp_path, rh.preset("virtual-fifo-deep", port), "deep.toml")
         rec = acquire_with_stalls(tmp_path, deep, 3.2, stalls, "deep.h5")
         start = playback_start_ns(proc)
@@ -53,6 +54,10 @@ def test_a_deep_fifo_read_in_blocks_survives_host_stalls(tmp_path):
                        [e[1:] for e in rec["_events"] if e[2] == "ft_sensor"][:5])
     rh.assert_ramp_exact(ft)  # each record decoded as the sample its own counter names
     assert not rh.events(rec, "gap", "ft_sensor"), rh.events(rec, "gap", "ft_sensor")
+    stage = rec["stage"]  # the stage's deep FIFO likewise (8-register records in 7 blocks)
+    assert np.all(np.diff(stage["device_counter"]) == 1) and not rh.events(rec, "gap", "stage")
+    np.testing.assert_array_equal(np.rint(stage["channels"]["position_mm"] * 1000).astype(np.int64),
+                                  rh.ramp_position_um(stage["device_counter"]))
     # Device time = counter × period fitted to host time: close to when the rig took it.
     err_ms = (ft["t_ns"] - (start + k * 1e6)) / 1e6
     assert np.median(np.abs(err_ms)) < 1.0, (np.median(np.abs(err_ms)), err_ms.min(), err_ms.max())
