@@ -49,7 +49,7 @@ void setup(CLI::App& root) {
     if (!a->burr_axis.empty() && (!std::isfinite(len) || len < 1e-9))
       throw InputError("command line", "--burr-axis", "a non-zero finite vector (x y z)",
                        fmt::format("{} {} {}", axis.x, axis.y, axis.z));
-    if (a->spin < -1 || a->spin > 1 || (a->spin == 0 && spin_opt->count() > 0))
+    if (spin_opt->count() > 0 && a->spin != 1 && a->spin != -1)
       throw InputError("command line", "--spin", "+1 or -1", std::to_string(a->spin));
     burrbench::apps::refuse_output_over_inputs(a->out, "--out", {a->csv, a->map});
     burrbench::apps::refuse_existing(a->out, "--out", a->overwrite);

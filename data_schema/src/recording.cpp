@@ -290,7 +290,7 @@ Recording read_recording(const std::filesystem::path& path) {
   const std::int64_t spin = r.attr_int64("/meta", "spin_sign");
   if (spin < -1 || spin > 1) throw InputError(file, "/meta/@spin_sign", "+1, -1, or 0 (not stated)", std::to_string(spin));
   m.spin_sign = int(spin);
-  if (version.rfind("1.0", 0) == 0 && version.size() == 3) {
+  if (version == "1.0") {
     m.burr_axis_rig = glm::dvec3(0);  // 1.0 wrote [0, 0, 1] and +1 by default: not stated
     m.spin_sign = 0;
   }

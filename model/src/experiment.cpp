@@ -209,10 +209,11 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     a.registration.method = ref.registration.given_as;
   }
   check_rotation(m.sensor.rotation_sensor_to_rig, mfile, "sensor.rotation_sensor_to_rig");
-  // The burr radius the rig logged (0: not stated) must be the one the model drills with.
+  // The burr the rig logged (radius 0, axis [0, 0, 0], spin 0: not stated) must be the one
+  // the model drills with, unless the manifest waives the field.
+  const auto waived = [&](const char* f) { return std::find(ref.waive.begin(), ref.waive.end(), f) != ref.waive.end(); };
   const double rec_r = rec.meta.burr_radius_mm;
-  if (rec_r > 0 && std::abs(rec_r - m.burr.radius_mm) > 1e-9 * rec_r &&
-      std::find(ref.waive.begin(), ref.waive.end(), "burr_radius_mm") == ref.waive.end())
+  if (rec_r > 0 && std::abs(rec_r - m.burr.radius_mm) > 1e-9 * rec_r && !waived("burr_radius_mm"))
     throw InputError(mfile, "burr.radius_mm",
                      fmt::format("the burr radius recorded in {} (/meta/burr_radius_mm = {} mm), or "
                                  "recordings[{}].waive = [\"burr_radius_mm\"] to override it",
@@ -220,8 +221,6 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
                      fmt::format("{} mm", m.burr.radius_mm));
   const double axis_len = glm::length(m.burr.shaft_axis_rig);
   if (!(axis_len > 0)) throw InputError(mfile, "burr.shaft_axis_rig", "a non-zero vector");
-  // The same for the shaft axis and the spin, when the recording states them (1.1).
-  const auto waived = [&](const char* f) { return std::find(ref.waive.begin(), ref.waive.end(), f) != ref.waive.end(); };
   const glm::dvec3 rec_axis = rec.meta.burr_axis_rig;
   if (rec.meta.axis_stated() && glm::length(rec_axis - m.burr.shaft_axis_rig / axis_len) > 1e-6 &&
       !waived("burr_axis_rig"))

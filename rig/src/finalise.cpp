@@ -53,8 +53,8 @@ namespace {
 // midpoints against their newest record's counter (kept only within 1 % of the nominal
 // period). a is pinned by what each poll proves about its newest record: it was taken
 // before the reply came (t ≤ t_recv) and, while the device keeps sampling, at most one
-// period before the request reached the device (t > t_send − period). The intersection of those bounds over all polls is
-// narrow; a is its middle. A counter reset starts a new segment. Returns what a reader of
+// period before the request reached the device (t > t_send − period). The intersection
+// of those bounds over all polls is narrow; a is its middle. A counter reset starts a new segment. Returns what a reader of
 // the timestamps must know: where the fit fell back (a wrong device_rate_hz shows here).
 std::vector<std::string> fit_fifo_time(data_schema::Stream& s, double device_rate_hz) {
   std::vector<std::string> notes;

@@ -15,10 +15,12 @@
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "reference_fixture.hpp"
+#include "report_metrics.hpp"
 
 namespace fs = std::filesystem;
 namespace ds = burrbench::data_schema;
 using burrbench::calibration::testing::make_reference_experiment;
+using burrbench::calibration::testing::pooled_calibrate_rmse_N;
 using burrbench::calibration::testing::ReferenceSpec;
 
 namespace {
@@ -117,17 +119,8 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   const std::string cmd = fmt::format("'{}' report '{}' --out '{}' > /dev/null 2>&1", cli(),
                                       (dir / "out").string(), rep.string());
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  std::ifstream mf(rep.parent_path() / "metrics.json");
-  const auto metrics = nlohmann::json::parse(mf);
-  double sq = 0;
-  int axes = 0;
-  for (const auto& row : metrics["rows"])
-    if (row["recording"] == "" && row["role"] == "calibrate" && row["segment"] == "all" && row["axis"] != "magnitude") {
-      sq += std::pow(row["rmse_N"].get<double>(), 2);
-      ++axes;
-    }
-  ASSERT_EQ(axes, 3);
-  EXPECT_NEAR(std::sqrt(sq / 3) / fit.metrics["calibration"]["rmse_N"].get<double>(), 1.0, 1e-6);
+  EXPECT_NEAR(pooled_calibrate_rmse_N(rep.parent_path() / "metrics.json") / fit.metrics["calibration"]["rmse_N"].get<double>(),
+              1.0, 1e-6);
   // The report draws the waterfall and every profile in a real browser (headless Chromium).
   const std::string src = BURRBENCH_SOURCE_DIR;
   const fs::path bc = dir / "browser.json";

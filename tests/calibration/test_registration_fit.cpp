@@ -17,6 +17,7 @@
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/model/registration.hpp"
 #include "registration_fixture.hpp"
+#include "report_metrics.hpp"
 
 namespace fs = std::filesystem;
 namespace ds = burrbench::data_schema;
@@ -140,17 +141,8 @@ TEST(RegistrationFit, FiducialErrorIsFittedAndPropagated) {
   // and it shows the registration of each recording and no longer calls it exact.
   ASSERT_EQ(run(fmt::format("report '{}' --out '{}'", (dir / "out").string(), (dir / "rep" / "report.html").string()),
                 log, dir / "rep.log"), 0) << log;
-  std::ifstream mf(dir / "rep" / "metrics.json");
-  const auto metrics = nlohmann::json::parse(mf);
-  double sq = 0;
-  int axes = 0;
-  for (const auto& row : metrics["rows"])
-    if (row["recording"] == "" && row["role"] == "calibrate" && row["segment"] == "all" && row["axis"] != "magnitude") {
-      sq += std::pow(row["rmse_N"].get<double>(), 2);
-      ++axes;
-    }
-  ASSERT_EQ(axes, 3);
-  EXPECT_NEAR(std::sqrt(sq / 3) / fit.metrics["calibration"]["rmse_N"].get<double>(), 1.0, 1e-6);
+  EXPECT_NEAR(bt::pooled_calibrate_rmse_N(dir / "rep" / "metrics.json") / fit.metrics["calibration"]["rmse_N"].get<double>(), 1.0,
+              1e-6);
   std::ifstream hf(dir / "rep" / "report.html");
   const std::string html((std::istreambuf_iterator<char>(hf)), std::istreambuf_iterator<char>());
   EXPECT_NE(html.find("registration from 4 fiducials: RMS"), std::string::npos);

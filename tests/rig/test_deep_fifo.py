@@ -89,3 +89,28 @@ def test_blocks_are_checked_before_connecting(tmp_path):
         rig_map = rh.write_map(tmp_path, body, f"bad{i}.toml")
         p = rh.run(["rig", "check", "--rig", rig_map], timeout=20)
         assert_refused(p.returncode, p.stderr, rig_map, f"{rig_map}: {field}: expected", why)
+
+
+def test_a_device_that_stops_sampling_does_not_skew_the_clock_fit(tmp_path):
+    # A played recording ends before the acquisition does: the device stops sampling, and
+    # the polls after that prove nothing about when their newest record was taken. They
+    # used to pin every timestamp to the latest reply bound (the demo: 15 ms apart, fitted
+    # lags 1 ms off); the fit now uses only polls during which the device kept sampling.
+    from test_virtual_playback import write_recording
+    write_recording(tmp_path / "short.h5", ft_hz=1000.0, stage_hz=1000.0, duration_s=1.5, stage_lag_s=0.0)
+    with start_virtual_rig(["--recording", str(tmp_path / "short.h5"), "--ft-fifo-depth", "96",
+                            "--stage-fifo-depth", "96"]) as (proc, host, port):
+        rig_map = rh.write_map(tmp_path, rh.preset("virtual-fifo-deep", port), "deep.toml")
+        out = os.path.join(str(tmp_path), "r.h5")
+        p = rh.run(["acquire", "--rig", rig_map, "--out", out, "--duration", "2.0"])
+        start = playback_start_ns(proc)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "do not overlap" not in p.stderr, p.stderr
+    ft = rh.read_recording(out)["ft_sensor"]
+    k = ft["device_counter"]
+    assert k[-1] == 1499 and np.all(np.diff(k) == 1), (k[0], k[-1])
+    err_ms = (ft["t_ns"] - (start + k * 1e6)) / 1e6
+    assert np.max(np.abs(err_ms)) < 1.0, (np.median(err_ms), err_ms.min(), err_ms.max())
+    # Records stamped with the reply of the poll's first (newest) block, not its last: the
+    # clock's offset within 0.4 ms (stamped with the last reply it was 0.57 ms late).
+    assert abs(np.median(err_ms)) < 0.4, np.median(err_ms)
