@@ -118,7 +118,7 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
     StartEnd& e = out.ends[order[k]];
     SolveOptions full;
     full.max_iterations = opt.iterations;
-    full.threads = 1;
+    full.threads = std::max(1, opt.concurrent);  // the pool bounds the CPUs; a lone last solve uses both
     const SolveOutcome r = obj.solve(e.end, w, full);
     if (!r.usable) return;
     e.end = r.x;

@@ -131,10 +131,23 @@ class RecordingCost final : public ceres::CostFunction {
           else
             want.push_back(cols_[b]);
         }
-    Prediction pred;
+    // Ceres's projected line search takes the gradient at the trial point, then the
+    // Jacobian again once that point is accepted: the same replay twice. A replay is
+    // deterministic, so the last prediction is reused when the point and the columns match.
+    std::vector<double> key;
+    for (std::size_t b = 0; b < blocks_.size(); ++b) key.insert(key.end(), params[b], params[b] + blocks_[b].size);
     const auto* model = obj_.models()[rec_];
-    model->predict(at, want, pred);
-    replays_ += pred.replays;
+    const bool hit = cache_.valid && cache_.x == key &&
+                     (want.empty() || cache_.want == want);
+    if (!hit) {
+      cache_.pred = Prediction{};
+      model->predict(at, want, cache_.pred);
+      replays_ += cache_.pred.replays;
+      cache_.x = std::move(key);
+      cache_.want = want;
+      cache_.valid = true;
+    }
+    const Prediction& pred = cache_.pred;
     const glm::dvec3 bias = nz.bias >= 0 ? glm::dvec3(x[std::size_t(nz.bias)], x[std::size_t(nz.bias) + 1],
                                                       x[std::size_t(nz.bias) + 2])
                                          : glm::dvec3(0);
@@ -181,6 +194,14 @@ class RecordingCost final : public ceres::CostFunction {
   std::vector<Layout::Block> blocks_;
   std::vector<Column> cols_;
   int bias_block_ = -1, pose_block_ = -1;
+  // The last evaluation (Ceres evaluates one residual block on one thread at a time).
+  struct Cache {
+    bool valid = false;
+    std::vector<double> x;
+    std::vector<Column> want;
+    Prediction pred;
+  };
+  mutable Cache cache_;
 };
 
 struct BuiltProblem {

@@ -38,12 +38,21 @@ ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double 
       h = room;
       last = true;
     }
-    std::vector<double> x = x_in;  // warm start from the last point inside the threshold
+    // Warm start from the last point inside the threshold, moved along the valley.
+    std::vector<double> x = x_in;
+    const double move = x_hat[i] + sign * h - x_in[i];
+    if (opt.valley.size() == x.size())
+      for (std::size_t j = 0; j < x.size(); ++j)
+        if (j != i && !hold[j] && opt.valley[j] != 0)
+          x[j] = std::clamp(x[j] + opt.valley[j] * move, L.lower(j), L.upper(j));
     x[i] = x_hat[i] + sign * h;
     SolveOptions so;
     so.max_iterations = opt.iterations;
-    so.threads = 1;
+    so.threads = opt.threads;
     so.hold = hold;
+    // A point's cost matters to about 1 % of the threshold (the crossing is interpolated
+    // between points), not to the 1e-7 relative of a fit.
+    so.function_tolerance = std::max(so.function_tolerance, 0.01 * threshold / std::max(1.0, std::abs(cost_hat)));
     // (The solver keeps its start within 1e-6 of the range inside the bounds, so a point on
     // the bound is profiled a hair inside it.)
     const SolveOutcome r = obj.solve(x, w, so);

@@ -22,6 +22,23 @@ const PhysicsParam* physics_at(const Layout& L, std::size_t i) {
   return nullptr;
 }
 
+// dx_j/dx_i along the linearised profile of entry i: Σ_ji / Σ_ii (empty when the
+// covariance failed or i is not in it).
+std::vector<double> valley_slopes(const CovarianceOutcome& cov, std::size_t i, std::size_t n) {
+  const std::size_t m = cov.indices.size();
+  if (!cov.ok) return {};
+  const auto a = std::find(cov.indices.begin(), cov.indices.end(), i);
+  if (a == cov.indices.end()) return {};
+  const std::size_t ia = std::size_t(a - cov.indices.begin());
+  const double var = cov.cov[ia * m + ia];
+  if (!(var > 0) || !std::isfinite(var)) return {};
+  std::vector<double> slope(n, 0.0);
+  for (std::size_t b = 0; b < m; ++b)
+    if (std::isfinite(cov.cov[b * m + ia])) slope[cov.indices[b]] = cov.cov[b * m + ia] / var;
+  slope[i] = 1.0;
+  return slope;
+}
+
 std::vector<Profile> run_profiles(Run& run, const Flags& pre) {
   const Layout& L = *run.layout;
   const CovarianceOutcome cov = run.obj->covariance(run.x, run.w_all, pre.held);
@@ -48,6 +65,8 @@ std::vector<Profile> run_profiles(Run& run, const Flags& pre) {
         ProfileOptions po;
         po.max_points = run.opt.profile_points;
         po.first_step = std::isfinite(se) && se > 0 ? 1.96 * se : 0.1;
+        po.valley = valley_slopes(cov, i, L.size());
+        po.threads = run.opt.threads;  // the replay pool bounds the CPUs; the last profile uses both
         Profile p = profile_parameter(*run.obj, run.x, run.fit.final_cost, run.w_all, i,
                                       run.threshold, pre.held, po);
         std::lock_guard lk(mu);

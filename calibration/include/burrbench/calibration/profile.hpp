@@ -42,6 +42,12 @@ struct ProfileOptions {
   int iterations = 10;  // re-optimisation per point (stops earlier on convergence) (warm-started from the previous point)
   int max_points = 8;   // per side
   double first_step = 0.1;  // ln θ; the caller passes ≈ 1.96 × the covariance SE
+  // Per x entry: the valley's slope dx_j/dx_entry at the optimum (the covariance's column
+  // of `entry` over its variance; empty = none). Each point's re-optimisation starts on
+  // that line, so the correlated parameters (C1 with α, lag with α, …) start where the
+  // linearised profile puts them instead of where the previous point left them.
+  std::vector<double> valley;
+  int threads = 1;  // Ceres threads per re-optimisation (see SolveOptions::threads)
 };
 
 // `cost_hat`: the cost at x_hat; `hold`: entries held during the re-optimisations besides

@@ -26,6 +26,7 @@ enum class ColumnKind { kLogAlpha, kLogC1, kLogMu, kLagMs, kDepthMm, kPose };
 struct Column {
   ColumnKind kind = ColumnKind::kLogC1;
   std::uint8_t label = 0;  // class label for the physics columns; 0..5 (ωx ωy ωz τx τy τz) for kPose
+  bool operator==(const Column&) const = default;
 };
 
 struct EvalPoint {
