@@ -23,7 +23,7 @@ using namespace burrbench;
 struct Args {
   std::string experiment, out;
   calibration::CalibrateOptions options;
-  bool no_cv = false, no_profiles = false, overwrite = false;
+  bool no_cv = false, no_profiles = false, white_noise = false, overwrite = false;
   std::string derivatives = "sensitivities";
 };
 
@@ -31,6 +31,7 @@ void run(const Args& a) {
   calibration::CalibrateOptions o = a.options;
   o.cross_validate = !a.no_cv;
   o.profiles = !a.no_profiles;
+  o.noise_inflation = !a.white_noise;
   o.derivatives = a.derivatives == "fd" ? calibration::Derivatives::kFiniteDifferences
                                         : calibration::Derivatives::kSensitivities;
   calibration::validate(o);  // before any output folder is made
@@ -82,6 +83,8 @@ void setup(CLI::App& root) {
   cmd->add_option("--profile-points", a->options.profile_points, "profile points per side, at most")
       ->capture_default_str();
   cmd->add_flag("--no-cross-validation", a->no_cv, "skip leave-one-out cross-validation");
+  cmd->add_flag("--white-noise", a->white_noise,
+                "assume white residuals: do not widen the intervals by the residuals' AR(1) factor");
   cmd->callback([a] { run(*a); });
 }
 BURRBENCH_VERB("calibrate", setup);

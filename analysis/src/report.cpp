@@ -183,6 +183,17 @@ std::string parameter_section(const AnalysisInput& in, const json* fit) {
            "</tr>";
     }
     h += "</table>";
+    // How the intervals treat correlated residuals (settings.noise_model, absent before it existed).
+    if (fit->contains("settings") && fit->at("settings").contains("noise_model")) {
+      const auto& nm = fit->at("settings").at("noise_model");
+      const double rho = nm.value("residual_lag1", 0.0), widen = nm.value("interval_widening", 1.0);
+      h += nm.value("method", std::string()) == "white"
+               ? fmt::format("<p class=\"muted\">Intervals assume white residuals (<code>--white-noise</code>); "
+                             "the residuals' lag-1 autocorrelation is {:.3f}.</p>", rho)
+               : fmt::format("<p class=\"muted\">Intervals and verdicts allow for correlated residuals: "
+                             "lag-1 autocorrelation ρ = {:.3f}, every interval widened ×{:.3g} (AR(1) "
+                             "factor (1+ρ)/(1−ρ) on the variance; docs/calibration.md).</p>", rho, widen);
+    }
     // Global search (waterfall) and profile likelihoods, drawn by report.js.
     if (fit->contains("multistart") && fit->at("multistart").is_array() && !fit->at("multistart").empty())
       h += "<h3>Global search: waterfall</h3><p class=\"muted\">Final cost of every start, sorted "

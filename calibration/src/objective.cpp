@@ -1,5 +1,6 @@
 #include "burrbench/calibration/objective.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -327,6 +328,7 @@ Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights
     if (e) std::rethrow_exception(e);
   const Robust robust{settings_.loss, settings_.loss_scale * settings_.loss_scale};
   if (only < 0) ev.cost += prior_cost(layout_, x);
+  double lag_num = 0, lag_den = 0;
   for (std::size_t r = 0; r < models_.size(); ++r) {
     if (only >= 0 && std::size_t(only) != r) continue;
     const auto& pred = ev.predictions[r];
@@ -336,28 +338,47 @@ Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights
                                                       x[std::size_t(nz.bias) + 2])
                                          : glm::dvec3(0);
     const auto& meas = models_[r]->measured_sensor_N();
+    glm::dvec3 prev(0);
+    bool has_prev = false;  // the previous sample was used (lag-1 pairs never span a gap)
     for (std::size_t j = 0; j < models_[r]->size(); ++j) {
       if (w[r][j] == 0) {
         ++ev.samples_excluded;
+        has_prev = false;
         continue;
       }
       if (pred.buried[j]) ++ev.samples_buried;
       const double sw = sample_weight(settings_, w[r][j], pred.buried[j] != 0);
-      if (sw == 0) continue;
+      if (sw == 0) {
+        has_prev = false;
+        continue;
+      }
       ++ev.samples_used;
       ev.residuals_used += 3;
+      glm::dvec3 cur;
       for (int a = 0; a < 3; ++a) {
         const double rr = (pred.force_sensor_N[j][a] + bias[a] - meas[j][a]) / settings_.sigma_N;
         ev.cost += 0.5 * sw * robust.rho(rr * rr);
+        cur[a] = std::sqrt(sw) * rr;
       }
+      if (has_prev) lag_num += glm::dot(prev, cur);
+      lag_den += glm::dot(cur, cur);
+      prev = cur;
+      has_prev = true;
     }
   }
+  ev.residual_lag1 = lag_den > 0 ? lag_num / lag_den : 0.0;
   return ev;
 }
 
+double ar1_inflation(double rho) {
+  const double r = std::clamp(std::isfinite(rho) ? rho : 0.0, 0.0, 0.95);
+  return (1 + r) / (1 - r);
+}
+
 CovarianceOutcome Objective::covariance(const std::vector<double>& x_in, const SampleWeights& w,
-                                        const std::vector<bool>& hold) const {
+                                        const std::vector<bool>& hold, double inflation) const {
   CovarianceOutcome out;
+  out.inflation = inflation;
   std::vector<double> x = x_in;
   BuiltProblem bp;
   build(*this, x, w, hold, replays_, bp);
@@ -414,7 +435,7 @@ CovarianceOutcome Objective::covariance(const std::vector<double>& x_in, const S
   out.cov.assign(m * m, 0.0);
   const std::vector<const double*> cblocks(blocks.begin(), blocks.end());
   if (!cov.GetCovarianceMatrix(cblocks, out.cov.data())) return out;
-  for (double& v : out.cov) v *= out.residual_variance;
+  for (double& v : out.cov) v *= out.residual_variance * inflation;
   out.ok = true;
   return out;
 }

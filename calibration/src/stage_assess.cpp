@@ -41,7 +41,7 @@ std::vector<double> valley_slopes(const CovarianceOutcome& cov, std::size_t i, s
 
 std::vector<Profile> run_profiles(Run& run, const Flags& pre) {
   const Layout& L = *run.layout;
-  const CovarianceOutcome cov = run.obj->covariance(run.x, run.w_all, pre.held);
+  const CovarianceOutcome cov = run.obj->covariance(run.x, run.w_all, pre.held, run.inflation);
   std::vector<std::size_t> entries;
   for (const auto& p : L.physics())
     if (p.index >= 0 && !pre.held[std::size_t(p.index)]) entries.push_back(std::size_t(p.index));
@@ -122,7 +122,11 @@ void assess(Run& run) {
     run.ev = run.obj->evaluate(run.x, run.w_all);
     const double dof = double(run.ev.residuals_used) - double(L.size());
     const double s2 = dof > 0 ? std::max(2.0 * run.ev.cost / dof, 1e-12) : 1.0;
-    run.threshold = 0.5 * kChi2_1_95 * s2;
+    // Correlated residuals (a misfit the model cannot follow, or coloured sensor noise)
+    // carry less information than their count says: widen by the AR(1) factor.
+    run.residual_variance = s2;
+    run.inflation = run.opt.noise_inflation ? ar1_inflation(run.ev.residual_lag1) : 1.0;
+    run.threshold = 0.5 * kChi2_1_95 * s2 * run.inflation;
     flags = contact_checks(*run.obj, run.x, run.w_all, run.ev);
     run.profiles.clear();
     run.warnings.clear();
@@ -220,7 +224,8 @@ void assess(Run& run) {
       }
     }
   }
-  run.unc = assess_uncertainty(*run.obj, run.x, run.w_all, run.ev, flags, !run.opt.profiles);
+  run.unc = assess_uncertainty(*run.obj, run.x, run.w_all, run.ev, flags, !run.opt.profiles,
+                               run.inflation);
   for (auto& fp : run.unc.parameters) {
     const PhysicsParam* p = nullptr;
     for (const auto& q : L.physics())

@@ -60,6 +60,15 @@ CalibrationOutput results(Run& run) {
   st["buried_weight"] = run.settings.buried == ds::BuriedPolicy::kDownweight ? run.settings.buried_weight : 0.0;
   st["sigma_source"] = run.sigma_source;
   st["residual_variance"] = run.unc.residual_variance;
+  st["noise_model"] = {
+      {"method", run.opt.noise_inflation ? "ar1_inflation" : "white"},
+      {"description", run.opt.noise_inflation
+                          ? "covariance and profile threshold x residual variance x (1+rho)/(1-rho), "
+                            "rho = lag-1 autocorrelation of the residuals (capped at 0.95, never below 0)"
+                          : "covariance and profile threshold x residual variance (residuals assumed white)"},
+      {"residual_lag1", run.ev.residual_lag1},
+      {"inflation", run.inflation},
+      {"interval_widening", std::sqrt(run.inflation)}};
   st["parameterisation"] = "ln(alpha), ln(C1), ln(mu); bias N; lag ms; depth offset mm";
   nlohmann::json deriv = {{"scheme", to_string(run.opt.derivatives)}};
   if (run.opt.derivatives == Derivatives::kFiniteDifferences) {
@@ -80,7 +89,7 @@ CalibrationOutput results(Run& run) {
                          {"seed", run.exp.manifest.fit.seed}};
   st["profiles"] = {{"computed", run.opt.profiles},
                     {"threshold_cost", run.threshold},
-                    {"threshold", "chi2_1(0.95)/2 x residual variance"},
+                    {"threshold", "chi2_1(0.95)/2 x residual variance x noise-model inflation"},
                     {"restarts_from_profile", run.restarts}};
   st["warnings"] = run.warnings;
   nlohmann::json reg = nlohmann::json::object();
@@ -210,6 +219,11 @@ CalibrationOutput results(Run& run) {
                        n.std_error, n.unit);
   s += fmt::format("fit: RMSE {:.4g} N, R² {:.4f}, rms(residual/σ) {:.3f}\n", run.calibration_metrics.rmse_N,
                    run.calibration_metrics.r2, out.residuals_summary.rms_normalised);
+  s += fmt::format("noise model: residual lag-1 autocorrelation {:.3f}; intervals {}\n", run.ev.residual_lag1,
+                   !run.opt.noise_inflation ? "assume white residuals (--white-noise)"
+                   : run.inflation > 1.0001 ? fmt::format("widened x{:.3g} for it (AR(1) factor {:.3g} on the variance)",
+                                                          std::sqrt(run.inflation), run.inflation)
+                                            : "not widened (residuals uncorrelated)");
   if (run.validation_metrics.samples > 0)
     s += fmt::format("validation spans: RMSE {:.4g} N, R² {:.4f} over {} samples\n",
                      run.validation_metrics.rmse_N, run.validation_metrics.r2, run.validation_metrics.samples);

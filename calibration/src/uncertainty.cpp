@@ -32,14 +32,15 @@ double removed(const Evaluation& ev, std::uint8_t label) {
 // the curvature at the estimate can still look finite. A slice, not a profile (C1 and μ
 // are not re-fitted), so it can miss a bound that a re-fit would reach (docs/calibration.md).
 bool alpha_bound_not_excluded(const Objective& obj, const std::vector<double>& x,
-                              const SampleWeights& w, const Evaluation& at_x, std::size_t i) {
+                              const SampleWeights& w, const Evaluation& at_x, std::size_t i,
+                              double inflation) {
   const double dof = double(at_x.residuals_used) - double(x.size());
   if (dof <= 0) return false;
   const double s2 = std::max(2.0 * at_x.cost / dof, 1e-12);  // residual variance
   std::vector<double> far = x;
   far[i] = obj.layout().upper(i);
   const Evaluation ev = obj.evaluate(far, w);
-  return 2.0 * (ev.cost - at_x.cost) / s2 < 3.841458820694124;
+  return 2.0 * (ev.cost - at_x.cost) / (s2 * inflation) < 3.841458820694124;
 }
 
 }  // namespace
@@ -88,7 +89,7 @@ Flags contact_checks(const Objective& obj, const std::vector<double>& x, const S
 
 UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
                                      const SampleWeights& w, const Evaluation& at_x,
-                                     Flags initial, bool covariance_rules) {
+                                     Flags initial, bool covariance_rules, double inflation) {
   const Layout& L = obj.layout();
   UncertaintyReport rep;
   rep.held = initial.held;
@@ -104,7 +105,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
   for (const auto& p : L.physics()) {
     if (p.index < 0 || !covariance_rules || rep.held[std::size_t(p.index)]) continue;
     const std::size_t i = std::size_t(p.index);
-    if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i))
+    if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i, inflation))
       flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g} {}, "
                                 "next to no erosion): they give only a lower limit",
                                 std::exp(L.upper(i)), unit_of(p.kind)));
@@ -115,7 +116,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
   }
   CovarianceOutcome cov;
   for (int round = 0; round < 4; ++round) {
-    cov = obj.covariance(x, w, rep.held);
+    cov = obj.covariance(x, w, rep.held, inflation);
     bool more = false;
     const std::size_t m = cov.indices.size();
     if (m == 0) break;
@@ -158,6 +159,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     if (!more) break;
   }
   rep.residual_variance = cov.residual_variance;
+  rep.inflation = inflation;
   // Position of x entry i in the covariance (or npos).
   auto pos = [&](std::size_t i) -> std::ptrdiff_t {
     for (std::size_t a = 0; a < cov.indices.size(); ++a)

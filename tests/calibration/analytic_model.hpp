@@ -5,6 +5,7 @@
 // truth and exact smooth derivatives. NOT a model of bone: the replay tests use synth data.
 #include <cmath>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -25,20 +26,33 @@ class AnalyticModel final : public RecordingModel {
   const std::vector<double>& t_s() const override { return t_; }
   const std::vector<glm::dvec3>& measured_sensor_N() const override { return meas_; }
 
-  // Measured = model at truth + bias + Gaussian noise.
-  void synthesise(const EvalPoint& truth, glm::dvec3 bias, double noise, unsigned seed) {
+  // Measured = model at truth + bias + Gaussian noise of SD `noise`, an AR(1) process of
+  // lag-1 autocorrelation `rho` per axis (0: white).
+  void synthesise(const EvalPoint& truth, glm::dvec3 bias, double noise, unsigned seed,
+                  double rho = 0) {
     Prediction p;
     predict(truth, {}, p);
     std::mt19937_64 rng(seed);
     std::normal_distribution<double> N(0, noise);
-    for (std::size_t j = 0; j < size(); ++j)
-      meas_[j] = p.force_sensor_N[j] + bias + glm::dvec3(N(rng), N(rng), N(rng));
+    glm::dvec3 e(N(rng), N(rng), N(rng));
+    const double innov = std::sqrt(1 - rho * rho);
+    for (std::size_t j = 0; j < size(); ++j) {
+      if (j > 0) e = rho * e + innov * glm::dvec3(N(rng), N(rng), N(rng));
+      meas_[j] = p.force_sensor_N[j] + bias + e;
+    }
   }
 
   void predict(const EvalPoint& at, const std::vector<Column>& cols, Prediction& out) const override {
     forces(at, out.force_sensor_N, &out.class_mask, &out.removed_mm3);
     out.buried.assign(size(), 0);
     out.replays = 1;
+    if (!cols.empty()) {  // count derivative predictions and repeats at one point (one call per model at a time)
+      std::vector<double> key{at.lag_ms, at.depth_mm, double(cols.size())};
+      for (int k = 1; k <= 2; ++k)
+        key.insert(key.end(), {at.physics.alpha[k], at.physics.c1[k], at.physics.mu[k]});
+      ++column_calls;
+      repeated_column_calls += !seen_.insert(key).second;
+    }
     for (const auto& c : cols) {
       const double h = 1e-5;
       EvalPoint a = at, b = at;
@@ -89,6 +103,12 @@ class AnalyticModel final : public RecordingModel {
       }
     }
   }
+  mutable std::set<std::vector<double>> seen_;
+
+ public:
+  mutable std::size_t column_calls = 0, repeated_column_calls = 0;
+
+ private:
   std::string id_;
   std::vector<double> t_;
   std::vector<glm::dvec3> meas_;

@@ -1,6 +1,7 @@
 // Solver, covariance and identifiability machinery on a closed-form problem with known
 // truth (analytic_model.hpp), independent of the voxel replay.
 #include <cmath>
+#include <iostream>
 
 #include <gtest/gtest.h>
 
@@ -28,14 +29,14 @@ struct Setup {
   bc::SampleWeights w;
 };
 
-Setup make(bool touch2, bool erode, unsigned seed) {
+Setup make(bool touch2, bool erode, unsigned seed, double rho = 0) {
   Setup s;
   s.truth.physics.alpha[1] = 20; s.truth.physics.c1[1] = 10; s.truth.physics.mu[1] = 0.4;
   s.truth.physics.alpha[2] = 8;  s.truth.physics.c1[2] = 3;  s.truth.physics.mu[2] = 0.25;
   s.truth.lag_ms = 4;
   for (int r = 0; r < 2; ++r) s.models.emplace_back("rec" + std::to_string(r), 500, touch2, erode);
   for (int r = 0; r < 2; ++r)
-    s.models[std::size_t(r)].synthesise(s.truth, glm::dvec3(0.1 * r, -0.05, 0.2), 0.02, seed + unsigned(r));
+    s.models[std::size_t(r)].synthesise(s.truth, glm::dvec3(0.1 * r, -0.05, 0.2), 0.02, seed + unsigned(r), rho);
   ds::NuisanceSpec nz;
   nz.bias = true;
   nz.lag = true;
@@ -91,6 +92,82 @@ TEST(CalibrationCore, RecoversAnalyticTruthWithIntervalsCoveringIt) {
       EXPECT_NEAR(n.estimate, 4.0, 4 * n.std_error + 1e-9);
     }
   EXPECT_EQ(rep.correlation.names.size(), rep.covariance.names.size());
+}
+
+// A Jacobian costs a (sensitivity) replay: Ceres's bound-constrained line search asks for
+// the gradient at a trial point and again for the Jacobian once that point is accepted;
+// the objective must replay it once.
+TEST(CalibrationCore, NoDerivativeReplayIsRepeatedAtOnePoint) {
+  auto s = make(true, true, 3);
+  bc::ObjectiveSettings set;
+  set.sigma_N = 0.02;
+  bc::Objective obj(*s.layout, ptrs(s), set);
+  auto fit = obj.solve(s.layout->initial(), s.w, {});
+  ASSERT_TRUE(fit.usable);
+  EXPECT_GT(fit.iterations, 3u);
+  for (const auto& m : s.models) {
+    EXPECT_GT(m.column_calls, 3u) << m.id();
+    EXPECT_EQ(m.repeated_column_calls, 0u) << m.id() << ": " << m.column_calls << " derivative predictions";
+  }
+}
+
+// Correlated residuals (AR(1), ρ = 0.8: about 9× fewer independent samples than counted)
+// make white-noise intervals far too narrow; the AR(1) inflation restores their coverage.
+TEST(CalibrationCore, CorrelatedNoiseWidensIntervalsToTheirCoverage) {
+  int hits_white = 0, hits_ar1 = 0, total = 0;
+  double rho_sum = 0;
+  const int seeds = 10;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    auto s = make(true, true, unsigned(100 + 7 * seed), 0.8);
+    bc::ObjectiveSettings set;
+    set.loss = ds::LossKind::kNone;
+    set.sigma_N = 0.02;
+    bc::Objective obj(*s.layout, ptrs(s), set);
+    auto fit = obj.solve(s.layout->initial(), s.w, {});
+    ASSERT_TRUE(fit.usable) << fit.termination;
+    const auto ev = obj.evaluate(fit.x, s.w);
+    rho_sum += ev.residual_lag1;
+    const double kappa = bc::ar1_inflation(ev.residual_lag1);
+    const auto white = bc::assess_uncertainty(obj, fit.x, s.w, ev, bc::contact_checks(obj, fit.x, s.w, ev), true, 1.0);
+    const auto ar1 = bc::assess_uncertainty(obj, fit.x, s.w, ev, bc::contact_checks(obj, fit.x, s.w, ev), true, kappa);
+    EXPECT_DOUBLE_EQ(ar1.inflation, kappa);
+    for (int k : {1, 2})
+      for (const char* n : {"alpha", "c1", "mu"}) {
+        const double truth = s.truth.physics.at(n[0] == 'a' ? bc::PhysKind::kAlpha
+                                                : n[0] == 'c' ? bc::PhysKind::kC1
+                                                              : bc::PhysKind::kMu,
+                                                std::uint8_t(k));
+        auto holds = [&](const ds::FitParameter& p) {
+          return p.identifiable && p.ci95_low <= truth && truth <= p.ci95_high;
+        };
+        hits_white += holds(param(white, k, n));
+        hits_ar1 += holds(param(ar1, k, n));
+        ++total;
+        // Same estimate, the interval wider by √κ.
+        const auto& pw = param(white, k, n);
+        const auto& pa = param(ar1, k, n);
+        if (white.held == ar1.held && pw.identifiable) {  // (in ln θ the width scales exactly)
+          EXPECT_NEAR(std::log(pa.ci95_high / pa.ci95_low) / std::log(pw.ci95_high / pw.ci95_low),
+                      std::sqrt(kappa), 1e-6 * std::sqrt(kappa)) << k << " " << n;
+        }
+      }
+  }
+  std::cout << "AR(1) rho 0.8: mean estimated rho " << rho_sum / seeds << "; covariance intervals holding the truth: white "
+            << hits_white << "/" << total << ", widened " << hits_ar1 << "/" << total << "\n";
+  EXPECT_NEAR(rho_sum / seeds, 0.8, 0.05);
+  EXPECT_GE(hits_ar1, int(0.85 * total)) << hits_ar1 << "/" << total << " (white: " << hits_white << ")";
+  EXPECT_LE(hits_white, int(0.75 * total)) << hits_white << "/" << total;
+  // White noise: the factor stays near 1.
+  auto s = make(true, true, 7);
+  bc::ObjectiveSettings set;
+  set.sigma_N = 0.02;
+  bc::Objective obj(*s.layout, ptrs(s), set);
+  auto fit = obj.solve(s.layout->initial(), s.w, {});
+  const auto ev = obj.evaluate(fit.x, s.w);
+  EXPECT_LT(std::abs(ev.residual_lag1), 0.05);
+  EXPECT_LT(bc::ar1_inflation(ev.residual_lag1), 1.1);
+  EXPECT_DOUBLE_EQ(bc::ar1_inflation(-0.5), 1.0);
+  EXPECT_DOUBLE_EQ(bc::ar1_inflation(0.99), bc::ar1_inflation(0.95));
 }
 
 TEST(CalibrationCore, UntouchedClassIsNotIdentifiable) {

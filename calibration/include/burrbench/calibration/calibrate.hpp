@@ -20,6 +20,9 @@ struct CalibrateOptions {
   int solve_starts = 4;         // starts with the lowest pre-fit cost that are solved locally
   int start_iterations = 12;    // local iterations of each solved start
   bool profiles = true;         // profile likelihood of every free physics parameter
+  // Widen the intervals (covariance and profile threshold) by the AR(1) factor of the
+  // residuals' lag-1 autocorrelation (ar1_inflation); false: residuals assumed white.
+  bool noise_inflation = true;
   int profile_points = 8;       // per side, at most
   Derivatives derivatives = Derivatives::kSensitivities;
   int bootstrap = 0;            // block-bootstrap replicates (0: none)

@@ -52,13 +52,23 @@ struct Evaluation {
   std::uint64_t residuals_used = 0;   // residuals with weight > 0
   std::uint64_t samples_used = 0, samples_buried = 0, samples_excluded = 0;
   std::vector<Prediction> predictions;  // per recording, without derivative columns
+  // Lag-1 autocorrelation of the weighted residuals: Σ r_j r_{j+1} / Σ r_j² over
+  // consecutive used samples of each recording and axis (0 for white noise).
+  double residual_lag1 = 0;
 };
+
+// Variance inflation of an estimate whose residuals follow an AR(1) process of lag-1
+// autocorrelation ρ: (1 + ρ)/(1 − ρ), the bound reached by slowly varying regressors (the
+// replayed force at 1 kHz). Never below 1 (a negative ρ does not narrow an interval); ρ is
+// capped at 0.95.
+double ar1_inflation(double rho);
 
 struct CovarianceOutcome {
   bool ok = false;
   std::vector<std::size_t> indices;  // x entries covered (free and not held)
-  std::vector<double> cov;           // |indices|² row-major, scaled space, × residual variance
+  std::vector<double> cov;           // |indices|² row-major, scaled space, × residual variance × inflation
   double residual_variance = 1;      // 2·cost / (used residuals − parameters)
+  double inflation = 1;              // the noise-model factor applied besides (ar1_inflation)
   std::vector<double> info_diag;     // diag(JᵀJ) per covered entry
   std::vector<double> eig_values;    // of the unit-diagonal information matrix (ascending)
   std::vector<std::vector<double>> eig_vectors;  // eig_vectors[j] = eigenvector of eig_values[j]
@@ -76,8 +86,9 @@ class Objective {
                      const SolveOptions& options) const;
   // only >= 0: replay and score that recording alone (the others count as cost 0).
   Evaluation evaluate(const std::vector<double>& x, const SampleWeights& w, int only = -1) const;
+  // `inflation`: multiplies the covariance besides the residual variance (ar1_inflation).
   CovarianceOutcome covariance(const std::vector<double>& x, const SampleWeights& w,
-                               const std::vector<bool>& hold) const;
+                               const std::vector<bool>& hold, double inflation = 1) const;
 
   // Replays done so far through this objective (all threads).
   std::uint64_t replays() const;

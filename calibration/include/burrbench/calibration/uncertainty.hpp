@@ -25,6 +25,7 @@ struct UncertaintyReport {
   std::vector<data_schema::FitNuisance> nuisance;
   data_schema::NamedMatrix covariance, correlation;   // identifiable free entries, natural units
   double residual_variance = 1;
+  double inflation = 1;                               // noise-model factor on the covariance
   std::vector<bool> held;                             // x entries held as not identifiable
 };
 
@@ -42,9 +43,12 @@ Flags contact_checks(const Objective& obj, const std::vector<double>& x, const S
 // `initial`: parameters already flagged (held, with reasons), e.g. by contact_checks or by
 // their profiles. `covariance_rules`: also apply the α slice check and rules 3–5 (used
 // when no profiles are computed); otherwise only the covariance of the rest is computed.
+// `inflation`: the noise model's factor on the covariance and the α slice check's
+// threshold (ar1_inflation; 1 = white residuals).
 UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
                                      const SampleWeights& w, const Evaluation& at_x,
-                                     Flags initial, bool covariance_rules = true);
+                                     Flags initial, bool covariance_rules = true,
+                                     double inflation = 1);
 // Every rule, 1–5 (no profiles).
 inline UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
                                             const SampleWeights& w, const Evaluation& at_x) {
