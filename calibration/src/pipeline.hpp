@@ -62,7 +62,6 @@ struct Run {
   // assess
   Evaluation ev;
   double threshold = 0;              // profile threshold, cost units
-  double residual_variance = 1;      // s² = 2·cost/(used residuals − parameters)
   double inflation = 1;              // noise-model factor (ar1_inflation, or 1)
   std::vector<Profile> profiles;     // free physics parameters that were profiled
   UncertaintyReport unc;

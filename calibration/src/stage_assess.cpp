@@ -124,7 +124,6 @@ void assess(Run& run) {
     const double s2 = dof > 0 ? std::max(2.0 * run.ev.cost / dof, 1e-12) : 1.0;
     // Correlated residuals (a misfit the model cannot follow, or coloured sensor noise)
     // carry less information than their count says: widen by the AR(1) factor.
-    run.residual_variance = s2;
     run.inflation = run.opt.noise_inflation ? ar1_inflation(run.ev.residual_lag1) : 1.0;
     run.threshold = 0.5 * kChi2_1_95 * s2 * run.inflation;
     flags = contact_checks(*run.obj, run.x, run.w_all, run.ev);
