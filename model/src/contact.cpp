@@ -313,6 +313,8 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   const int t_last = tab.intervals() - 1;
   const double l3 = vol.voxel_mm() * vol.voxel_mm() * vol.voxel_mm();
   double G[kMaxClasses][3] = {};
+  // Friction couple per class over μ: Σ s (r/d) [(v·ω̂) v − d² ω̂] = TA − TB ω̂.
+  double TA[kMaxClasses][3] = {}, TB[kMaxClasses] = {};
   double rem[kMaxClasses] = {}, en[kMaxClasses] = {};
   double wmu[kMaxClasses], kero[kMaxClasses] = {};  // μ|ω| and dt/(α l³) per class
   for (int k = 0; k < kMaxClasses; ++k) {
@@ -356,8 +358,16 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
     g[0] += s * v.vx;
     g[1] += s * v.vy;
     g[2] += s * v.vz;
+    // Lever (r/d)v to the voxel's disc centre: T_i = (r/d) v × (s v × ω̂) = s (r/d)[(v·ω̂)v − d² ω̂].
+    const double vwr = v.vx * w.x + v.vy * w.y + v.vz * w.z;
+    const double sr = s * rd, srw = sr * vwr;
+    double* tk = TA[k];
+    tk[0] += srw * v.vx;
+    tk[1] += srw * v.vy;
+    tk[2] += srw * v.vz;
+    TB[k] += sr * d2;
     if (wmu[k] == 0) continue;
-    const double vw = (v.vx * w.x + v.vy * w.y + v.vz * w.z) * inv_d;
+    const double vw = vwr * inv_d;
     const double r = rd * d2 * inv_d;
     const double W = wmu[k] * chi * P * r * (1.0 - vw * vw) * area;
     power += W;
@@ -375,6 +385,8 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
     if (!((out.class_mask >> k) & 1u)) continue;  // G_k = 0: no lens voxel of class k
     out.dFmu_dmu[k] = glm::cross(glm::dvec3(G[k][0], G[k][1], G[k][2]), w);
     out.friction_N += prm.by_label[k].mu * out.dFmu_dmu[k];
+    out.dTmu_dmu[k] = glm::dvec3(TA[k][0], TA[k][1], TA[k][2]) - TB[k] * w;
+    out.moment_Nmm += prm.by_label[k].mu * out.dTmu_dmu[k];
   }
   out.power_W_mJ_per_s = power;
   out.force_N = out.elastic_N + out.friction_N;

@@ -23,6 +23,10 @@ struct ContactResult {
   double bone_volume_mm3 = 0;   // M
   double contact_radius_mm = 0; // a = √(2Rb − b²)
   double power_W_mJ_per_s = 0;  // Σ W_i (friction power), N·mm/s
+  // Friction couple on the burr about its centre p, volume frame, N·mm (MODEL.md "Moments"):
+  // T = Σ (rᵢ/dᵢ) vᵢ × dF_μ,i. Its spin component is the braking torque: T·ω̂ = −Σ W_i/|ω|.
+  // The elastic force acts through p and adds no moment about it.
+  glm::dvec3 moment_Nmm{0};
   std::uint8_t class_mask = 0;  // bit k set: class k in contact
   bool buried = false;          // normal ill-defined (|M₁| < kBuriedMoment·M·R)
   // Exact partials at fixed geometry, per class label k:
@@ -30,6 +34,8 @@ struct ContactResult {
   //   |F_e|, i.e. linearly with the C1's: dF_μ/dC1_k = F_μ · |dF_dC1[k]| / |F_e|).
   std::array<glm::dvec3, kMaxClasses> dF_dC1{};
   std::array<glm::dvec3, kMaxClasses> dFmu_dmu{};
+  // T = Σ_k μ_k · dTmu_dmu[k] (T, like F_μ, also scales with |F_e|).
+  std::array<glm::dvec3, kMaxClasses> dTmu_dmu{};
 };
 
 ContactResult evaluate(const Volume&, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
