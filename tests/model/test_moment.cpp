@@ -4,9 +4,10 @@
 // covariance under rotating and translating the scene.
 #include <cmath>
 #include <numbers>
-#include <random>
 
 #include <gtest/gtest.h>
+
+#include "lumpy_scene.hpp"
 
 #include "burrbench/model/contact.hpp"
 #include "burrbench/model/geometry.hpp"
@@ -17,34 +18,8 @@ namespace ds = burrbench::data_schema;
 
 namespace {
 
-// A lumpy two-class bone: random χ, compact above z = 6 voxels, trabecular below.
-ds::SampleVolume lumpy(std::size_t n, double l, unsigned seed) {
-  ds::SampleVolume s;
-  s.dims = {n, n, n};
-  s.voxel_mm = l;
-  s.labels.assign(s.voxel_count(), 0);
-  s.fraction.assign(s.voxel_count(), 0.0f);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(0.2f, 1.0f);
-  for (std::size_t z = 0; z < n; ++z)
-    for (std::size_t y = 0; y < n; ++y)
-      for (std::size_t x = 0; x < n; ++x) {
-        const std::size_t i = s.index(x, y, z);
-        const double h = 8 + 2 * std::sin(0.7 * double(x)) * std::cos(0.5 * double(y));
-        if (double(z) < h) {
-          s.labels[i] = z > 5 ? 1 : 2;
-          s.fraction[i] = u(rng);
-        }
-      }
-  return s;
-}
-
-bm::ModelParams two_classes() {
-  bm::ModelParams p;
-  p.by_label[1] = {50.0, 12.0, 0.4};
-  p.by_label[2] = {20.0, 4.0, 0.7};
-  return p;
-}
+using scenes::lumpy;
+using scenes::two_classes;
 
 // MODEL.md steps 1–5 and the moment, voxel by voxel, with the exact (untabulated) lens.
 struct Brute {
