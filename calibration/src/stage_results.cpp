@@ -221,7 +221,7 @@ CalibrationOutput results(Run& run) {
                    run.calibration_metrics.r2, out.residuals_summary.rms_normalised);
   s += fmt::format("noise model: residual lag-1 autocorrelation {:.3f}; intervals {}\n", run.ev.residual_lag1,
                    !run.opt.noise_inflation ? "assume white residuals (--white-noise)"
-                   : run.inflation > 1.0001 ? fmt::format("widened x{:.3g} for it (AR(1) factor {:.3g} on the variance)",
+                   : run.inflation > 1.0001 ? fmt::format("widened x{:.4g} for it (AR(1) factor {:.4g} on the variance)",
                                                           std::sqrt(run.inflation), run.inflation)
                                             : "not widened (residuals uncorrelated)");
   if (run.validation_metrics.samples > 0)

@@ -54,6 +54,21 @@ std::vector<const bc::RecordingModel*> ptrs(const Setup& s) {
   return p;
 }
 
+// σ = 0.02 N as synthesised; `plain`: least squares without the robust loss.
+bc::ObjectiveSettings settings(bool plain = false) {
+  bc::ObjectiveSettings set;
+  if (plain) set.loss = ds::LossKind::kNone;
+  set.sigma_N = 0.02;
+  return set;
+}
+
+double truth_of(const Setup& s, int label, const char* name) {
+  return s.truth.physics.at(name[0] == 'a' ? bc::PhysKind::kAlpha
+                            : name[0] == 'c' ? bc::PhysKind::kC1
+                                             : bc::PhysKind::kMu,
+                            std::uint8_t(label));
+}
+
 const ds::FitParameter& param(const bc::UncertaintyReport& r, int label, const char* name) {
   for (const auto& p : r.parameters)
     if (p.class_id == label && p.name == name) return p;
@@ -64,10 +79,7 @@ const ds::FitParameter& param(const bc::UncertaintyReport& r, int label, const c
 
 TEST(CalibrationCore, RecoversAnalyticTruthWithIntervalsCoveringIt) {
   auto s = make(true, true, 7);
-  bc::ObjectiveSettings set;
-  set.loss = ds::LossKind::kNone;
-  set.sigma_N = 0.02;
-  bc::Objective obj(*s.layout, ptrs(s), set);
+  bc::Objective obj(*s.layout, ptrs(s), settings(true));
   auto fit = obj.solve(s.layout->initial(), s.w, {});
   ASSERT_TRUE(fit.usable) << fit.termination;
   auto ev = obj.evaluate(fit.x, s.w);
@@ -77,10 +89,7 @@ TEST(CalibrationCore, RecoversAnalyticTruthWithIntervalsCoveringIt) {
     for (const char* n : {"alpha", "c1", "mu"}) {
       const auto& p = param(rep, k, n);
       ASSERT_TRUE(p.identifiable) << n << ": " << p.reason;
-      const double truth = s.truth.physics.at(n[0] == 'a' ? bc::PhysKind::kAlpha
-                                              : n[0] == 'c' ? bc::PhysKind::kC1
-                                                            : bc::PhysKind::kMu,
-                                              std::uint8_t(k));
+      const double truth = truth_of(s, k, n);
       EXPECT_NEAR(p.estimate / truth, 1.0, n[0] == 'a' ? 0.15 : 0.05) << k << " " << n;
       // 95 % intervals: truth inside (loosely: 4 SE to keep the test deterministic-robust)
       EXPECT_LT(std::abs(p.estimate - truth), 4 * p.std_error + 1e-12) << k << " " << n;
@@ -99,9 +108,7 @@ TEST(CalibrationCore, RecoversAnalyticTruthWithIntervalsCoveringIt) {
 // the objective must replay it once.
 TEST(CalibrationCore, NoDerivativeReplayIsRepeatedAtOnePoint) {
   auto s = make(true, true, 3);
-  bc::ObjectiveSettings set;
-  set.sigma_N = 0.02;
-  bc::Objective obj(*s.layout, ptrs(s), set);
+  bc::Objective obj(*s.layout, ptrs(s), settings());
   auto fit = obj.solve(s.layout->initial(), s.w, {});
   ASSERT_TRUE(fit.usable);
   EXPECT_GT(fit.iterations, 3u);
@@ -119,10 +126,7 @@ TEST(CalibrationCore, CorrelatedNoiseWidensIntervalsToTheirCoverage) {
   const int seeds = 10;
   for (int seed = 1; seed <= seeds; ++seed) {
     auto s = make(true, true, unsigned(100 + 7 * seed), 0.8);
-    bc::ObjectiveSettings set;
-    set.loss = ds::LossKind::kNone;
-    set.sigma_N = 0.02;
-    bc::Objective obj(*s.layout, ptrs(s), set);
+    bc::Objective obj(*s.layout, ptrs(s), settings(true));
     auto fit = obj.solve(s.layout->initial(), s.w, {});
     ASSERT_TRUE(fit.usable) << fit.termination;
     const auto ev = obj.evaluate(fit.x, s.w);
@@ -133,10 +137,7 @@ TEST(CalibrationCore, CorrelatedNoiseWidensIntervalsToTheirCoverage) {
     EXPECT_DOUBLE_EQ(ar1.inflation, kappa);
     for (int k : {1, 2})
       for (const char* n : {"alpha", "c1", "mu"}) {
-        const double truth = s.truth.physics.at(n[0] == 'a' ? bc::PhysKind::kAlpha
-                                                : n[0] == 'c' ? bc::PhysKind::kC1
-                                                              : bc::PhysKind::kMu,
-                                                std::uint8_t(k));
+        const double truth = truth_of(s, k, n);
         auto holds = [&](const ds::FitParameter& p) {
           return p.identifiable && p.ci95_low <= truth && truth <= p.ci95_high;
         };
@@ -159,9 +160,7 @@ TEST(CalibrationCore, CorrelatedNoiseWidensIntervalsToTheirCoverage) {
   EXPECT_LE(hits_white, int(0.75 * total)) << hits_white << "/" << total;
   // White noise: the factor stays near 1.
   auto s = make(true, true, 7);
-  bc::ObjectiveSettings set;
-  set.sigma_N = 0.02;
-  bc::Objective obj(*s.layout, ptrs(s), set);
+  bc::Objective obj(*s.layout, ptrs(s), settings());
   auto fit = obj.solve(s.layout->initial(), s.w, {});
   const auto ev = obj.evaluate(fit.x, s.w);
   EXPECT_LT(std::abs(ev.residual_lag1), 0.05);
@@ -172,9 +171,7 @@ TEST(CalibrationCore, CorrelatedNoiseWidensIntervalsToTheirCoverage) {
 
 TEST(CalibrationCore, UntouchedClassIsNotIdentifiable) {
   auto s = make(false, true, 11);
-  bc::ObjectiveSettings set;
-  set.sigma_N = 0.02;
-  bc::Objective obj(*s.layout, ptrs(s), set);
+  bc::Objective obj(*s.layout, ptrs(s), settings());
   auto fit = obj.solve(s.layout->initial(), s.w, {});
   auto rep = bc::assess_uncertainty(obj, fit.x, s.w, obj.evaluate(fit.x, s.w));
   for (const char* n : {"alpha", "c1", "mu"}) {
@@ -188,9 +185,7 @@ TEST(CalibrationCore, UntouchedClassIsNotIdentifiable) {
 
 TEST(CalibrationCore, AlphaWithoutErosionIsNotIdentifiable) {
   auto s = make(true, false, 13);
-  bc::ObjectiveSettings set;
-  set.sigma_N = 0.02;
-  bc::Objective obj(*s.layout, ptrs(s), set);
+  bc::Objective obj(*s.layout, ptrs(s), settings());
   auto fit = obj.solve(s.layout->initial(), s.w, {});
   auto rep = bc::assess_uncertainty(obj, fit.x, s.w, obj.evaluate(fit.x, s.w));
   for (int k : {1, 2}) {

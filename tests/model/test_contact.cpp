@@ -2,7 +2,6 @@
 // buried flag, class mask, input checking and the 8-bit counter import/export.
 #include <cmath>
 #include <cstring>
-#include <random>
 
 #include <gtest/gtest.h>
 
@@ -45,7 +44,7 @@ TEST(Contact, NoBoneMeansExactlyZeroForce) {
   EXPECT_EQ(r4.force_N, glm::dvec3(0));
 }
 
-TEST(Contact, RotatingTheSceneRotatesTheForce) {
+TEST(Contact, RotatingTheSceneRotatesTheForceAndMoment) {
   // Rotate the volume 90° about z: voxel (x, y, z) → (n−1−y, x, z) about the grid centre.
   const std::size_t n = 24;
   const double l = 0.1;
@@ -72,7 +71,10 @@ TEST(Contact, RotatingTheSceneRotatesTheForce) {
       EXPECT_NEAR(rb.elastic_N[k], rot(ra.elastic_N)[k], tol);
       EXPECT_NEAR(rb.friction_N[k], rot(ra.friction_N)[k], tol);
       EXPECT_NEAR(rb.force_N[k], rot(ra.force_N)[k], tol);
+      // The friction couple is a vector too (tests/model/test_moment.cpp for the rest).
+      EXPECT_NEAR(rb.moment_Nmm[k], rot(ra.moment_Nmm)[k], 1e-9 * glm::length(ra.moment_Nmm));
     }
+    ASSERT_GT(glm::length(ra.moment_Nmm), 0.0);
     EXPECT_NEAR(rb.depth_b_mm, ra.depth_b_mm, 1e-12);
   }
 }
