@@ -23,7 +23,7 @@ using namespace burrbench;
 struct Args {
   std::string experiment, out;
   calibration::CalibrateOptions options;
-  bool no_cv = false, no_profiles = false, white_noise = false, overwrite = false;
+  bool no_cv = false, no_profiles = false, white_noise = false, no_discretization = false, overwrite = false;
   std::string derivatives = "sensitivities";
 };
 
@@ -32,6 +32,7 @@ void run(const Args& a) {
   o.cross_validate = !a.no_cv;
   o.profiles = !a.no_profiles;
   o.noise_inflation = !a.white_noise;
+  o.discretization_check = !a.no_discretization;
   o.derivatives = a.derivatives == "fd" ? calibration::Derivatives::kFiniteDifferences
                                         : calibration::Derivatives::kSensitivities;
   calibration::validate(o);  // before any output folder is made
@@ -85,6 +86,8 @@ void setup(CLI::App& root) {
   cmd->add_flag("--no-cross-validation", a->no_cv, "skip leave-one-out cross-validation");
   cmd->add_flag("--white-noise", a->white_noise,
                 "assume white residuals: do not widen the intervals by the residuals' AR(1) factor");
+  cmd->add_flag("--no-discretization-check", a->no_discretization,
+                "skip the refit on the sample with voxels merged by 2 (each estimate's discretization error)");
   cmd->callback([a] { run(*a); });
 }
 BURRBENCH_VERB("calibrate", setup);

@@ -158,6 +158,38 @@ void setup(CLI::App& root) {
                              s.segmentation_json);
   });
 
+  // --- resample ---
+  struct ResampleArgs {
+    std::string in, out;
+    int split = 0, merge = 0;
+    bool overwrite = false;
+  };
+  auto ra = std::make_shared<ResampleArgs>();
+  auto* res = sample->add_subcommand("resample", "The same sample at voxels split or merged by an integer factor "
+                                                 "(solution verification, coarse-to-fine fits)");
+  res->add_option("SAMPLE", ra->in, "sample file (.h5)")->required();
+  res->add_option("--split", ra->split, "split every voxel into N³ (voxel side / N): the same bone");
+  res->add_option("--merge", ra->merge, "merge blocks of N³ voxels (voxel side × N): bone volume kept, majority class");
+  res->add_option("--out", ra->out, "output sample file (.h5)")->required();
+  res->add_flag("--overwrite", ra->overwrite, "replace an existing --out file (refused otherwise)");
+  res->callback([ra] {
+    if ((ra->split != 0) == (ra->merge != 0))
+      throw InputError("command line", "--split/--merge", "exactly one of --split N or --merge N");
+    check_out_not_input(ra->out, {ra->in});
+    burrbench::apps::refuse_existing(ra->out, "--out", ra->overwrite);
+    const SampleVolume s = read_sample(ra->in);
+    const bool split = ra->split != 0;
+    const int n = split ? ra->split : ra->merge;
+    if (n < 2 || n > 16)
+      throw InputError("command line", split ? "--split" : "--merge", "an integer factor 2..16", std::to_string(n));
+    SampleVolume r = split ? split_voxels(s, n) : merge_voxels(s, n);
+    r.sources.push_back({std::filesystem::absolute(ra->in).string(), sha256_file(ra->in)});
+    r.provenance = make_provenance({ra->in});
+    write_sample(ra->out, r);
+    std::cout << fmt::format("wrote {}: {}x{}x{} voxels of {} mm (from {} mm, {} by {})\n", ra->out, r.dims[0],
+                             r.dims[1], r.dims[2], r.voxel_mm, s.voxel_mm, split ? "split" : "merged", n);
+  });
+
   // --- export-nrrd ---
   auto in = std::make_shared<std::string>();
   auto prefix = std::make_shared<std::string>();

@@ -69,6 +69,9 @@ struct Run {
   std::map<std::size_t, std::string> imprecise_reason;  // x entry → why "imprecise"
   std::vector<std::string> warnings;
 
+  // discretization check
+  double coarse_voxel_mm = NAN;      // voxel of the coarse refit (NaN: not done)
+
   // resampling
   ds::FitResult out;
   Metrics calibration_metrics, validation_metrics;
@@ -86,6 +89,7 @@ void choose_steps(Run& run);        // difference steps (finite differences only
 void global_search(Run& run);       // multistart from a Latin hypercube
 void refine(Run& run);              // the best start to convergence
 void assess(Run& run);              // profiles, verdicts, covariance (restarts refine if cheaper)
+void discretization_check(Run& run);  // refit at 2l: discretization error of each estimate
 void bootstrap(Run& run);
 void cross_validate(Run& run);
 void score_validation(Run& run);    // validate-role segments with their recording's nuisances

@@ -92,6 +92,12 @@ CalibrationOutput results(Run& run) {
                     {"threshold", "chi2_1(0.95)/2 x residual variance x noise-model inflation"},
                     {"restarts_from_profile", run.restarts}};
   st["warnings"] = run.warnings;
+  st["discretization_check"] = {
+      {"computed", std::isfinite(run.coarse_voxel_mm)},
+      {"coarse_voxel_mm", std::isfinite(run.coarse_voxel_mm) ? nlohmann::json(run.coarse_voxel_mm) : nlohmann::json(nullptr)},
+      {"method", "refit from the optimum on the sample with voxels merged by 2; error of ln(theta) = "
+                 "|ln theta_2l - ln theta_l| (Richardson, first order); limited when above half the 95 % "
+                 "interval's half-width in ln(theta); interval widened by it on both sides"}};
   nlohmann::json reg = nlohmann::json::object();
   std::string reg_text;
   for (std::size_t q = 0; q < run.recs.size(); ++q) {
@@ -211,6 +217,10 @@ CalibrationOutput results(Run& run) {
                            ? fmt::format("; bootstrap [{:.6g}, {:.6g}]", p.bootstrap_ci95_low, p.bootstrap_ci95_high)
                            : "");
       if (p.verdict == "imprecise") s += fmt::format("  {:<12} {:<5}   IMPRECISE: {}\n", p.class_name, p.name, p.reason);
+      if (p.limited_by_discretization)
+        s += fmt::format("  {:<12} {:<5}   LIMITED by discretization error: {:.6g} at voxel {:.4g} mm; with "
+                         "that error [{:.6g}, {:.6g}]\n", p.class_name, p.name, p.coarse_estimate,
+                         run.coarse_voxel_mm, p.ci95_with_discretization_low, p.ci95_with_discretization_high);
     }
   }
   for (const auto& n : out.nuisance)

@@ -8,6 +8,7 @@
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/registration.hpp"
+#include "burrbench/model/verification.hpp"
 #include "pipeline.hpp"
 
 namespace burrbench::calibration::detail {
@@ -26,29 +27,17 @@ ds::ClassFitSpec default_spec(std::uint8_t label) {
   return s;
 }
 
-// Robust noise level from samples without predicted contact: 1.4826·MAD about the
-// per-recording, per-axis median (the median absorbs the bias).
+// Robust noise level from the used samples without predicted contact
+// (model::no_contact_sigma_N, shared with `verify`).
 std::optional<double> estimate_sigma(const Objective& obj, const Evaluation& ev,
                                      const SampleWeights& w, std::size_t& n_used) {
-  std::vector<double> dev;
+  std::vector<std::vector<glm::dvec3>> quiet(obj.models().size());
   for (std::size_t r = 0; r < obj.models().size(); ++r) {
     const auto& meas = obj.models()[r]->measured_sensor_N();
-    const auto& p = ev.predictions[r];
-    for (int a = 0; a < 3; ++a) {
-      std::vector<double> v;
-      for (std::size_t j = 0; j < meas.size(); ++j)
-        if (w[r][j] > 0 && p.class_mask[j] == 0) v.push_back(meas[j][a]);
-      if (v.size() < 10) continue;
-      std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
-      const double med = v[v.size() / 2];
-      for (double x : v) dev.push_back(std::abs(x - med));
-    }
+    for (std::size_t j = 0; j < meas.size(); ++j)
+      if (w[r][j] > 0 && ev.predictions[r].class_mask[j] == 0) quiet[r].push_back(meas[j]);
   }
-  n_used = dev.size() / 3;
-  if (dev.size() < 30) return std::nullopt;
-  std::nth_element(dev.begin(), dev.begin() + long(dev.size() / 2), dev.end());
-  const double s = 1.4826 * dev[dev.size() / 2];
-  return s > 0 ? std::optional<double>(s) : std::nullopt;
+  return model::no_contact_sigma_N(quiet, n_used);
 }
 
 bool any(const std::vector<std::uint8_t>& v) {

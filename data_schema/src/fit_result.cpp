@@ -115,6 +115,12 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
     j["profile_ci95_low"] = json_number(p.profile_ci95_low);
     j["profile_ci95_high"] = json_number(p.profile_ci95_high);
     j["profile"] = p.profile;
+    if (std::isfinite(p.coarse_estimate))
+      j["discretization"] = {{"coarse_estimate", p.coarse_estimate},
+                             {"error_log", json_number(p.discretization_error_log)},
+                             {"limited", p.limited_by_discretization},
+                             {"ci95_low", json_number(p.ci95_with_discretization_low)},
+                             {"ci95_high", json_number(p.ci95_with_discretization_high)}};
     params.push_back(j);
   }
   json nuisance = json::array();
@@ -182,6 +188,15 @@ FitResult read_fit(const std::filesystem::path& path) {
     fp.profile_ci95_low = p.opt_number("profile_ci95_low");
     fp.profile_ci95_high = p.opt_number("profile_ci95_high");
     if (p.has("profile")) fp.profile = p.array("profile");
+    if (p.has("discretization")) {
+      JsonView d = p.sub("discretization");
+      fp.coarse_estimate = d.number("coarse_estimate");
+      fp.discretization_error_log = d.opt_number("error_log");
+      fp.limited_by_discretization = d.boolean("limited");
+      fp.ci95_with_discretization_low = d.opt_number("ci95_low");
+      fp.ci95_with_discretization_high = d.opt_number("ci95_high");
+      d.done();
+    }
     p.done();
     f.parameters.push_back(fp);
   }

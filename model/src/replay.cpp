@@ -33,15 +33,16 @@ void check_trajectory(const Trajectory& tr) {
   }
 }
 
-double median_period(const std::vector<double>& t) {
+}  // namespace
+
+double default_step_s(const std::vector<double>& t) {
+  if (t.size() < 2) return 0;
   std::vector<double> dt(t.size() - 1);
   for (std::size_t i = 1; i < t.size(); ++i) dt[i - 1] = t[i] - t[i - 1];
   auto mid = dt.begin() + std::ptrdiff_t(dt.size() / 2);
   std::nth_element(dt.begin(), mid, dt.end());
-  return *mid;
+  return 0.5 * *mid;
 }
-
-}  // namespace
 
 ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
                     const Trajectory& tr, const ReplayOptions& opt, bool restore,
@@ -58,7 +59,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   const std::size_t n = tr.t_s.size();
   res.samples.resize(n);
   if (n == 0) return res;
-  const double h = opt.step_s > 0 ? opt.step_s : (n > 1 ? 0.5 * median_period(tr.t_s) : 0);
+  const double h = opt.step_s > 0 ? opt.step_s : default_step_s(tr.t_s);
   // Refuse step counts that could not finish (e.g. a 1 ns step over an hour).
   if (n > 1 && (tr.t_s.back() - tr.t_s.front()) / h > 1e9)
     throw InputError("replay", "step_s", "at most 1e9 internal steps",

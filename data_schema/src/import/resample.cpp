@@ -1,5 +1,9 @@
-// Resampling to cubic voxels: trilinear for grey values and fractions, nearest for labels.
+// Resampling to cubic voxels: trilinear for grey values and fractions, nearest for labels;
+// and a segmented sample split or merged by an integer factor (solution verification).
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <string>
 
 #include <fmt/format.h>
 
@@ -60,6 +64,88 @@ ImageVolume resample_cubic(const ImageVolume& in, double voxel_mm, Interpolation
       }
     }
   }
+  return out;
+}
+
+}  // namespace burrbench::data_schema::import
+
+namespace burrbench::data_schema::import {
+namespace {
+
+void check_factor(int n, const char* what) {
+  if (n < 1 || n > 16) throw InputError("<resample>", what, "an integer factor in [1, 16]", std::to_string(n));
+}
+
+SampleVolume same_header(const SampleVolume& in) {
+  SampleVolume out;
+  out.classes = in.classes;
+  out.sources = in.sources;
+  out.segmentation_json = in.segmentation_json;
+  out.provenance = in.provenance;
+  return out;
+}
+
+void allocate(SampleVolume& out, const char* what) {
+  const double count = double(out.dims[0]) * double(out.dims[1]) * double(out.dims[2]);
+  if (count > double(kMaxSampleVoxels))
+    throw InputError("<resample>", what, fmt::format("at most {} voxels (memory budget)", kMaxSampleVoxels),
+                     fmt::format("{:.0f}", count));
+  out.labels.assign(out.voxel_count(), kEmpty);
+  out.fraction.assign(out.voxel_count(), 0.0f);
+}
+
+}  // namespace
+
+SampleVolume split_voxels(const SampleVolume& in, int n) {
+  check_factor(n, "split factor");
+  const auto un = std::size_t(n);
+  SampleVolume out = same_header(in);
+  out.voxel_mm = in.voxel_mm / n;
+  // Centre of the first sub-voxel: the old centre moved back by (n−1)/2 new voxels.
+  out.origin_mm = in.origin_mm - glm::dvec3(0.5 * (n - 1) * out.voxel_mm);
+  for (int a = 0; a < 3; ++a) out.dims[std::size_t(a)] = in.dims[std::size_t(a)] * un;
+  allocate(out, "split factor");
+  for (std::size_t z = 0; z < out.dims[2]; ++z)
+    for (std::size_t y = 0; y < out.dims[1]; ++y)
+      for (std::size_t x = 0; x < out.dims[0]; ++x) {
+        const std::size_t src = in.index(x / un, y / un, z / un), dst = out.index(x, y, z);
+        out.labels[dst] = in.labels[src];
+        out.fraction[dst] = in.fraction[src];
+      }
+  return out;
+}
+
+SampleVolume merge_voxels(const SampleVolume& in, int n) {
+  check_factor(n, "merge factor");
+  const auto un = std::size_t(n);
+  SampleVolume out = same_header(in);
+  out.voxel_mm = in.voxel_mm * n;
+  out.origin_mm = in.origin_mm + glm::dvec3(0.5 * (n - 1) * in.voxel_mm);
+  for (int a = 0; a < 3; ++a) out.dims[std::size_t(a)] = (in.dims[std::size_t(a)] + un - 1) / un;
+  allocate(out, "merge factor");
+  const double cells = double(un * un * un);
+  std::array<double, 256> bone{};
+  for (std::size_t Z = 0; Z < out.dims[2]; ++Z)
+    for (std::size_t Y = 0; Y < out.dims[1]; ++Y)
+      for (std::size_t X = 0; X < out.dims[0]; ++X) {
+        bone.fill(0.0);
+        double total = 0;
+        for (std::size_t z = Z * un; z < std::min(in.dims[2], (Z + 1) * un); ++z)
+          for (std::size_t y = Y * un; y < std::min(in.dims[1], (Y + 1) * un); ++y)
+            for (std::size_t x = X * un; x < std::min(in.dims[0], (X + 1) * un); ++x) {
+              const std::size_t i = in.index(x, y, z);
+              if (in.labels[i] == kEmpty) continue;
+              bone[in.labels[i]] += double(in.fraction[i]);
+              total += double(in.fraction[i]);
+            }
+        if (!(total > 0)) continue;
+        std::size_t best = 1;
+        for (std::size_t l = 2; l < bone.size(); ++l)
+          if (bone[l] > bone[best]) best = l;
+        const std::size_t o = out.index(X, Y, Z);
+        out.labels[o] = std::uint8_t(best);
+        out.fraction[o] = static_cast<float>(std::min(1.0, total / cells));
+      }
   return out;
 }
 

@@ -23,6 +23,10 @@ struct CalibrateOptions {
   // Widen the intervals (covariance and profile threshold) by the AR(1) factor of the
   // residuals' lag-1 autocorrelation (ar1_inflation); false: residuals assumed white.
   bool noise_inflation = true;
+  // Refit on the sample with voxels merged by 2 and report how far each estimate moves
+  // (its discretization error; "limited by discretization error" when it exceeds half
+  // the 95 % interval).
+  bool discretization_check = true;
   int profile_points = 8;       // per side, at most
   Derivatives derivatives = Derivatives::kSensitivities;
   int bootstrap = 0;            // block-bootstrap replicates (0: none)

@@ -17,7 +17,7 @@ namespace burrbench::data_schema {
 
 inline constexpr const char* kFitFormat = "burrbench.fit";
 inline constexpr int kFitVersionMajor = 1;
-inline constexpr int kFitVersionMinor = 1;  // 1.1: held value, verdict, profile, multistart
+inline constexpr int kFitVersionMinor = 2;  // 1.1: held value, verdict, profile, multistart; 1.2: discretization check
 
 inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -41,6 +41,15 @@ struct FitParameter {
                         // ("" in 1.0 files)
   double profile_ci95_low = kNaN, profile_ci95_high = kNaN;
   nlohmann::json profile = nlohmann::json::array();
+  // 1.2: the discretization check (docs/calibration.md): the estimate refitted on the
+  // sample with its voxels merged by 2 (NaN: not checked), the estimated discretization
+  // error of ln θ at the fit's voxel size (|ln θ_2l − ln θ_l|: first order, Richardson),
+  // whether it exceeds half the 95 % interval's half-width in ln θ ("limited by
+  // discretization error"), and the 95 % interval widened by it on both sides.
+  double coarse_estimate = kNaN;
+  double discretization_error_log = kNaN;
+  bool limited_by_discretization = false;
+  double ci95_with_discretization_low = kNaN, ci95_with_discretization_high = kNaN;
 };
 
 struct FitNuisance {

@@ -39,6 +39,10 @@ struct ReplayResult {
   double wall_s = 0;       // wall-clock time (the only non-deterministic field)
 };
 
+// The step used when ReplayOptions::step_s is 0: half the median sample period (0 for
+// fewer than 2 samples).
+double default_step_s(const std::vector<double>& t_s);
+
 // Each sample interval [t_k, t_k+1] is split into n = ceil(Δt_k/step) equal sub-steps;
 // position and ω are interpolated linearly; the contact reported at t_k is evaluated on
 // the volume as eroded up to t_k. Replays from the volume's current state; leaves the

@@ -17,6 +17,8 @@
 
 #include <glm/glm.hpp>
 
+#include "burrbench/data_schema/sample_volume.hpp"
+
 namespace burrbench::data_schema::import {
 
 enum class VoxelType { kUint8, kInt16, kUint16, kFloat32 };
@@ -75,6 +77,18 @@ enum class Interpolation { kTrilinear, kNearest };
 ImageVolume resample_cubic(const ImageVolume& in, double voxel_mm, Interpolation,
                            const ImportLimits& = {});
 bool is_cubic(const ImageVolume& v, double rel_tol = 1e-6);
+
+// A sample at another voxel size, for solution verification and coarse-to-fine fits.
+// split_voxels: every voxel becomes n³ voxels of side l/n with its label and χ (the same
+// bone, exactly: per-class volume and every surface are kept). merge_voxels: blocks of n³
+// voxels (the volume padded with empty voxels to a multiple of n) become one voxel of
+// side n·l holding their mean χ, labelled with the class that has the most bone in the
+// block (ties: the lower label). The total bone volume is kept exactly; where classes meet
+// inside a block, bone moves to the majority class. Both keep the covered region: the
+// first output voxel's corner is the input's first corner. n ≥ 1; InputError if the
+// result would exceed the sample memory budget.
+SampleVolume split_voxels(const SampleVolume& in, int n);
+SampleVolume merge_voxels(const SampleVolume& in, int n);
 
 // Writes a NRRD (attached, gzip) that 3D Slicer opens: "space: left-posterior-superior"
 // is NOT claimed; the volume frame is written as "3D-right-handed".

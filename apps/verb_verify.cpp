@@ -1,0 +1,93 @@
+// burrbench verify: solution verification. Replays every recording at the sample's voxel
+// size l and at l/2, 2l, and at half the replay step, and estimates the discretization
+// error in force and removed volume (model/verification.hpp, docs/calibration.md).
+#include <fmt/format.h>
+
+#include <iostream>
+#include <memory>
+
+#include "burrbench/data_schema/atomic_file.hpp"
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/data_schema/progress.hpp"
+#include "burrbench/model/verification.hpp"
+#include "output_paths.hpp"
+#include "verb_registry.hpp"
+
+namespace {
+
+using namespace burrbench;
+
+struct Args {
+  std::string experiment, params, out;
+  double step_us = 0, sigma_N = 0;
+  bool overwrite = false;
+};
+
+void run(const Args& a) {
+  if (!(a.step_us >= 0))
+    throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
+  if (!(a.sigma_N >= 0))
+    throw InputError("command line", "--sigma-N", "a noise level ≥ 0 N (0 = the manifest's or estimated)");
+  const model::Experiment e = model::load_experiment(a.experiment);
+  const auto params = data_schema::read_params(a.params);
+  const model::ModelParams mp = model::ModelParams::from(params);
+  model::check_covers(params, e.samples, a.params);
+  if (!a.out.empty()) {
+    std::vector<std::string> ins{a.experiment, a.params};
+    for (const auto& s : e.manifest.samples) ins.push_back(s.path.string());
+    for (const auto& r : e.manifest.recordings) ins.push_back(r.path.string());
+    apps::refuse_output_over_inputs(a.out, "--out", ins);
+    apps::check_output_location(a.out, "--out");
+    apps::refuse_existing(a.out, "--out", a.overwrite);
+  }
+  model::VerifyOptions opt;
+  opt.step_s = a.step_us * 1e-6;
+  if (a.sigma_N > 0) opt.sigma_N = a.sigma_N;
+  TerminalProgress progress("verify");
+  const auto study = model::verify_convergence(e, mp, opt, &progress);
+
+  std::cout << "solution verification: change against (l, dt); RMS per axis over the used samples\n";
+  for (const auto& r : study.recordings) {
+    std::cout << fmt::format("{} ({} samples)\n", r.id, r.samples);
+    std::cout << fmt::format("  {:<5} {:>9} {:>9} {:>12} {:>9}", "level", "voxel mm", "step µs", "RMS change N", "peak N");
+    for (const auto& [id, name] : study.classes) std::cout << fmt::format(" {:>14}", name + " mm³");
+    std::cout << fmt::format(" {:>7}\n", "wall s");
+    for (const auto& L : r.levels) {
+      std::cout << fmt::format("  {:<5} {:>9.4g} {:>9.4g} {:>12.4g} {:>9.4g}", L.level, L.voxel_mm, 1e6 * L.step_s,
+                               L.rms_change_N, L.peak_N);
+      for (const auto& [id, name] : study.classes) std::cout << fmt::format(" {:>14.5g}", L.removed_mm3[id]);
+      std::cout << fmt::format(" {:>7.2f}\n", L.wall_s);
+    }
+    std::cout << fmt::format("  discretization error in force: {:.3g} N (voxel {:.3g} N, order {}; step {:.3g} N)\n",
+                             r.error_N, r.voxel.error,
+                             std::isfinite(r.voxel.order) ? fmt::format("{:.2f}", r.voxel.order) : "not observed",
+                             r.step_error_N);
+  }
+  std::cout << fmt::format("sensor noise: {} ({})\n",
+                           std::isfinite(study.sigma_N) ? fmt::format("{:.3g} N", study.sigma_N) : "unknown",
+                           study.sigma_source);
+  std::cout << "verdict: " << study.verdict() << "\n";
+  if (!a.out.empty()) {
+    data_schema::write_file_atomic(a.out, model::to_json(study).dump(2) + "\n");
+    std::cout << "wrote " << a.out << "\n";
+  }
+}
+
+void setup(CLI::App& root) {
+  auto* cmd = root.add_subcommand("verify",
+                                  "Solution verification: replay at voxel sizes l, l/2, 2l and at half the "
+                                  "step; the discretization error in force against the sensor noise");
+  auto a = std::make_shared<Args>();
+  cmd->add_option("EXPERIMENT,--experiment", a->experiment, "experiment manifest (.toml), as --experiment E.toml or just E.toml")->required();
+  cmd->add_option("--params", a->params, "parameter set (.toml)")->required();
+  cmd->add_option("--out", a->out, "also write the study as JSON");
+  cmd->add_flag("--overwrite", a->overwrite, "replace an existing --out file (refused otherwise)");
+  cmd->add_option("--step-us", a->step_us, "base replay step (µs; 0 = half the sample period)")->capture_default_str();
+  cmd->add_option("--sigma-N", a->sigma_N, "sensor noise per axis (N; 0 = the manifest's sensor.sigma_N, else estimated)")
+      ->capture_default_str();
+  cmd->callback([a] { run(*a); });
+}
+BURRBENCH_VERB("verify", setup);
+
+}  // namespace

@@ -1,0 +1,66 @@
+"""`burrbench verify` (solution verification, docs/calibration.md): every recording is
+replayed at l, l/2, 2l and Δt/2; the printed table and the JSON agree, the Richardson
+estimate follows from the changes, and the verdict compares it with the sensor noise."""
+import json
+import math
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from bad_input import assert_refused
+
+BURRBENCH = os.environ["BURRBENCH"]
+SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    d = tmp_path_factory.mktemp("synthetic_verify")
+    subprocess.run(["sh", str(SRC / "examples/experiments/synthetic/make.sh"), BURRBENCH, str(d)],
+                   check=True, capture_output=True, timeout=300)
+    return d
+
+
+def verify(d, *extra):
+    return subprocess.run([BURRBENCH, "verify", str(d / "experiment.toml"), "--params", str(d / "params_true.toml"),
+                           *map(str, extra)], capture_output=True, text=True, timeout=600)
+
+
+def test_study_levels_richardson_and_verdict(synthetic):
+    d = synthetic
+    p = verify(d, "--out", d / "v.json")
+    assert p.returncode == 0, p.stdout + p.stderr
+    v = json.loads((d / "v.json").read_text())
+    assert [r["id"] for r in v["recordings"]] == ["plunge", "sweep", "polish"]
+    for r in v["recordings"]:
+        lv = {x["level"]: x for x in r["levels"]}
+        assert list(lv) == ["l", "l/2", "2l", "dt/2"]
+        assert (lv["l"]["voxel_mm"], lv["l/2"]["voxel_mm"], lv["2l"]["voxel_mm"]) == pytest.approx((0.1, 0.05, 0.2))
+        assert lv["dt/2"]["step_us"] == pytest.approx(lv["l"]["step_us"] / 2)
+        assert lv["l"]["rms_change_N"] == 0
+        # The step error: first order from the Δt/2 replay.
+        assert r["step_error_N"] == pytest.approx(2 * lv["dt/2"]["rms_change_N"], rel=1e-12)
+        assert r["error_N"] == pytest.approx(math.hypot(r["voxel_error_N"], r["step_error_N"]), rel=1e-12)
+        # The voxel error is at least the change from l to l/2 (Richardson factor ≥ 1).
+        assert r["voxel_error_N"] >= 0.9 * lv["l/2"]["rms_change_N"] > 0
+        assert f"{r['id']} ({r['samples']} samples)" in p.stdout
+    worst = max(v["recordings"], key=lambda r: r["error_N"])
+    assert v["worst_recording"] == worst["id"] and v["largest_error_N"] == worst["error_N"]
+    # At R/l = 10 the voxel's error in force is several times the 0.02 N noise.
+    assert v["below_noise"] is False and v["largest_error_N"] > v["sigma_N"]
+    assert "exceeds the sensor noise" in v["verdict"] and v["verdict"] in p.stdout
+    # A noise level given on the command line is used, and turns the verdict.
+    q = verify(d, "--sigma-N", 10)
+    assert q.returncode == 0 and "is below the sensor noise (10 N)" in q.stdout, q.stdout + q.stderr
+
+
+def test_verify_refuses_bad_input_and_keeps_existing_output(synthetic):
+    d = synthetic
+    (d / "keep.json").write_text("mine")
+    p = verify(d, "--out", d / "keep.json")
+    assert_refused(p.returncode, p.stderr, "keep.json", "--overwrite")
+    assert (d / "keep.json").read_text() == "mine"
+    p = verify(d, "--step-us", -1)
+    assert_refused(p.returncode, p.stderr, "command line", "--step-us")
