@@ -86,6 +86,8 @@ void setup(CLI::App& root) {
   cmd->add_flag("--no-cross-validation", a->no_cv, "skip leave-one-out cross-validation");
   cmd->add_flag("--white-noise", a->white_noise,
                 "assume white residuals: do not widen the intervals by the residuals' AR(1) factor");
+  cmd->add_flag("--coarse-to-fine", a->options.coarse_to_fine,
+                "global search at voxels merged by 2, then refinement, profiles and intervals at the sample's own");
   cmd->add_flag("--no-discretization-check", a->no_discretization,
                 "skip the refit on the sample with voxels merged by 2 (each estimate's discretization error)");
   cmd->callback([a] { run(*a); });

@@ -16,6 +16,7 @@
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
+#include "burrbench/model/verification.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -28,7 +29,7 @@ struct Args {
   std::string context = "Release gate of the voxel burr–bone drilling model: does the model, with "
                         "the given constants, reproduce the forces recorded on the rig well enough "
                         "for the simulator's intended use?";
-  bool no_tare = false, overwrite = false;
+  bool no_tare = false, no_verification = false, overwrite = false;
 };
 
 void run(const Args& a) {
@@ -64,6 +65,12 @@ void run(const Args& a) {
                                         {!a.no_tare, a.context, &progress, a.params});
   // A criterion that selects data this experiment lacks is bad input, named by its file.
   (void)analysis::evaluate_criteria(criteria, analysis::compute_metric_rows(in), a.criteria);
+  if (!a.no_verification) {
+    // Solution verification: the same constants at l/2, 2l and half the step.
+    TerminalProgress vp("verify");
+    in.verification = model::to_json(model::verify_convergence(model::load_experiment(a.experiment),
+                                                               model::ModelParams::from(params), {}, &vp));
+  }
   in.params_path = fs::absolute(a.params).string();
   in.params_sha256 = sha256_file(a.params);
   in.criteria_path = fs::absolute(a.criteria).string();
@@ -89,6 +96,7 @@ void run(const Args& a) {
     std::cout << fmt::format("  {} {} [{}] {} = {:.4g}\n", r.pass ? "PASS" : "FAIL", c.name, r.axis,
                              c.metric, r.value);
   }
+  if (in.verification.is_object()) std::cout << "verification: " << in.verification.value("verdict", std::string()) << "\n";
   std::cout << fmt::format("gate: {} ({} of {} checks failed)\n", s.pass ? "PASS" : "FAIL", failed,
                            s.results.size());
   apps::set_exit_code(s.pass ? 0 : 1);
@@ -108,6 +116,8 @@ void setup(CLI::App& root) {
   cmd->add_option("--assets", a->assets, "report assets folder (see `burrbench report --help`)");
   cmd->add_option("--context-of-use", a->context, "context-of-use statement for the report");
   cmd->add_flag("--no-tare", a->no_tare, "do not subtract the no-contact mean force (sensor bias)");
+  cmd->add_flag("--no-verification", a->no_verification,
+                "skip the solution verification (replays at l/2, 2l and half the step; the report's section 3)");
   cmd->callback([a] { run(*a); });
 }
 BURRBENCH_VERB("validate", setup);

@@ -74,6 +74,7 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
                                {"registration", r.registration},
                                {"segments", segs}, {"samples", r.t_s.size()}});
   }
+  if (!in.verification.is_null()) j["verification"] = in.verification;
   j["provenance"] = data_schema::provenance_json(in.provenance);
   data_schema::write_file_atomic(dir / "analysis.json", j.dump(1) + "\n");
   data_schema::AtomicFile f(dir / "predictions.csv");
@@ -97,7 +98,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
   JsonView o(j, file, "",
         {"format", "format_version", "mode", "experiment", "context_of_use", "params",
          "criteria", "seed", "model", "calibration", "limitations", "parameters", "samples",
-         "recordings", "provenance"});
+         "recordings", "provenance", "verification"});
   data_schema::check_format(file, "format", o.str("format"), kAnalysisFormat);
   data_schema::check_version(file, "format_version", o.str("format_version"), kAnalysisVersionMajor);
 
@@ -194,6 +195,10 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
     rs.predicted_N.reserve(std::size_t(rows));
     rs.used.reserve(std::size_t(rows));
     in.recordings.push_back(std::move(rs));
+  }
+  if (o.has("verification")) {  // 1.1
+    if (!o.get("verification").is_object()) throw InputError(file, "verification", "a JSON object (burrbench verify's study)");
+    in.verification = o.get("verification");
   }
   in.provenance = data_schema::read_provenance(o.sub("provenance", {"software_version", "command_line", "created_utc", "inputs"}));
 

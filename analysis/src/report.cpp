@@ -153,12 +153,22 @@ std::string metric_table_html(const std::vector<MetricRow>& rows, bool pooled) {
 
 // fit.json is rendered, not re-validated here: its reader (data_schema) validated it
 // when calibrate wrote it; a type mismatch still becomes an InputError, never a crash.
+// fit.json's discretization check of one parameter: the estimate at 2l and, when limited,
+// the interval widened by the discretization error.
+std::string discretization_cell(const json& p) {
+  if (!p.contains("discretization") || !p.at("discretization").is_object()) return "—";
+  const auto& d = p.at("discretization");
+  auto n = [&](const char* k) { return d.contains(k) && d.at(k).is_number() ? num(d.at(k).get<double>()) : std::string("—"); };
+  if (!d.value("limited", false)) return n("coarse_estimate");
+  return n("coarse_estimate") + "<br><b>limited</b>: [" + n("ci95_low") + ", " + n("ci95_high") + "]";
+}
+
 std::string parameter_section(const AnalysisInput& in, const json* fit) {
   std::string h;
   if (fit && fit->contains("parameters")) {
     h += "<table><tr><th>class</th><th>parameter</th><th>unit</th><th>estimate</th>"
          "<th>held at the optimum</th><th>profile 95 %</th><th>std. error</th>"
-         "<th>covariance 95 %</th><th>bootstrap 95 %</th><th>fixed</th><th>verdict</th></tr>";
+         "<th>covariance 95 %</th><th>bootstrap 95 %</th><th>at 2l (discretization)</th><th>fixed</th><th>verdict</th></tr>";
     for (const auto& p : fit->at("parameters")) {
       const auto n = [&](const char* k) {
         return p.contains(k) && p.at(k).is_number() ? num(p.at(k).get<double>()) : std::string("—");
@@ -177,7 +187,7 @@ std::string parameter_section(const AnalysisInput& in, const json* fit) {
            td(prof, true) + td(n("std_error"), true) +
            td("[" + n("ci95_low") + ", " + n("ci95_high") + "]", true) +
            td("[" + n("bootstrap_ci95_low") + ", " + n("bootstrap_ci95_high") + "]", true) +
-           td(p.value("fixed", false) ? "yes" : "no") +
+           td(discretization_cell(p), true) + td(p.value("fixed", false) ? "yes" : "no") +
            td(ident && verdict != "imprecise" ? esc(verdict)
                                               : "<b>" + esc(verdict) + "</b>: " + esc(p.value("reason", std::string()))) +
            "</tr>";
@@ -240,6 +250,71 @@ std::string parameter_section(const AnalysisInput& in, const json* fit) {
            td(num(p.alpha_N_per_mm2, 6), true) + td(num(p.c1_N_per_mm2, 6), true) +
            td(num(p.mu, 6), true) + "</tr>";
     h += "</table>";
+  }
+  return h;
+}
+
+// The convergence study (validate), or the calibration's discretization check (calibrate):
+// whether the model's discretization error is below the sensor noise, in words first.
+std::string verification_section(const AnalysisInput& in, const json* fit) {
+  std::string h;
+  const json& v = in.verification;
+  if (v.is_object() && v.contains("recordings")) {
+    const bool known = v.contains("below_noise") && v.at("below_noise").is_boolean();
+    const bool below = known && v.at("below_noise").get<bool>();
+    h += fmt::format("<p id=\"verification-verdict\"><span class=\"verdict {}\">{}</span> {}.</p>",
+                     !known ? "none" : below ? "pass" : "fail",
+                     !known ? "NOISE UNKNOWN" : below ? "DISCRETIZATION ERROR BELOW NOISE" : "DISCRETIZATION ERROR ABOVE NOISE",
+                     esc(v.value("verdict", std::string())));
+    h += "<p class=\"muted\">Every recording replayed with the same constants at the sample's voxel size l, "
+         "at l/2 (each voxel split into 8), at 2l (blocks of 8 merged) and at half the replay step. Change: "
+         "RMS over the used samples and the three axes against (l, Δt), comparable with the per-axis sensor "
+         "noise σ = " + (v.contains("sigma_N") && v.at("sigma_N").is_number() ? num(v.at("sigma_N").get<double>()) + " N"
+                                                                              : std::string("unknown")) +
+         " (" + esc(v.value("sigma_source", std::string())) + "). Error at l: Richardson from 2l, l, l/2 with the "
+         "observed order (clamped to [0.5, 4]); the step's error assumes first order (docs/calibration.md).</p>";
+    std::vector<std::string> classes;
+    h += "<div class=\"scroll\"><table><tr><th>recording</th><th>level</th><th>voxel (mm)</th><th>step (µs)</th>"
+         "<th>RMS change (N)</th><th>peak |F| (N)</th>";
+    if (!v.at("recordings").empty())
+      for (const auto& [name, _] : v.at("recordings")[0].at("levels")[0].at("removed_mm3").items()) {
+        classes.push_back(name);
+        h += "<th>removed " + esc(name) + " (mm³)</th>";
+      }
+    h += "</tr>";
+    for (const auto& r : v.at("recordings")) {
+      for (const auto& L : r.at("levels")) {
+        h += "<tr>" + td(esc(r.value("id", std::string()))) + td(esc(L.value("level", std::string()))) +
+             td(num(L.value("voxel_mm", NAN)), true) + td(num(L.value("step_us", NAN)), true) +
+             td(num(L.value("rms_change_N", NAN)), true) + td(num(L.value("peak_N", NAN)), true);
+        for (const auto& c : classes)
+          h += td(num(L.at("removed_mm3").value(c, NAN), 5), true);
+        h += "</tr>";
+      }
+      const auto& ord = r.at("voxel_order");
+      h += "<tr class=\"total\">" + td(esc(r.value("id", std::string()))) + td("<b>error at l</b>") +
+           td("order " + (ord.is_number() ? num(ord.get<double>(), 3) : std::string("not observed"))) +
+           td("step " + num(r.value("step_error_N", NAN), 3) + " N") +
+           td("<b>" + num(r.value("error_N", NAN), 3) + "</b>", true) + td("");
+      for (const auto& c : classes)
+        h += td("± " + num(r.at("removed_error").at(c).value("error_mm3", NAN), 3), true);
+      h += "</tr>";
+    }
+    h += "</table></div>";
+  } else if (fit && fit->contains("settings") && fit->at("settings").contains("discretization_check") &&
+             fit->at("settings").at("discretization_check").value("computed", false)) {
+    std::size_t limited = 0;
+    for (const auto& p : fit->at("parameters"))
+      if (p.contains("discretization") && p.at("discretization").value("limited", false)) ++limited;
+    h += fmt::format("<p>The calibration refitted every constant on the sample with its voxels merged by 2 "
+                     "(voxel {} mm): <b>{} constant(s) limited by discretization error</b>, i.e. moved by more "
+                     "than half their 95 % interval. Their intervals hold for the model at the fit's voxel "
+                     "size; as physical constants read the widened interval (section 6, "
+                     "docs/calibration.md). For the force, run <code>burrbench verify</code>.</p>",
+                     num(fit->at("settings").at("discretization_check").value("coarse_voxel_mm", NAN)), limited);
+  } else {
+    h += "<p class=\"muted\">Not computed in this run (<code>validate --no-verification</code>, or a calibration "
+         "with <code>--no-discretization-check</code>). <code>burrbench verify</code> makes the study.</p>";
   }
   return h;
 }
@@ -384,7 +459,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   b += sum.has_criteria ? (sum.pass ? "<p><span class=\"verdict pass\" id=\"verdict\">ACCEPTANCE CRITERIA: PASS</span></p>"
                                     : "<p><span class=\"verdict fail\" id=\"verdict\">ACCEPTANCE CRITERIA: FAIL</span></p>")
                         : "<p><span class=\"verdict none\" id=\"verdict\">No acceptance criteria</span></p>";
-  b += "<nav><a href=\"#glance\">At a glance</a><a href=\"#cou\">Context</a><a href=\"#model\">Model</a><a href=\"#data\">Data</a>"
+  b += "<nav><a href=\"#glance\">At a glance</a><a href=\"#cou\">Context</a><a href=\"#model\">Model</a><a href=\"#verif\">Verification</a><a href=\"#data\">Data</a>"
        "<a href=\"#calib\">Calibration</a><a href=\"#params\">Parameters</a><a href=\"#force\">Force</a>"
        "<a href=\"#resid\">Residuals</a><a href=\"#metrics\">Metrics</a><a href=\"#cv\">Cross-validation</a>"
        "<a href=\"#bone\">Removed bone</a><a href=\"#accept\">Acceptance</a><a href=\"#limits\">Limitations</a>"
@@ -415,7 +490,9 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   model_info.update(in.model);
   b += "<h2 id=\"model\">2. Model and version</h2>" + kv_table(model_info);
 
-  b += "<h2 id=\"data\">3. Data</h2><h3>Samples</h3><table><tr><th>id</th><th>file</th><th>SHA-256</th>"
+  b += "<h2 id=\"verif\">3. Solution verification</h2>" + verification_section(in, has_fit ? &fit : nullptr);
+
+  b += "<h2 id=\"data\">4. Data</h2><h3>Samples</h3><table><tr><th>id</th><th>file</th><th>SHA-256</th>"
        "<th>removed volume (mm³)</th></tr>";
   for (const auto& s : in.samples)
     b += "<tr>" + td(esc(s.id)) + td("<code>" + esc(s.path) + "</code>") +
@@ -438,22 +515,22 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   }
   b += "</table>";
 
-  b += "<h2 id=\"calib\">4. Calibration method and settings</h2>";
+  b += "<h2 id=\"calib\">5. Calibration method and settings</h2>";
   b += in.calibration.empty() ? std::string("<p class=\"muted\">(none recorded)</p>") : kv_table(in.calibration);
   if (has_fit) {
     for (const char* k : {"settings", "solver", "residuals_summary"})
       if (fit.contains(k) && fit.at(k).is_object()) b += std::string("<h3>") + k + "</h3>" + kv_table(fit.at(k));
   }
 
-  b += "<h2 id=\"params\">5. Parameters</h2>" + parameter_section(in, has_fit ? &fit : nullptr);
+  b += "<h2 id=\"params\">6. Parameters</h2>" + parameter_section(in, has_fit ? &fit : nullptr);
 
-  b += "<h2 id=\"force\">6. Measured vs predicted force</h2><p class=\"muted\">Sensor frame. "
+  b += "<h2 id=\"force\">7. Measured vs predicted force</h2><p class=\"muted\">Sensor frame. "
        "Drag to zoom (x, or a box), double-click to reset; click a legend entry to hide a series. "
        "Plots show every k-th sample when a recording is long; predictions.csv has all.</p>";
   for (std::size_t i = 0; i < in.recordings.size(); ++i)
     b += fmt::format("<h3>{}</h3><div class=\"plot\" id=\"plot-force-{}\"></div>", esc(in.recordings[i].id), i);
 
-  b += "<h2 id=\"resid\">7. Residuals</h2><p class=\"muted\">e = measured − predicted.</p>";
+  b += "<h2 id=\"resid\">8. Residuals</h2><p class=\"muted\">e = measured − predicted.</p>";
   for (std::size_t i = 0; i < in.recordings.size(); ++i)
     b += fmt::format("<h3>{}</h3><div class=\"plotrow\"><div class=\"plot\" id=\"plot-resid-t-{}\"></div>"
                      "<div class=\"plot\" id=\"plot-resid-p-{}\"></div></div>",
@@ -467,15 +544,15 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     }
   }
 
-  b += "<h2 id=\"metrics\">8. Validation metrics</h2><p class=\"muted\">NRMSE is normalised by the "
+  b += "<h2 id=\"metrics\">9. Validation metrics</h2><p class=\"muted\">NRMSE is normalised by the "
        "measured range (max − min) of the same series; R² = 1 − SSE/SST; Theil U2 = √(Σe²/Σm²); "
        "SG = Sprague–Geers; definitions in docs/report.md. Only used samples count.</p>"
        "<h3>Per recording</h3>" + metric_table_html(rows, false) + "<h3>Pooled by role</h3>" +
        metric_table_html(rows, true);
 
-  b += "<h2 id=\"cv\">9. Cross-validation</h2>" + cross_validation_section(rows, has_fit ? &fit : nullptr);
+  b += "<h2 id=\"cv\">10. Cross-validation</h2>" + cross_validation_section(rows, has_fit ? &fit : nullptr);
 
-  b += "<h2 id=\"bone\">10. Removed bone</h2><p class=\"muted\">Depth map: thickness of bone "
+  b += "<h2 id=\"bone\">11. Removed bone</h2><p class=\"muted\">Depth map: thickness of bone "
        "removed by the replay in each (x, y) column of the volume (plan view, y up).</p>";
   for (const auto& s : in.samples) {
     const auto png = render_removed_depth_png(s);
@@ -489,14 +566,14 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
          base64(png) + "\">";
   }
 
-  b += "<h2 id=\"accept\">11. Acceptance criteria</h2>" + criteria_section(sum);
+  b += "<h2 id=\"accept\">12. Acceptance criteria</h2>" + criteria_section(sum);
 
-  b += "<h2 id=\"limits\">12. Limitations</h2><ul>";
+  b += "<h2 id=\"limits\">13. Limitations</h2><ul>";
   for (const auto& l : in.limitations) b += "<li>" + esc(l) + "</li>";
   b += "<li>Metrics use only samples marked used (buried or excluded samples and spans outside used "
        "segments are left out).</li></ul>";
 
-  b += "<h2 id=\"repro\">13. Reproducibility</h2><h3>Command lines</h3><pre>" +
+  b += "<h2 id=\"repro\">14. Reproducibility</h2><h3>Command lines</h3><pre>" +
        esc(in.provenance.command_line.empty() ? "(library call)" : in.provenance.command_line) + "\n" +
        esc(invocation().empty() ? "(report: library call)" : invocation()) + "</pre>";
   b += "<h3>Versions</h3>" + versions_table(assets);

@@ -92,8 +92,12 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path, const Ca
   };
   stage("select", detail::select_recordings);
   stage("steps", detail::choose_steps);
-  stage("global_search", detail::global_search);
-  stage("refine", detail::refine);
+  if (opt.coarse_to_fine) {
+    stage("coarse_to_fine", detail::coarse_search);
+  } else {
+    stage("global_search", detail::global_search);
+    stage("refine", detail::refine);
+  }
   stage("assess", detail::assess);
   run.calibration_metrics = detail::metrics(*run.obj, run.ev, run.x, run.w_all);
   stage("discretization", detail::discretization_check);

@@ -26,6 +26,17 @@ struct Metrics {
   nlohmann::json json() const;
 };
 
+// The same recordings replayed on the samples with their voxels merged by 2: the
+// coarse-to-fine search and the discretization check.
+struct CoarseLevel {
+  std::map<std::string, ds::SampleVolume> samples;
+  std::unique_ptr<ReplayPool> pool;
+  std::vector<std::unique_ptr<ReplayRecordingModel>> owned;
+  std::unique_ptr<Objective> obj;
+  double voxel_mm = 0;       // the coarse voxel (the largest over the samples)
+  double fine_voxel_mm = 0;
+};
+
 struct Run {
   Run(const CalibrateOptions& o, const std::filesystem::path& manifest)
       : opt(o), manifest_path(manifest), mfile(manifest.string()), exp(model::load_experiment(manifest)) {}
@@ -69,8 +80,10 @@ struct Run {
   std::map<std::size_t, std::string> imprecise_reason;  // x entry → why "imprecise"
   std::vector<std::string> warnings;
 
-  // discretization check
-  double coarse_voxel_mm = NAN;      // voxel of the coarse refit (NaN: not done)
+  // coarse level (coarse-to-fine, discretization check); built on first use
+  std::unique_ptr<CoarseLevel> coarse;
+  double coarse_voxel_mm = NAN;      // voxel of the discretization check's refit (NaN: not done)
+  double coarse_cost = NAN;          // coarse-to-fine: the coarse optimum's cost
 
   // resampling
   ds::FitResult out;
@@ -85,6 +98,8 @@ Metrics metrics(const Objective& obj, const Evaluation& ev, const std::vector<do
                 const SampleWeights& w);
 
 void select_recordings(Run& run);   // recordings, classes, layout, pool, weights, σ
+CoarseLevel& coarse_level(Run& run);  // built on first use (after choose_steps)
+void coarse_search(Run& run);       // coarse-to-fine: global search and refine at 2l
 void choose_steps(Run& run);        // difference steps (finite differences only)
 void global_search(Run& run);       // multistart from a Latin hypercube
 void refine(Run& run);              // the best start to convergence

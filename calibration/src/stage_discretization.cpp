@@ -1,9 +1,12 @@
-// Stage "discretization": how far the estimates move when the sample's voxels are merged
-// by 2. The fit is repeated from the optimum on the coarse sample (same data, weights,
-// nuisances and held parameters); |ln θ_2l − ln θ_l| is the first-order (Richardson,
-// p = 1) estimate of the discretization error of ln θ at the fit's voxel size l. A
-// constant whose error exceeds half its 95 % interval is "limited by discretization
-// error", and its interval is widened by it (docs/calibration.md, "Discretization check").
+// The coarse level (samples with voxels merged by 2) and its two uses:
+//  - stage "coarse search" (coarse-to-fine): the global search and the refinement run at
+//    2l, where a replay is several times cheaper; the fine level starts from there.
+//  - stage "discretization": the fit is repeated from the optimum at 2l (same data,
+//    weights, nuisances and held parameters); |ln θ_2l − ln θ_l| is the first-order
+//    (Richardson, p = 1) estimate of the discretization error of ln θ at the fit's voxel
+//    size l. A constant whose error exceeds half its 95 % interval is "limited by
+//    discretization error", and its interval is widened by it.
+// docs/calibration.md, "Discretization check" and "Coarse to fine".
 #include <algorithm>
 #include <cmath>
 
@@ -14,34 +17,69 @@
 
 namespace burrbench::calibration::detail {
 
+CoarseLevel& coarse_level(Run& run) {
+  if (run.coarse) return *run.coarse;
+  auto c = std::make_unique<CoarseLevel>();
+  for (const auto& [id, s] : run.used_samples) {
+    c->samples.emplace(id, ds::import::merge_voxels(s, 2));
+    c->fine_voxel_mm = std::max(c->fine_voxel_mm, s.voxel_mm);
+  }
+  c->voxel_mm = 2 * c->fine_voxel_mm;
+  c->pool = std::make_unique<ReplayPool>(c->samples, run.opt.threads);
+  std::vector<const RecordingModel*> models;
+  for (const auto* r : run.recs) {
+    c->owned.push_back(std::make_unique<ReplayRecordingModel>(*r, *c->pool));
+    c->owned.back()->set_derivatives(run.opt.derivatives);
+    c->owned.back()->set_steps(run.steps);
+    models.push_back(c->owned.back().get());
+  }
+  c->obj = std::make_unique<Objective>(*run.layout, models, run.settings);
+  run.coarse = std::move(c);
+  return *run.coarse;
+}
+
+void coarse_search(Run& run) {
+  if (!run.opt.coarse_to_fine) return;
+  CoarseLevel& c = coarse_level(run);
+  run.say(fmt::format("coarse to fine: global search at voxel {:.4g} mm", c.voxel_mm));
+  const auto before = c.obj->replays();
+  std::swap(run.obj, c.obj);  // the search stages use run.obj
+  try {
+    global_search(run);
+    refine(run);
+  } catch (...) {
+    std::swap(run.obj, c.obj);
+    throw;
+  }
+  std::swap(run.obj, c.obj);
+  run.replays_before += c.obj->replays() - before;
+  run.coarse_cost = run.fit.final_cost;
+  const std::vector<double> x_coarse = run.x;
+  run.say(fmt::format("coarse to fine: refining at voxel {:.4g} mm", c.fine_voxel_mm));
+  refine(run);
+  // The search's ends were scored at 2l: move them by the best start's shift so that
+  // "reached by k of N" and the check of equally good ends compare like with like.
+  for (auto& e : run.search.ends) {
+    if (!e.usable) continue;
+    for (std::size_t i = 0; i < e.end.size(); ++i) e.end[i] += run.x[i] - x_coarse[i];
+    e.cost += run.fit.final_cost - run.coarse_cost;
+  }
+}
+
 void discretization_check(Run& run) {
   if (!run.opt.discretization_check) return;
   const Layout& L = *run.layout;
-  run.say("discretization check: refitting on the sample with voxels merged by 2");
-  std::map<std::string, ds::SampleVolume> coarse;
-  double voxel_mm = 0;
-  for (const auto& [id, s] : run.used_samples) {
-    coarse.emplace(id, ds::import::merge_voxels(s, 2));
-    voxel_mm = std::max(voxel_mm, s.voxel_mm);
-  }
-  ReplayPool pool(coarse, run.opt.threads);
-  std::vector<std::unique_ptr<ReplayRecordingModel>> owned;
-  std::vector<const RecordingModel*> models;
-  for (const auto* r : run.recs) {
-    owned.push_back(std::make_unique<ReplayRecordingModel>(*r, pool));
-    owned.back()->set_derivatives(run.opt.derivatives);
-    owned.back()->set_steps(run.steps);
-    models.push_back(owned.back().get());
-  }
-  const Objective obj(L, models, run.settings);
+  CoarseLevel& c = coarse_level(run);
+  run.say(fmt::format("discretization check: refitting at voxel {:.4g} mm", c.voxel_mm));
   SolveOptions so;
   so.max_iterations = run.opt.max_iterations;
   so.threads = run.opt.threads;
   so.progress = run.opt.progress;
   so.hold = run.unc.held;
-  const SolveOutcome fit = obj.solve(run.x, run.w_all, so);
-  run.replays_before += obj.replays();
-  run.coarse_voxel_mm = 2 * voxel_mm;
+  const auto before = c.obj->replays();
+  const SolveOutcome fit = c.obj->solve(run.x, run.w_all, so);
+  run.replays_before += c.obj->replays() - before;
+  run.coarse_voxel_mm = c.voxel_mm;
   if (!fit.usable) {
     run.warnings.push_back("discretization check: the refit on the coarse sample failed; no "
                            "discretization error is given");
@@ -70,7 +108,7 @@ void discretization_check(Run& run) {
           "half its 95 % interval (±{:.1f} %): limited by discretization error. The interval holds for a "
           "model at this voxel size; as a physical constant, or at another voxel size, read [{:.6g}, {:.6g}] {} "
           "(a finer sample narrows it; `burrbench verify`)",
-          fp.class_name, fp.name, 100 * (std::exp(fit.x[i] - run.x[i]) - 1), voxel_mm, 2 * voxel_mm,
+          fp.class_name, fp.name, 100 * (std::exp(fit.x[i] - run.x[i]) - 1), c.fine_voxel_mm, c.voxel_mm,
           100 * (std::exp(half) - 1), fp.ci95_with_discretization_low, fp.ci95_with_discretization_high,
           fp.unit));
   }

@@ -98,6 +98,10 @@ CalibrationOutput results(Run& run) {
       {"method", "refit from the optimum on the sample with voxels merged by 2; error of ln(theta) = "
                  "|ln theta_2l - ln theta_l| (Richardson, first order); limited when above half the 95 % "
                  "interval's half-width in ln(theta); interval widened by it on both sides"}};
+  st["coarse_to_fine"] = {
+      {"used", run.opt.coarse_to_fine},
+      {"coarse_voxel_mm", run.opt.coarse_to_fine && run.coarse ? nlohmann::json(run.coarse->voxel_mm) : nlohmann::json(nullptr)},
+      {"coarse_cost", std::isfinite(run.coarse_cost) ? nlohmann::json(run.coarse_cost) : nlohmann::json(nullptr)}};
   nlohmann::json reg = nlohmann::json::object();
   std::string reg_text;
   for (std::size_t q = 0; q < run.recs.size(); ++q) {

@@ -51,6 +51,7 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
     r = validate(exp, out)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "gate: PASS" in r.stdout
+    gate_stdout = r.stdout
     m = json.load(open(out / "metrics.json"))
     assert m["pass"] is True and len(m["criteria"]) == 4
     # held-out data is the "polish" recording only; the model with the truth sits at the
@@ -77,6 +78,19 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
     for version in ("Ceres Solver", "libmodbus", "OpenCV", "HDF5"):
         assert version in html
     assert sha(exp / "polish.h5") in html  # input hashes in the data section
+    # Solution verification (issue 18): the convergence table and, in words, whether the
+    # discretization error is below the sensor noise. At R/l = 10 it is not.
+    v = json.load(open(out / "analysis.json"))["verification"]
+    assert [r["id"] for r in v["recordings"]] == ["plunge", "sweep", "polish"]
+    assert v["below_noise"] is False
+    assert "verification: " + v["verdict"] in gate_stdout
+    section = html[html.index('id="verif"'):html.index('id="data"')]
+    assert "DISCRETIZATION ERROR ABOVE NOISE" in section
+    assert html_escaped(v["verdict"]) in section
+    for rec in v["recordings"]:
+        for level in ("l/2", "2l", "dt/2"):
+            assert f"<td>{rec['id']}</td><td>{level}</td>" in section, (rec["id"], level)
+        assert f"<b>{rec['error_N']:.3g}</b>" in section
     res = json.loads(subprocess.run([sys.executable, os.path.join(HERE, "browser_check.py"),
                                      str(out / "report.html"), str(tmp_path / "chromium")],
                                     capture_output=True, text=True, timeout=200, check=True).stdout)
@@ -84,6 +98,20 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
     # overview + 3 recordings × 3 plots + 2 histograms (calibrate, validate)
     assert res["dom"].count('data-rendered="1"') == 12
     assert res["coloured_fraction"] > 0.003
+
+
+def html_escaped(text):
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;").replace("'", "&#39;")
+
+
+def test_no_verification_skips_the_study_and_says_so(exp, tmp_path):
+    out = tmp_path / "gate"
+    r = run("validate", "--experiment", str(exp / "experiment.toml"), "--params", str(exp / "params_true.toml"),
+            "--criteria", CRITERIA, "--out", str(out), "--no-verification")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "verification" not in json.load(open(out / "analysis.json"))
+    html = open(out / "report.html", encoding="utf-8").read()
+    assert "Not computed in this run" in html[html.index('id="verif"'):html.index('id="data"')]
 
 
 def test_wrong_parameters_fail(exp, tmp_path):

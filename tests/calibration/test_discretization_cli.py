@@ -34,7 +34,7 @@ def half(tmp_path_factory):
     assert 'path = "sample.h5"' in text
     (d / "experiment_half.toml").write_text(text.replace('path = "sample.h5"', 'path = "sample_half.h5"'))
     out = run("calibrate", d / "experiment_half.toml", "--out", d / "fit", "--no-cross-validation")
-    return json.loads((d / "fit" / "fit.json").read_text()), out
+    return json.loads((d / "fit" / "fit.json").read_text()), out, d
 
 
 def interval(p):
@@ -44,7 +44,7 @@ def interval(p):
 
 
 def test_no_constant_is_reported_confidently_wrong(half):
-    fit, out = half
+    fit, out, _ = half
     checked = limited = 0
     for p in fit["parameters"]:
         if p["fixed"] or not p["identifiable"]:
@@ -68,10 +68,31 @@ def test_no_constant_is_reported_confidently_wrong(half):
 def test_the_coarse_refit_is_at_the_datas_own_voxel_size(half):
     # Merging the split sample gives back the sample the data were made on: the coarse
     # refit recovers the truth, so the error estimate is the real mismatch.
-    fit, _ = half
+    fit, _, _ = half
     assert fit["settings"]["discretization_check"]["computed"] is True
     assert fit["settings"]["discretization_check"]["coarse_voxel_mm"] == pytest.approx(0.1)
     for p in fit["parameters"]:
         if p["fixed"] or not p["identifiable"]:
             continue
         assert p["discretization"]["coarse_estimate"] == pytest.approx(TRUTH[(p["class_name"], p["name"])], rel=0.03)
+
+
+def test_coarse_to_fine_reaches_the_same_optimum(half):
+    # Search and first refinement at 2l, the rest at l/2: the same optimum (within the
+    # profile threshold) and the same intervals, from fewer fine replays.
+    fit, _, d = half
+    out = run("calibrate", d / "experiment_half.toml", "--out", d / "c2f", "--no-cross-validation", "--coarse-to-fine")
+    c2f = json.loads((d / "c2f" / "fit.json").read_text())
+    st = c2f["settings"]
+    assert st["coarse_to_fine"]["used"] is True and st["coarse_to_fine"]["coarse_voxel_mm"] == pytest.approx(0.1)
+    assert fit["settings"]["coarse_to_fine"]["used"] is False
+    stages = [s["stage"] for s in c2f["solver"]["stages"]]
+    assert "coarse_to_fine" in stages and "global_search" not in stages, stages
+    assert "coarse_to_fine" in out
+    assert c2f["solver"]["final_cost"] <= fit["solver"]["final_cost"] + st["profiles"]["threshold_cost"]
+    for a, b in zip(fit["parameters"], c2f["parameters"]):
+        if a["fixed"] or not a["identifiable"]:
+            continue
+        lo, hi = interval(a)
+        assert lo <= b["estimate"] <= hi, (a["name"], a["estimate"], b["estimate"])
+        assert b["discretization"]["limited"] == a["discretization"]["limited"]

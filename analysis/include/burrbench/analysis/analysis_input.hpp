@@ -17,7 +17,7 @@ namespace burrbench::analysis {
 
 inline constexpr const char* kAnalysisFormat = "burrbench.analysis";
 inline constexpr int kAnalysisVersionMajor = 1;
-inline constexpr int kAnalysisVersionMinor = 0;
+inline constexpr int kAnalysisVersionMinor = 1;  // 1.1: verification
 
 struct SegmentSpan {
   std::string label;
@@ -68,6 +68,9 @@ struct AnalysisInput {
   std::vector<SampleInfo> samples;
   std::vector<RecordingSeries> recordings;
   Provenance provenance;
+  // 1.1: the solution-verification study (model::to_json(ConvergenceStudy)) when the run
+  // made one (validate does by default); null otherwise.
+  nlohmann::json verification;
 };
 
 // Writes DIR/analysis.json and DIR/predictions.csv (creates DIR).

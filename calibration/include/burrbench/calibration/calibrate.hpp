@@ -27,6 +27,9 @@ struct CalibrateOptions {
   // (its discretization error; "limited by discretization error" when it exceeds half
   // the 95 % interval).
   bool discretization_check = true;
+  // Global search and first refinement on the sample with voxels merged by 2 (cheaper
+  // replays), then refinement, profiles and intervals at the sample's own voxel size.
+  bool coarse_to_fine = false;
   int profile_points = 8;       // per side, at most
   Derivatives derivatives = Derivatives::kSensitivities;
   int bootstrap = 0;            // block-bootstrap replicates (0: none)
