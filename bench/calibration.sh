@@ -11,9 +11,15 @@
 #     REPS seeds (time scale 0.5, default calibration);
 #  5. the same coverage when the registration comes from four fiducials with 5 µm of
 #     noise (a rig frame rotated 37°; REPS seeds of fiducial and sensor noise, issue 17).
+#  6. the discretization mismatch of issue 18 over MISMATCH_REPS seeds (default 10): data
+#     made at 0.1 mm, calibrated on the sample at 0.05 mm; coverage of the intervals where
+#     a constant limited by discretization error counts with its widened interval, the
+#     constants reported confidently wrong (outside, not limited), and the wall time at
+#     0.05 mm with and without --coarse-to-fine (ratio of the sums).
 # The test manifests ask for 4 starts; every run here passes --starts 16, the default.
 # Environment: COVERAGE_TIME_SCALE (default 0.5); SKIP_TIMING=1 runs only the coverages;
-# COVERAGE=reference|registration runs one of the two (default both).
+# COVERAGE=reference|registration|mismatch runs one of the three (default all);
+# MISMATCH_REPS; NO_BUILD (below).
 # Usage: calibration.sh BUILD_DIR [REPS]
 set -euo pipefail
 build=$(cd "${1:-build}" && pwd)
@@ -21,7 +27,9 @@ reps=${2:-20}
 B="$build/apps/burrbench"
 G="$build/bench/bench_calibration_reference"
 PY=/usr/bin/python3
-cmake --build "$build" --target burrbench bench_calibration_reference -j 2 > /dev/null
+# NO_BUILD=1: BUILD_DIR holds apps/burrbench and bench/bench_calibration_reference only
+# (a copy, so that the build tree can change while a long run goes on).
+[[ -n ${NO_BUILD:-} ]] || cmake --build "$build" --target burrbench bench_calibration_reference -j 2 > /dev/null
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
@@ -105,9 +113,47 @@ PY
   done
   echo "$hits $chits $total $idf"
 }
-hits=0 chits=0 total=0 idf=0 rhits=0 rchits=0 rtotal=0 ridf=0
-[[ ${COVERAGE:-both} == registration ]] || read -r hits chits total idf <<<"$(coverage "")"
-[[ ${COVERAGE:-both} == reference ]] || read -r rhits rchits rtotal ridf <<<"$(coverage registration)"
+# The mismatch: prints "hits limited wrong total wall_default wall_c2f".
+mismatch() {
+  local hits=0 lim=0 wrong=0 total=0 wd=0 wc=0 seed ms h l w t a b
+  for seed in $(seq 1 "${MISMATCH_REPS:-10}"); do
+    ms=$("$G" "$work/mm$seed" "$B" "$seed" "${COVERAGE_TIME_SCALE:-0.5}" fine)
+    read -r a _ <<<"$(calib "$work/mm$seed/def" "$ms" --starts 16)"
+    read -r b _ <<<"$(calib "$work/mm$seed/c2f" "$ms" --starts 16 --coarse-to-fine)"
+    read -r h l w t <<<"$($PY - "$work/mm$seed/def/fit.json" "$work/mm$seed/truth.toml" <<'PY'
+import json, sys, tomllib
+f = json.load(open(sys.argv[1])); truth = tomllib.load(open(sys.argv[2], "rb"))["classes"]
+key = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}
+h = l = w = t = 0
+for p in f["parameters"]:
+    if p["fixed"]:
+        continue
+    tv = truth[p["class_name"]][key[p["name"]]]
+    t += 1
+    lo = p["profile_ci95_low"] if p["profile_ci95_low"] is not None else 0.0
+    hi = p["profile_ci95_high"] if p["profile_ci95_high"] is not None else float("inf")
+    d = p.get("discretization") or {}
+    if d.get("limited"):
+        l += 1
+        lo, hi = d["ci95_low"], d["ci95_high"]
+    inside = lo <= tv <= hi
+    h += inside
+    w += (not inside) and p["identifiable"] and not d.get("limited")
+print(h, l, w, t)
+PY
+)"
+    hits=$((hits+h)); lim=$((lim+l)); wrong=$((wrong+w)); total=$((total+t))
+    wd=$($PY -c "print($wd + $a)"); wc=$($PY -c "print($wc + $b)")
+    echo "  mismatch seed $seed: $h/$t held ($l limited by discretization, $w confidently wrong); $a s, coarse-to-fine $b s" >&2
+    rm -rf "$work/mm$seed"
+  done
+  echo "$hits $lim $wrong $total $wd $wc"
+}
+
+hits=0 chits=0 total=0 idf=0 rhits=0 rchits=0 rtotal=0 ridf=0 mhits=0 mlim=0 mwrong=0 mtotal=0 mwd=0 mwc=0
+[[ ${COVERAGE:-all} == registration || ${COVERAGE:-all} == mismatch ]] || read -r hits chits total idf <<<"$(coverage "")"
+[[ ${COVERAGE:-all} == reference || ${COVERAGE:-all} == mismatch ]] || read -r rhits rchits rtotal ridf <<<"$(coverage registration)"
+[[ ${COVERAGE:-all} == reference || ${COVERAGE:-all} == registration ]] || read -r mhits mlim mwrong mtotal mwd mwc <<<"$(mismatch)"
 
 pct() { $PY -c "print(f'{100*$1/max(1,$2):.1f}')"; }
 ok() { $PY -c "print('ok' if $1 else 'MISSED')" 2>/dev/null || echo -; }
@@ -128,3 +174,6 @@ printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$idf/$total
 printf '%-62s %-22s %-10s %s\n' "fiducial registration (5 um): profile coverage, $reps seeds" "$(pct $rhits $rtotal) % ($rhits/$rtotal)" ">= 90 %" "$(covered $rhits $rtotal)"
 printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(pct $rchits $rtotal) % ($rchits/$rtotal)" - -
 printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$ridf/$rtotal" - -
+printf '%-62s %-22s %-10s %s\n' "data at 0.1 mm fitted at 0.05 mm: coverage, ${MISMATCH_REPS:-10} seeds" "$(pct $mhits $mtotal) % ($mhits/$mtotal)" ">= 90 %" "$(covered $mhits $mtotal)"
+printf '%-62s %-22s %-10s %s\n' "  limited by discretization / confidently wrong" "$mlim / $mwrong of $mtotal" "- / 0" "$( (( mtotal == 0 )) && echo - || ok "$mwrong == 0")"
+printf '%-62s %-22s %-10s %s\n' "  wall at 0.05 mm: default / --coarse-to-fine (sum)" "$mwd s / $mwc s ($($PY -c "print(f'{$mwd/max($mwc,1e-9):.2f}')")x)" report -

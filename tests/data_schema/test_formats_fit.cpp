@@ -18,6 +18,12 @@ bb::FitResult make_fit() {
                    true, ""},
                   {2, "trabecular", "mu", "1", bb::kNaN, bb::kNaN, bb::kNaN, bb::kNaN, bb::kNaN, bb::kNaN, false,
                    false, "no trabecular contact in any segment"}};
+  // 1.2: the discretization check of the first parameter (limited, widened interval).
+  f.parameters[0].coarse_estimate = 15.5;
+  f.parameters[0].discretization_error_log = 0.2578;
+  f.parameters[0].limited_by_discretization = true;
+  f.parameters[0].ci95_with_discretization_low = 8.48;
+  f.parameters[0].ci95_with_discretization_high = bb::kNaN;
   f.nuisance = {{"plunge", "bias_x", "N", -0.0123, 0.001, -0.014, -0.010, false},
                 {"plunge", "lag", "ms", 2.0, bb::kNaN, bb::kNaN, bb::kNaN, true}};
   f.covariance = {{"c1", "mu"}, {0.25, -1e-310, -1e-310, 1e-4}};
@@ -59,7 +65,15 @@ TEST(FormatsFit, RoundTripKeepsEveryValue) {
     EXPECT_EQ(q.fixed, p.fixed);
     EXPECT_EQ(q.identifiable, p.identifiable);
     EXPECT_EQ(q.reason, p.reason);
+    for (auto [x, y] : {std::pair{p.coarse_estimate, q.coarse_estimate},
+                        {p.discretization_error_log, q.discretization_error_log},
+                        {p.ci95_with_discretization_low, q.ci95_with_discretization_low},
+                        {p.ci95_with_discretization_high, q.ci95_with_discretization_high}})
+      EXPECT_TRUE(same(x, y)) << p.name << " " << x << " vs " << y;
+    EXPECT_EQ(q.limited_by_discretization, p.limited_by_discretization);
   }
+  // Parameters without a check carry no "discretization" object.
+  EXPECT_EQ(text.find("\"discretization\""), text.rfind("\"discretization\""));
   ASSERT_EQ(b.nuisance.size(), 2u);
   EXPECT_EQ(b.nuisance[0].estimate, -0.0123);
   EXPECT_TRUE(b.nuisance[1].fixed);
@@ -102,8 +116,10 @@ TEST(FormatsFit, BadFilesAreRejected) {
     burrbench::test::write_text(dir / "F.json", text);
     burrbench::test::expect_rejected_unchanged(dir / "F.json", [&] { bb::read_fit(dir / "F.json"); }, frags);
   };
-  bad("\"format_version\": \"1.1\"", "\"format_version\": \"2.0\"", {"F.json: format_version", "unknown major version"});
-  bad("\"format_version\": \"1.1\"", "\"format_version\": \"1.1\", \"extra\": 1", {"F.json: extra: expected a known key"});
+  bad("\"format_version\": \"1.2\"", "\"format_version\": \"2.0\"", {"F.json: format_version", "unknown major version"});
+  bad("\"format_version\": \"1.2\"", "\"format_version\": \"1.2\", \"extra\": 1", {"F.json: extra: expected a known key"});
+  bad("\"limited\": true", "\"limited\": 1", {"F.json: parameters[0].discretization.limited"});
+  bad("\"coarse_estimate\": 15.5", "\"coarse_estimate\": 15.5, \"typo\": 0", {"F.json: parameters[0].discretization.typo"});
   bad("\"samples_used\": 1000", "\"samples_used\": 1000, \"x\": 2", {"residuals_summary.x", "known key"});
   bad("\"samples_used\": 1000", "\"samples_used\": -5", {"residuals_summary.samples_used", "non-negative integer"});
   bad("\"name\": \"c1\"", "\"name\": \"c2\"", {"parameters[0].name: expected alpha | c1 | mu"});
