@@ -26,6 +26,8 @@ struct Args {
   bool overwrite = false;
   double noise_N = 0, lag_ms = 0, step_us = 0;
   std::vector<double> bias_N{0, 0, 0};
+  double torque_noise_Nmm = 0, spindle_noise_Nmm = 0, spindle_idle_Nmm = 0, spindle_viscous = 0;
+  std::vector<double> torque_bias_Nmm{0, 0, 0};
   std::uint64_t seed = 1;
 };
 
@@ -38,6 +40,10 @@ void refuse_overwriting_inputs(const Args& a) {
 
 void run(const Args& a) {
   if (a.bias_N.size() != 3) throw InputError("command line", "--bias-N", "three numbers x,y,z (N)");
+  if (a.torque_bias_Nmm.size() != 3)
+    throw InputError("command line", "--torque-bias-Nmm", "three numbers x,y,z (N·mm)");
+  for (auto [v, name] : {std::pair{a.torque_noise_Nmm, "--torque-noise-Nmm"}, {a.spindle_noise_Nmm, "--spindle-noise-Nmm"}})
+    if (!(v >= 0) || !std::isfinite(v)) throw InputError("command line", name, "a finite σ ≥ 0 (N·mm)", fmt::format("{}", v));
   if (!(a.step_us >= 0))
     throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
   refuse_overwriting_inputs(a);
@@ -48,6 +54,11 @@ void run(const Args& a) {
   o.noise_N = a.noise_N;
   o.bias_N = {a.bias_N[0], a.bias_N[1], a.bias_N[2]};
   o.lag_ms = a.lag_ms;
+  o.torque_noise_Nmm = a.torque_noise_Nmm;
+  o.torque_bias_Nmm = {a.torque_bias_Nmm[0], a.torque_bias_Nmm[1], a.torque_bias_Nmm[2]};
+  o.spindle_noise_Nmm = a.spindle_noise_Nmm;
+  o.spindle_idle_Nmm = a.spindle_idle_Nmm;
+  o.spindle_viscous_Nmm_per_krpm = a.spindle_viscous;
   o.seed = a.seed;
   o.replay.step_s = a.step_us * 1e-6;
   const Provenance prov = make_provenance({a.sample, a.protocol, a.params});
@@ -87,6 +98,16 @@ void setup(CLI::App& root) {
       ->expected(3);
   cmd->add_option("--lag-ms", a->lag_ms, "recorded force at t = true force at t − lag (ms)")
       ->capture_default_str();
+  cmd->add_option("--torque-noise-Nmm", a->torque_noise_Nmm, "σ of Gaussian moment noise per component (N·mm)")
+      ->capture_default_str();
+  cmd->add_option("--torque-bias-Nmm", a->torque_bias_Nmm, "moment bias x,y,z (N·mm, sensor frame)")
+      ->delimiter(',')->expected(3);
+  cmd->add_option("--spindle-noise-Nmm", a->spindle_noise_Nmm, "σ of Gaussian noise on the spindle torque (N·mm)")
+      ->capture_default_str();
+  cmd->add_option("--spindle-idle-Nmm", a->spindle_idle_Nmm, "the drive's idle torque, added to the spindle torque (N·mm)")
+      ->capture_default_str();
+  cmd->add_option("--spindle-viscous-Nmm-per-krpm", a->spindle_viscous,
+                  "viscous drag: + this × |rpm|/1000 on the spindle torque (N·mm)")->capture_default_str();
   cmd->add_option("--seed", a->seed, "noise seed")->capture_default_str();
   cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")
       ->capture_default_str();

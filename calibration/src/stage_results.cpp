@@ -22,6 +22,9 @@ std::string interval_text(double lo, double hi) {
 
 }  // namespace
 
+// rms(residual/σ) above which the fit is reported as limited by model error.
+constexpr double kMisfitRms = 1.2;
+
 CalibrationOutput results(Run& run) {
   const Layout& L = *run.layout;
   auto& out = run.out;
@@ -32,6 +35,14 @@ CalibrationOutput results(Run& run) {
   out.residuals_summary.sigma_N = run.settings.sigma_N;
   out.residuals_summary.rms_normalised =
       ev.residuals_used ? std::sqrt(2 * ev.cost / double(ev.residuals_used)) : NAN;
+  // σ comes from the manifest or from samples without contact, never from these
+  // residuals: a fit well above it is a misfit the constants absorb (model error).
+  if (out.residuals_summary.rms_normalised > kMisfitRms)
+    run.warnings.push_back(fmt::format(
+        "rms(residual/σ) = {:.3f} (1 expected): the model does not follow the contact samples to the noise "
+        "level; the intervals are scaled by the residual variance, but a systematic misfit biases the "
+        "constants (limited by model error; see the discretization check and `burrbench verify`)",
+        out.residuals_summary.rms_normalised));
 
   for (const auto& e : run.search.ends)
     out.multistart.push_back({{"index", e.index},

@@ -128,6 +128,8 @@ void validate(const ExperimentManifest& m, const std::string& file) {
   check_rotation(file, "sensor.rotation_sensor_to_rig", m.sensor.rotation_sensor_to_rig);
   if (m.sensor.sigma_N && !(std::isfinite(*m.sensor.sigma_N) && *m.sensor.sigma_N > 0))
     throw InputError(file, "sensor.sigma_N", "a finite noise level > 0 N", fmt::format("{}", *m.sensor.sigma_N));
+  if (!std::isfinite(glm::length(m.sensor.origin_rig_mm)))
+    throw InputError(file, "sensor.origin_rig_mm", "finite values (mm, rig frame)", vec_text(m.sensor.origin_rig_mm));
 
   if (m.recordings.empty()) throw InputError(file, "recordings", "at least one [[recordings]] entry");
   const auto& nu = m.fit.nuisance;
@@ -304,6 +306,7 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
                               {"force_on_burr", SensorMeasures::kForceOnBurr}},
                              SensorMeasures::kForceOnSample);
   m.sensor.sigma_N = sensor.opt_num("sigma_N");
+  if (sensor.has("origin_rig_mm")) m.sensor.origin_rig_mm = sensor.vec3("origin_rig_mm");
   sensor.done();
 
   for (auto& r : root.tables("recordings")) {
@@ -501,6 +504,8 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
   toml::table sensor{{"rotation_sensor_to_rig", rows(m.sensor.rotation_sensor_to_rig)},
                      {"measures", to_string(m.sensor.measures)}};
   if (m.sensor.sigma_N) sensor.insert("sigma_N", *m.sensor.sigma_N);
+  if (m.sensor.origin_rig_mm != glm::dvec3(0))
+    sensor.insert("origin_rig_mm", toml::array{m.sensor.origin_rig_mm.x, m.sensor.origin_rig_mm.y, m.sensor.origin_rig_mm.z});
   toml::table classes;
   for (const auto& c : m.fit.classes)
     classes.insert(c.key, toml::table{{"alpha", param(c.alpha)}, {"c1", param(c.c1)}, {"mu", param(c.mu)}});

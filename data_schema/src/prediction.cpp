@@ -2,7 +2,9 @@
 //   /@format, /@format_version, /provenance, /recordings/<id>/{t_s, force_burr_vol_N,
 //   force_sensor_pred_N, force_sensor_meas_N, centre_vol_mm, normal_vol, depth_b_mm,
 //   class_mask, buried, use} (each with @unit), /recordings/<id>/@removed_mm3, @steps,
-//   @registration_* (2.1, optional).
+//   @registration_* (2.1, optional); 2.2, optional (present when the writer had them):
+//   moment_burr_vol_Nmm, torque_sensor_pred_Nmm, torque_sensor_meas_Nmm,
+//   spindle_torque_pred_Nmm, spindle_torque_meas_Nmm.
 #include "burrbench/data_schema/prediction.hpp"
 
 #include <fmt/format.h>
@@ -56,13 +58,19 @@ constexpr Vec3Field kVec3[] = {{"force_burr_vol_N", "N", &PR::force_burr_vol_N},
                                {"centre_vol_mm", "mm", &PR::centre_vol_mm},
                                {"normal_vol", "1", &PR::normal_vol}};
 constexpr ScalarField kDepth{"depth_b_mm", "mm", &PR::depth_b_mm};
+// 2.2: the wrench (MODEL.md "Moments"), each empty or one value per sample.
+constexpr Vec3Field kWrench3[] = {{"moment_burr_vol_Nmm", "N*mm", &PR::moment_burr_vol_Nmm},
+                                  {"torque_sensor_pred_Nmm", "N*mm", &PR::torque_sensor_pred_Nmm},
+                                  {"torque_sensor_meas_Nmm", "N*mm", &PR::torque_sensor_meas_Nmm}};
+constexpr ScalarField kWrench1[] = {{"spindle_torque_pred_Nmm", "N*mm", &PR::spindle_torque_pred_Nmm},
+                                    {"spindle_torque_meas_Nmm", "N*mm", &PR::spindle_torque_meas_Nmm}};
 constexpr FlagField kFlags[] = {
     {"class_mask", "bit k = class label k in contact", &PR::class_mask, 255},
     {"buried", "1 = contact normal ill-defined", &PR::buried, 1},
     {"use", "1 = inside a used segment", &PR::use, 1}};
 
-// t_s + 5 vectors + depth (float64) + 3 flags (uint8) per sample.
-constexpr std::uint64_t kBytesPerSample = 8 + 5 * 24 + 8 + 3;
+// t_s + 5 vectors + depth (float64) + 3 flags (uint8) per sample, + the 2.2 wrench.
+constexpr std::uint64_t kBytesPerSample = 8 + 5 * 24 + 8 + 3 + 3 * 24 + 2 * 8;
 constexpr std::uint64_t kMaxElements = 1ull << 31;  // per dataset
 constexpr std::uint64_t kMaxPredictionBytes = 4ull << 30;
 
@@ -94,6 +102,24 @@ void validate_recording(const PR& r, const std::string& file) {
         if (!std::isfinite(v[k][c]))
           throw InputError(file, fmt::format("{}/{}[{}][{}]", b, f.name, k, c), "a finite value",
                            fmt::format("{}", v[k][c]));
+  }
+  for (const auto& f : kWrench3) {
+    const auto& v = r.*f.member;
+    if (v.empty()) continue;
+    same_len(v.size(), f.name);
+    for (std::size_t k = 0; k < n; ++k)
+      for (int c = 0; c < 3; ++c)
+        if (!std::isfinite(v[k][c]))
+          throw InputError(file, fmt::format("{}/{}[{}][{}]", b, f.name, k, c), "a finite value",
+                           fmt::format("{}", v[k][c]));
+  }
+  for (const auto& f : kWrench1) {
+    const auto& v = r.*f.member;
+    if (v.empty()) continue;
+    same_len(v.size(), f.name);
+    for (std::size_t k = 0; k < n; ++k)
+      if (!std::isfinite(v[k]))
+        throw InputError(file, fmt::format("{}/{}[{}]", b, f.name, k), "a finite value", fmt::format("{}", v[k]));
   }
   same_len(r.depth_b_mm.size(), kDepth.name);
   for (std::size_t k = 0; k < n; ++k)
@@ -141,15 +167,20 @@ void write_prediction(const std::filesystem::path& path, const Prediction& p) {
       w.dataset(b + "/" + f.name, {n}, (r.*f.member).data(), true);
       w.attr(b + "/" + f.name, "unit", std::string(f.unit));
     };
-    scalars(kTime);
-    for (const auto& f : kVec3) {
+    auto vectors = [&](const Vec3Field& f) {
       std::vector<double> flat;
       flat.reserve(3 * n);
       for (const auto& x : r.*f.member) flat.insert(flat.end(), {x.x, x.y, x.z});
       w.dataset(b + "/" + f.name, {n, 3}, flat.data(), true);
       w.attr(b + "/" + f.name, "unit", std::string(f.unit));
-    }
+    };
+    scalars(kTime);
+    for (const auto& f : kVec3) vectors(f);
     scalars(kDepth);
+    for (const auto& f : kWrench3)
+      if (!(r.*f.member).empty()) vectors(f);
+    for (const auto& f : kWrench1)
+      if (!(r.*f.member).empty()) scalars(f);
     for (const auto& f : kFlags) {
       w.dataset(b + "/" + f.name, {n}, (r.*f.member).data(), true);
       w.attr(b + "/" + f.name, "unit", std::string(f.unit));
@@ -196,6 +227,8 @@ PR read_recording(const h5::Reader& r, const std::string& id) {
   std::vector<std::string> names{kTime.name, kDepth.name};
   for (const auto& f : kVec3) names.push_back(f.name);
   for (const auto& f : kFlags) names.push_back(f.name);
+  for (const auto& f : kWrench3) names.push_back(f.name);
+  for (const auto& f : kWrench1) names.push_back(f.name);
   r.expect_only(b, names);
   const auto t_shape = r.shape(b + "/t_s", h5::Elem::kFloat64);
   if (t_shape.size() != 1)
@@ -203,12 +236,18 @@ PR read_recording(const h5::Reader& r, const std::string& id) {
                      fmt::format("rank {}", t_shape.size()));
   const std::size_t n = t_shape[0];
   out.t_s = read_column<double>(r, b + "/t_s", h5::Elem::kFloat64, n, 1, kTime.unit);
-  for (const auto& f : kVec3) {
+  auto vectors = [&](const Vec3Field& f) {
     const auto flat = read_column<double>(r, b + "/" + f.name, h5::Elem::kFloat64, n, 3, f.unit);
     auto& v = out.*f.member;
     v.resize(n);
     for (std::size_t k = 0; k < n; ++k) v[k] = {flat[3 * k], flat[3 * k + 1], flat[3 * k + 2]};
-  }
+  };
+  for (const auto& f : kVec3) vectors(f);
+  for (const auto& f : kWrench3)
+    if (r.exists(b + "/" + f.name)) vectors(f);
+  for (const auto& f : kWrench1)
+    if (r.exists(b + "/" + f.name))
+      out.*f.member = read_column<double>(r, b + "/" + f.name, h5::Elem::kFloat64, n, 1, f.unit);
   out.depth_b_mm =
       read_column<double>(r, b + "/" + kDepth.name, h5::Elem::kFloat64, n, 1, kDepth.unit);
   for (const auto& f : kFlags)

@@ -73,6 +73,18 @@ glm::dvec3 AlignedRecording::sensor_force_from_burr_force(const glm::dvec3& f_bu
   return sensor_sign * (glm::transpose(sensor_to_rig) * f_rig);
 }
 
+glm::dvec3 AlignedRecording::sensor_torque_from_burr_wrench(const glm::dvec3& f_vol, const glm::dvec3& t_vol,
+                                                            const glm::dvec3& p_vol) const {
+  const glm::dvec3 o_vol = rig_to_vol.apply(sensor_origin_rig_mm);
+  const glm::dvec3 m_rig = glm::transpose(rig_to_vol.R) * (glm::cross(p_vol - o_vol, f_vol) + t_vol);
+  return sensor_sign * (glm::transpose(sensor_to_rig) * m_rig);
+}
+
+double spindle_torque_Nmm(const glm::dvec3& t_vol, const glm::dvec3& omega) {
+  const double w = glm::length(omega);
+  return w > 0 ? -glm::dot(t_vol, omega) / w : 0.0;
+}
+
 namespace {
 
 const data_schema::Channel& channel(const data_schema::Recording& rec, const char* name,
@@ -126,6 +138,16 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
                                   force.values[3 * i + 2]);
   }
 
+  // The moment, when the sensor's stream carries it (six-axis sensors).
+  if (const data_schema::Channel* tq = f_stream.channel(data_schema::kTorque)) {
+    if (tq->width != 3 || tq->samples() != f_stream.samples())
+      throw InputError(file, fmt::format("streams/{}/{}", f_stream.name, data_schema::kTorque),
+                       "3 columns and one row per sample",
+                       fmt::format("{} column(s), {} rows for {} samples", tq->width, tq->samples(), f_stream.samples()));
+    for (std::size_t i : f_keep)
+      a.torque_sensor_Nmm.emplace_back(tq->values[3 * i], tq->values[3 * i + 1], tq->values[3 * i + 2]);
+  }
+
   const auto& pos = channel(rec, data_schema::kPosition, 3, file);
   const data_schema::Stream& p_stream = *rec.stream_with(data_schema::kPosition);
   for (std::size_t i : fresh(p_stream)) {
@@ -154,6 +176,29 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
   } else {
     throw InputError(file, "streams", "a stream with the channel spindle_rpm, or spindle_rpm = RPM for recording " +
                                           ref.id + " in the manifest (a constant speed)");
+  }
+
+  // The spindle's load: a torque channel, or a power channel converted through the speed
+  // at the same instant (τ = 1000·P/|ω|, N·mm from W; none where the spindle stands).
+  const data_schema::Stream* tq_stream = rec.stream_with(data_schema::kSpindleTorque);
+  const data_schema::Stream* pw_stream = rec.stream_with(data_schema::kSpindlePower);
+  if (tq_stream && pw_stream)
+    throw InputError(file, "streams", "spindle_torque_Nmm or spindle_power_W, not both", "both");
+  if (tq_stream || pw_stream) {
+    const bool power = !tq_stream;
+    const auto& st = *(power ? pw_stream : tq_stream);
+    const auto& c = channel(rec, power ? data_schema::kSpindlePower : data_schema::kSpindleTorque, 1, file);
+    for (std::size_t i : fresh(st)) {
+      const double t = seconds(st.t_ns[i], a.t0_ns);
+      double v = c.values[i];
+      if (power) {
+        const double w = std::abs(a.spindle_rpm.at(t)) * 2 * M_PI / 60;
+        if (!(w > 0)) continue;
+        v = 1000 * v / w;
+      }
+      a.spindle_torque_Nmm.t_s.push_back(t);
+      a.spindle_torque_Nmm.value.push_back(v);
+    }
   }
 
   // Segments: a sample is used when some use=true segment holds it and no use=false one does.
@@ -245,6 +290,7 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
   a.tool_offset_rig_mm = m.burr.tool_offset_mm;
   a.sensor_to_rig = m.sensor.rotation_sensor_to_rig;
   a.sensor_sign = m.sensor.measures == data_schema::SensorMeasures::kForceOnSample ? -1.0 : 1.0;
+  a.sensor_origin_rig_mm = m.sensor.origin_rig_mm;
   if (!std::isfinite(ref.lag_ms))
     throw InputError(mfile, fmt::format("recordings[{}].lag_ms", index), "a finite number");
   a.lag_s = ref.lag_ms * 1e-3;

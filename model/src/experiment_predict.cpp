@@ -36,6 +36,12 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
   p.depth_b_mm.resize(n);
   p.class_mask.resize(n);
   p.buried.resize(n);
+  p.moment_burr_vol_Nmm.resize(n);
+  p.torque_sensor_pred_Nmm.resize(n);
+  p.spindle_torque_pred_Nmm.resize(n);
+  p.torque_sensor_meas_Nmm = r.torque_sensor_Nmm;
+  if (!r.spindle_torque_Nmm.t_s.empty())
+    for (double t : tr.t_s) p.spindle_torque_meas_Nmm.push_back(r.spindle_torque_Nmm.at(t));
   for (std::size_t k = 0; k < n; ++k) {
     const ContactResult& c = res.samples[k].contact;
     p.force_burr_vol_N[k] = c.force_N;
@@ -44,6 +50,9 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
     p.depth_b_mm[k] = c.depth_b_mm;
     p.class_mask[k] = c.class_mask;
     p.buried[k] = c.buried ? 1 : 0;
+    p.moment_burr_vol_Nmm[k] = c.moment_Nmm;
+    p.torque_sensor_pred_Nmm[k] = r.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[k]);
+    p.spindle_torque_pred_Nmm[k] = spindle_torque_Nmm(c.moment_Nmm, tr.omega_vol_rad_s[k]);
   }
   return p;
 }
@@ -63,16 +72,27 @@ void write_prediction_csv(const std::filesystem::path& path,
                           const std::vector<RecordingPrediction>& preds) {
   data_schema::AtomicFile out(path);
   out << "recording,t_s,Fburr_x_N,Fburr_y_N,Fburr_z_N,Fpred_x_N,Fpred_y_N,Fpred_z_N,"
-         "Fmeas_x_N,Fmeas_y_N,Fmeas_z_N,b_mm,n_x,n_y,n_z,class_mask,buried,use\n";
+         "Fmeas_x_N,Fmeas_y_N,Fmeas_z_N,b_mm,n_x,n_y,n_z,class_mask,buried,use,"
+         "Tburr_x_Nmm,Tburr_y_Nmm,Tburr_z_Nmm,Mpred_x_Nmm,Mpred_y_Nmm,Mpred_z_Nmm,"
+         "Mmeas_x_Nmm,Mmeas_y_Nmm,Mmeas_z_Nmm,spindle_pred_Nmm,spindle_meas_Nmm\n";
+  // The wrench columns are empty where the prediction has none (nothing measured).
+  auto v3 = [](const std::vector<glm::dvec3>& v, std::size_t k) {
+    return k < v.size() ? fmt::format("{:.9g},{:.9g},{:.9g}", v[k].x, v[k].y, v[k].z) : std::string(",,");
+  };
+  auto v1 = [](const std::vector<double>& v, std::size_t k) {
+    return k < v.size() ? fmt::format("{:.9g}", v[k]) : std::string();
+  };
   for (const auto& p : preds)
     for (std::size_t k = 0; k < p.t_s.size(); ++k) {
       const auto &fb = p.force_burr_vol_N[k], &fp = p.force_sensor_pred_N[k],
                  &fm = p.force_sensor_meas_N[k], &n = p.normal_vol[k];
       out << fmt::format(
           "{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},"
-          "{:.9g},{:.9g},{:.9g},{},{},{}\n",
+          "{:.9g},{:.9g},{:.9g},{},{},{},{},{},{},{},{}\n",
           p.recording_id, p.t_s[k], fb.x, fb.y, fb.z, fp.x, fp.y, fp.z, fm.x, fm.y, fm.z,
-          p.depth_b_mm[k], n.x, n.y, n.z, int(p.class_mask[k]), int(p.buried[k]), int(p.use[k]));
+          p.depth_b_mm[k], n.x, n.y, n.z, int(p.class_mask[k]), int(p.buried[k]), int(p.use[k]),
+          v3(p.moment_burr_vol_Nmm, k), v3(p.torque_sensor_pred_Nmm, k), v3(p.torque_sensor_meas_Nmm, k),
+          v1(p.spindle_torque_pred_Nmm, k), v1(p.spindle_torque_meas_Nmm, k));
     }
   out.commit();
 }

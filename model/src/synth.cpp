@@ -51,6 +51,11 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
     throw InputError(opt, "noise_N", "a finite σ ≥ 0 (N)");
   for (int k = 0; k < 3; ++k)
     if (!std::isfinite(o.bias_N[k])) throw InputError(opt, "bias_N", "finite components (N)");
+  for (double v : {o.torque_noise_Nmm, o.spindle_noise_Nmm})
+    if (!(v >= 0) || !std::isfinite(v)) throw InputError(opt, "torque/spindle noise", "a finite σ ≥ 0 (N·mm)");
+  if (!std::isfinite(glm::length(o.torque_bias_Nmm)) || !std::isfinite(o.spindle_idle_Nmm) ||
+      !std::isfinite(o.spindle_viscous_Nmm_per_krpm))
+    throw InputError(opt, "torque bias / spindle idle", "finite values (N·mm)");
   if (!std::isfinite(o.lag_ms) || std::abs(o.lag_ms) > 1e4)
     throw InputError(opt, "lag_ms", "a finite lag within ±10 s (ms)");
   const ModelParams mp = ModelParams::from(params);
@@ -88,7 +93,8 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
     return s;
   };
   data_schema::Channel pos{data_schema::kPosition, "mm", 3, {}},
-      rpm{data_schema::kSpindle, "rpm", 1, {}};
+      rpm{data_schema::kSpindle, "rpm", 1, {}},
+      load{data_schema::kSpindleTorque, "N*mm", 1, std::vector<double>(n, 0.0)};
   for (std::size_t k = 0; k < n; ++k) {
     const glm::dvec3 x = vol_to_rig.apply(path.centre_vol_mm[k]);
     pos.values.insert(pos.values.end(), {x.x, x.y, x.z});
@@ -98,7 +104,7 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
   data_schema::Channel torque{data_schema::kTorque, "N*mm", 3, std::vector<double>(3 * n, 0.0)};
   rec.streams.push_back(stream("ft_sensor", {force, torque}));
   rec.streams.push_back(stream("stage", {pos}));
-  rec.streams.push_back(stream("spindle", {rpm}));
+  rec.streams.push_back(stream("spindle", {rpm, load}));
   rec.events.push_back({t_ns.front(), "start", "", "synthetic session"});
   for (std::size_t k = 0; k < n; ++k)
     if (k == 0 || path.move[k] != path.move[k - 1])
@@ -123,9 +129,15 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
   out.removed_mm3 = res.removed_mm3;
 
   GaussianSource gauss(o.seed);
+  GaussianSource gauss_wrench(o.seed ^ 0x9E3779B97F4A7C15ull);  // moments and spindle
   auto& f = rec.streams[0].channels[0].values;
+  auto& tq = rec.streams[0].channels[1].values;
+  auto& sp = rec.streams[2].channels[1].values;
+  const Trajectory tr = aligned.trajectory();
   out.force_true_sensor_N.resize(n);
   out.force_burr_vol_N.resize(n);
+  out.torque_true_sensor_Nmm.resize(n);
+  out.spindle_torque_true_Nmm.resize(n);
   for (std::size_t k = 0; k < n; ++k) {
     const ContactResult& c = res.samples[k].contact;
     out.buried_samples += c.buried ? 1 : 0;
@@ -137,6 +149,14 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
       const double z = gauss();
       f[3 * k + std::size_t(i)] = truth[i] + o.bias_N[i] + o.noise_N * z;
     }
+    const glm::dvec3 m = aligned.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[k]);
+    out.torque_true_sensor_Nmm[k] = m;
+    for (int i = 0; i < 3; ++i)
+      tq[3 * k + std::size_t(i)] = m[i] + o.torque_bias_Nmm[i] + o.torque_noise_Nmm * gauss_wrench();
+    const double cut = spindle_torque_Nmm(c.moment_Nmm, tr.omega_vol_rad_s[k]);
+    out.spindle_torque_true_Nmm[k] = cut;
+    sp[k] = cut + o.spindle_idle_Nmm + o.spindle_viscous_Nmm_per_krpm * std::abs(path.spindle_rpm[k]) / 1000 +
+            o.spindle_noise_Nmm * gauss_wrench();
   }
   return out;
 }
@@ -195,7 +215,14 @@ nlohmann::json truth_json(const SynthResult& r, const data_schema::SampleVolume&
         {"registration_rig_to_vol",
          {{"rotation", rot}, {"translation_mm", {reg.t.x, reg.t.y, reg.t.z}}}},
         {"tool_offset_mm", {0.0, 0.0, 0.0}},
-        {"torque", "torque_Nmm is written as zero (not modelled)"}}},
+        {"torque", "torque_Nmm: moment on the sample about the rig origin, sensor = rig frame, N*mm "
+                   "(MODEL.md 'Moments'), + torque_bias_Nmm + noise"},
+        {"spindle", "spindle_torque_Nmm: the cutting's load -T.w/|w| + idle + viscous*|rpm|/1000 + noise, N*mm"}}},
+      {"torque_noise_Nmm", o.torque_noise_Nmm},
+      {"torque_bias_Nmm", {o.torque_bias_Nmm.x, o.torque_bias_Nmm.y, o.torque_bias_Nmm.z}},
+      {"spindle_noise_Nmm", o.spindle_noise_Nmm},
+      {"spindle_idle_Nmm", o.spindle_idle_Nmm},
+      {"spindle_viscous_Nmm_per_krpm", o.spindle_viscous_Nmm_per_krpm},
       // the step actually used: the default (0) is half the sample period (replay.hpp)
       {"replay_step_s", o.replay.step_s > 0 ? o.replay.step_s : 0.5 / p.sample_rate_hz},
       {"provenance", data_schema::provenance_json(prov)},

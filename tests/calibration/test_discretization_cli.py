@@ -60,6 +60,9 @@ def test_no_constant_is_reported_confidently_wrong(half):
         assert d["ci95_low"] <= truth <= d["ci95_high"], (p["class_name"], p["name"], d, truth)
         assert f"{p['class_name']:<12} {p['name']:<5}   LIMITED by discretization error" in out, out
         limited += 1
+    # The misfit shows in the residuals too (σ from the no-contact samples).
+    assert fit["residuals_summary"]["rms_normalised"] > 1.2
+    assert "limited by model error" in out, out
     assert checked == 3  # the compact constants: the recordings never reach the trabecular core
     # The mismatch is real: without the check these constants would be confidently wrong.
     assert limited >= 2, json.dumps([p.get("discretization") for p in fit["parameters"]])

@@ -145,6 +145,83 @@ TEST(Experiment, SensorForceMapping) {
   EXPECT_NEAR(glm::length(b.sensor_force_from_burr_force(f_burr) + want), 0, 1e-12);
 }
 
+// The sensor's moment (MODEL.md "Moments"): the closed form, the moment transfer law when the
+// sensor origin moves, a rotated sensor, and a rigid motion of the whole scene (volume and
+// rig together) that must leave every reading unchanged; T·F is frame- and origin-free.
+TEST(Experiment, SensorWrenchIsCovariantUnderMovingTheSceneAndTheSensor) {
+  auto m = manifest();
+  m.sensor.origin_rig_mm = {3, -4, 12};
+  const auto a = align_recording(m, m.recordings[0], recording(), "rec.h5");
+  const glm::dvec3 F{0.3, -1.2, 2.5}, T{0.05, 0.02, -0.11}, p{11, 22, 29};
+  const glm::dmat3 Q = m.sensor.rotation_sensor_to_rig, R = m.recordings[0].registration.rotation;
+  const glm::dvec3 o_vol = R * m.sensor.origin_rig_mm + glm::dvec3(10, 20, 30);
+  const glm::dvec3 want = -(glm::transpose(Q) * (glm::transpose(R) * (glm::cross(p - o_vol, F) + T)));
+  const glm::dvec3 M = a.sensor_torque_from_burr_wrench(F, T, p);
+  EXPECT_NEAR(glm::length(M - want), 0, 1e-12);
+  // T·F survives every frame and origin: M·F_sensor = T·F (both flip sign with s).
+  EXPECT_NEAR(glm::dot(M, a.sensor_force_from_burr_force(F)), glm::dot(T, F), 1e-12);
+  // Moving the origin by d (rig frame) changes the moment by −(d × F_sensor) in sensor axes.
+  auto m2 = m;
+  const glm::dvec3 d{0.5, 1.5, -2};
+  m2.sensor.origin_rig_mm += d;
+  const auto b = align_recording(m2, m2.recordings[0], recording(), "rec.h5");
+  const glm::dvec3 d_sensor = glm::transpose(Q) * d;
+  EXPECT_NEAR(glm::length(b.sensor_torque_from_burr_wrench(F, T, p) -
+                          (M - glm::cross(d_sensor, a.sensor_force_from_burr_force(F)))), 0, 1e-12);
+  // Rotating the sensor by S about its origin: both readings turn by Sᵀ.
+  auto m3 = m;
+  const glm::dmat3 S = rotation(1.1, {1, 2, 3});
+  m3.sensor.rotation_sensor_to_rig = Q * S;
+  const auto c = align_recording(m3, m3.recordings[0], recording(), "rec.h5");
+  EXPECT_NEAR(glm::length(c.sensor_torque_from_burr_wrench(F, T, p) - glm::transpose(S) * M), 0, 1e-12);
+  EXPECT_NEAR(glm::length(c.sensor_force_from_burr_force(F) - glm::transpose(S) * a.sensor_force_from_burr_force(F)),
+              0, 1e-12);
+  // The whole scene moved rigidly in the volume frame (G, g): the burr's wrench and the
+  // registration move with it, the sensor (on the rig) reads the same.
+  auto m4 = m;
+  const glm::dmat3 G = rotation(-0.8, {2, -1, 0.5});
+  const glm::dvec3 g{-7, 3, 1.5};
+  m4.recordings[0].registration.rotation = G * R;
+  m4.recordings[0].registration.translation_mm = G * glm::dvec3(10, 20, 30) + g;
+  const auto e = align_recording(m4, m4.recordings[0], recording(), "rec.h5");
+  EXPECT_NEAR(glm::length(e.sensor_torque_from_burr_wrench(G * F, G * T, G * p + g) - M), 0, 1e-11);
+  EXPECT_NEAR(glm::length(e.sensor_force_from_burr_force(G * F) - a.sensor_force_from_burr_force(F)), 0, 1e-12);
+}
+
+TEST(Experiment, SpindleTorqueIsTheCouplesBrakingComponent) {
+  const glm::dvec3 w{0, 0, -300};  // spinning about −z
+  EXPECT_DOUBLE_EQ(spindle_torque_Nmm({0.1, -0.2, 0.4}, w), 0.4);   // −T·ω̂ = −(0.4·(−1))
+  EXPECT_DOUBLE_EQ(spindle_torque_Nmm({0.1, -0.2, -0.4}, w), -0.4);
+  EXPECT_EQ(spindle_torque_Nmm({1, 2, 3}, glm::dvec3(0)), 0.0);  // standing spindle: no load
+}
+
+TEST(Experiment, MomentAndSpindleLoadChannelsAreAligned) {
+  const auto m = manifest();
+  auto rec = recording();
+  ds::Channel tq{ds::kTorque, "N*mm", 3, {}};
+  for (std::size_t k = 0; k < 200; ++k) tq.values.insert(tq.values.end(), {0.5 * double(k), 1.0, -2.0});
+  rec.streams[0].channels.push_back(tq);
+  // The drive's power at 250 Hz on the spindle stream: P = 0.02 W·(1 + t).
+  ds::Channel pw{ds::kSpindlePower, "W", 1, {}};
+  for (auto t : rec.streams[2].t_ns) pw.values.push_back(0.02 * (1 + double(t - 10'000'000'000) * 1e-9));
+  rec.streams[2].channels.push_back(pw);
+  const auto a = align_recording(m, m.recordings[0], rec, "rec.h5");
+  ASSERT_EQ(a.torque_sensor_Nmm.size(), 200u);
+  EXPECT_EQ(a.torque_sensor_Nmm[9], glm::dvec3(4.5, 1, -2));
+  ASSERT_FALSE(a.spindle_torque_Nmm.t_s.empty());
+  for (double t : {0.01, 0.1, 0.15}) {
+    // τ = 1000·P/|ω| (N·mm from W and rad/s); P and rpm are both linear, so compare at
+    // the spindle's own sample instants, where neither is interpolated.
+    const double ts = 0.004 * std::round((t + 0.002) / 0.004) - 0.002;
+    const double w = 2 * M_PI * rpm_at(ts) / 60;
+    EXPECT_NEAR(a.spindle_torque_Nmm.at(ts), 1000 * 0.02 * (1 + ts) / w, 1e-9) << ts;
+  }
+  // A torque and a power channel at once: which one is right? Refused.
+  ds::Channel st{ds::kSpindleTorque, "N*mm", 1, std::vector<double>(rec.streams[2].samples(), 0.1)};
+  rec.streams[2].channels.push_back(st);
+  EXPECT_THROW(align_recording(m, m.recordings[0], rec, "rec.h5"), InputError);
+}
+
 TEST(Experiment, SegmentsStaleSamplesAndFiducials) {
   auto m = manifest();
   m.recordings[0].segments = {{0.0, 0.1, true, "a"}, {0.05, 0.06, false, "skip"}};

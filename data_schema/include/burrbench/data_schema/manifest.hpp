@@ -40,6 +40,9 @@ struct SensorConfig {
   glm::dmat3 rotation_sensor_to_rig{1.0};  // proper rotation: v_rig = R·v_sensor
   SensorMeasures measures = SensorMeasures::kForceOnSample;
   std::optional<double> sigma_N;           // absent → estimated from no-contact samples
+  // The sensor's origin (the point its moments are taken about), rig frame, mm
+  // (MODEL.md "Moments"): absent in older manifests = the rig origin.
+  glm::dvec3 origin_rig_mm{0, 0, 0};
 };
 
 // Rig → volume, x_vol = rotation·x_rig + translation_mm; either given directly or as

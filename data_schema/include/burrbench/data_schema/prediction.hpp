@@ -18,7 +18,7 @@ inline constexpr const char* kPredictionFormat = "burrbench.prediction";
 // 2.0: provenance in the /provenance group and fixed-length strings, as the other HDF5
 // formats (1.0 kept provenance as a JSON attribute; such files are refused by version).
 inline constexpr int kPredictionVersionMajor = 2;
-inline constexpr int kPredictionVersionMinor = 1;  // 2.1: the registration per recording
+inline constexpr int kPredictionVersionMinor = 2;  // 2.1: the registration per recording; 2.2: the wrench
 // Class labels 0..7 whose removed volume is recorded (the model's label range).
 inline constexpr std::size_t kPredictionClasses = 8;
 
@@ -36,6 +36,13 @@ struct PredictedRecording {
   std::vector<std::uint8_t> class_mask;   // bit k: class label k in contact
   std::vector<std::uint8_t> buried;       // 1: contact normal ill-defined (MODEL.md)
   std::vector<std::uint8_t> use;          // 1: inside a used segment
+  // 2.2: the wrench (MODEL.md "Moments"); each empty (a 2.0/2.1 file, or nothing
+  // measured) or one value per sample. N·mm.
+  std::vector<glm::dvec3> moment_burr_vol_Nmm;     // friction couple T on the burr about its centre, volume frame
+  std::vector<glm::dvec3> torque_sensor_pred_Nmm;  // the sensor's moment about its origin, sensor frame
+  std::vector<glm::dvec3> torque_sensor_meas_Nmm;  // what it read (empty: no torque channel)
+  std::vector<double> spindle_torque_pred_Nmm;     // load torque on the spindle, −T·ω̂
+  std::vector<double> spindle_torque_meas_Nmm;     // what the drive reported (empty: none)
   std::array<double, kPredictionClasses> removed_mm3{};  // eroded bone by class label
   std::int64_t steps = 0;                                // internal replay steps
   // 2.1: the registration the replay used (issue 17): "fiducials" (fitted from beads) or

@@ -24,6 +24,11 @@ inline constexpr const char* kForce = "force_N";        // n×3, sensor frame, f
 inline constexpr const char* kTorque = "torque_Nmm";    // n×3, sensor frame
 inline constexpr const char* kPosition = "position_mm"; // n×3, rig frame, burr centre
 inline constexpr const char* kSpindle = "spindle_rpm";  // n×1
+// The spindle drive's load (MODEL.md "Moments"): the torque the cutting takes from the
+// spindle, positive when it brakes the spin (N·mm), or the drive's power (W), which the
+// replay converts through the speed: τ = 1000·P/|ω|.
+inline constexpr const char* kSpindleTorque = "spindle_torque_Nmm";  // n×1
+inline constexpr const char* kSpindlePower = "spindle_power_W";      // n×1
 
 // The width and unit a canonical channel must have (a recording with another is refused,
 // and so is a register map that would produce one).
@@ -33,7 +38,8 @@ struct CanonicalChannel {
   const char* unit;
 };
 inline constexpr CanonicalChannel kCanonicalChannels[] = {
-    {kForce, 3, "N"}, {kTorque, 3, "N*mm"}, {kPosition, 3, "mm"}, {kSpindle, 1, "rpm"}};
+    {kForce, 3, "N"},        {kTorque, 3, "N*mm"},         {kPosition, 3, "mm"},
+    {kSpindle, 1, "rpm"},    {kSpindleTorque, 1, "N*mm"},  {kSpindlePower, 1, "W"}};
 
 struct Channel {
   std::string name;            // canonical name or a device-specific one

@@ -67,6 +67,12 @@ struct AlignedRecording {
 
   std::vector<double> t_s;                 // force timestamps (s from t0), strictly increasing
   std::vector<glm::dvec3> force_sensor_N;  // measured, sensor frame, as recorded
+  // Measured moment, sensor frame, N·mm, at the force samples: empty when the force
+  // stream has no torque_Nmm channel.
+  std::vector<glm::dvec3> torque_sensor_Nmm;
+  // The spindle drive's load torque (N·mm, positive braking) from spindle_torque_Nmm or
+  // spindle_power_W (converted through the speed); empty when not logged.
+  Series<double> spindle_torque_Nmm;
   std::vector<std::uint8_t> use;           // 1: inside a used segment (all 1 without segments)
   // The same split by role (a segment's `role`, default the recording's): use = either.
   std::vector<std::uint8_t> use_calibrate, use_validate;
@@ -84,6 +90,7 @@ struct AlignedRecording {
   double radius_mm = 0;
   glm::dmat3 sensor_to_rig{1.0};
   double sensor_sign = -1;  // −1: sensor measures force on the sample
+  glm::dvec3 sensor_origin_rig_mm{0};  // the point the sensor takes moments about
   double lag_s = 0;         // the manifest's lag_ms / 1000
 
   // Burr centre (volume frame) for a stage position. depth_offset_mm moves the burr
@@ -104,6 +111,13 @@ struct AlignedRecording {
 
   // What the sensor should read for a force on the burr in the volume frame.
   glm::dvec3 sensor_force_from_burr_force(const glm::dvec3& force_on_burr_vol_N) const;
+  // What its moment channel should read for the burr's wrench (MODEL.md "Moments"): the
+  // force F acting through the burr centre p plus the couple T about p, taken about the
+  // sensor origin o and with the force's sign convention: s·Qᵀ((p − o) × F + T), N·mm,
+  // sensor frame (s = −1 for a sensor under the sample).
+  glm::dvec3 sensor_torque_from_burr_wrench(const glm::dvec3& force_on_burr_vol_N,
+                                            const glm::dvec3& moment_on_burr_vol_Nmm,
+                                            const glm::dvec3& centre_vol_mm) const;
 };
 
 // Canonical channels, alignment, segments, registration. `file_for_messages` names the
@@ -128,6 +142,10 @@ Experiment load_experiment(const std::filesystem::path& manifest_path);
 struct RecordingPrediction : data_schema::PredictedRecording {
   double wall_s = 0;
 };
+
+// The spindle's load torque for a couple T on the burr spinning at ω: −T·ω̂ (N·mm; 0 when
+// ω = 0). Positive when the cutting brakes the spin.
+double spindle_torque_Nmm(const glm::dvec3& moment_on_burr_vol_Nmm, const glm::dvec3& omega_vol_rad_s);
 
 // Replays one aligned recording from the given (start-state) volume, which is restored.
 RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const ModelParams& params,

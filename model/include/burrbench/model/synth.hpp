@@ -42,6 +42,14 @@ struct SynthOptions {
   double noise_N = 0;    // σ of white Gaussian noise per force component
   glm::dvec3 bias_N{0};  // added to every force sample (sensor frame)
   double lag_ms = 0;     // recorded force at t = true force at t − lag
+  // The moment channel (sensor = rig frame, about the rig origin, on the sample) and the
+  // spindle's load torque (MODEL.md "Moments"), with their own noise and offsets, drawn
+  // from a second generator so that the force's noise is the same for any of these.
+  double torque_noise_Nmm = 0;     // σ per moment component
+  glm::dvec3 torque_bias_Nmm{0};   // added to every moment sample
+  double spindle_noise_Nmm = 0;    // σ of the spindle torque
+  double spindle_idle_Nmm = 0;     // the drive's idle torque (bearings), added always
+  double spindle_viscous_Nmm_per_krpm = 0;  // + this × |rpm|/1000 (viscous drag)
   std::uint64_t seed = 1;
   std::optional<RigidTransform> rig_to_vol;  // absent: rig frame = volume frame
   ReplayOptions replay;                      // internal step (0 → half the sample period)
@@ -52,6 +60,8 @@ struct SynthResult {
   data_schema::Recording recording;
   std::vector<glm::dvec3> force_true_sensor_N;  // noiseless, bias-free sensor reading
   std::vector<glm::dvec3> force_burr_vol_N;     // model force on the burr (volume frame)
+  std::vector<glm::dvec3> torque_true_sensor_Nmm;  // noiseless, bias-free moment reading
+  std::vector<double> spindle_torque_true_Nmm;     // the cutting's load alone (no idle, no noise)
   std::array<double, kMaxClasses> removed_mm3{};
   std::size_t buried_samples = 0;
   ProtocolPath path;
