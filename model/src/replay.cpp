@@ -67,7 +67,8 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   // Forward sensitivities: a tangent state beside the undo log (it lives for this replay).
   const bool sens = opt.directions && opt.sensitivities;
   std::unique_ptr<detail::TangentState> tan;
-  std::vector<glm::dvec3> dp, dF;
+  std::vector<glm::dvec3> dp, dF, dT;
+  const bool moments = opt.moment_sensitivities;
   if (sens) {
     const auto& dirs = *opt.directions;
     for (std::size_t j = 0; j < dirs.size(); ++j)
@@ -82,6 +83,10 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
     opt.sensitivities->dforce_N.assign(dirs.size(), std::vector<glm::dvec3>(n, glm::dvec3(0)));
     dp.assign(dirs.size(), glm::dvec3(0));
     dF.assign(dirs.size(), glm::dvec3(0));
+    if (moments) {
+      opt.sensitivities->dmoment_Nmm.assign(dirs.size(), std::vector<glm::dvec3>(n, glm::dvec3(0)));
+      dT.assign(dirs.size(), glm::dvec3(0));
+    }
   }
   // ∂p/∂θ_j at a fraction f of interval k (linear, like the centre).
   auto path_at = [&](std::size_t k, double f) {
@@ -94,6 +99,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   };
   auto record = [&](std::size_t k) {
     for (std::size_t j = 0; j < dF.size(); ++j) opt.sensitivities->dforce_N[j][k] = dF[j];
+    for (std::size_t j = 0; j < dT.size(); ++j) opt.sensitivities->dmoment_Nmm[j][k] = dT[j];
   };
   if (restore) vol.begin_undo();
   try {
@@ -103,7 +109,8 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
             evaluate(vol, tr.centre_vol_mm[k], tr.omega_vol_rad_s[k], radius_mm, params);
         if (sens) {
           path_at(k, 0);
-          tan->differentiate(vol, res.samples[k].contact, dp.data(), false, dF.data());
+          tan->differentiate(vol, res.samples[k].contact, dp.data(), false, dF.data(),
+                            moments ? dT.data() : nullptr);
           record(k);
         }
       }
@@ -122,7 +129,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
                                res.removed_mm3, &res.friction_energy_mJ);
         if (sens) {
           path_at(k, f);
-          tan->differentiate(vol, c, dp.data(), true, dF.data());
+          tan->differentiate(vol, c, dp.data(), true, dF.data(), moments ? dT.data() : nullptr);
           if (j == 0) record(k);
         }
         if (j == 0) res.samples[k].contact = c;

@@ -67,9 +67,11 @@ double* TangentState::tangent_or_new(std::uint32_t v) {
 }
 
 void TangentState::differentiate(const Volume& vol, const ContactResult& c, const glm::dvec3* dp,
-                                 bool eroded, glm::dvec3* dF) {
+                                 bool eroded, glm::dvec3* dF, glm::dvec3* dT) {
   const std::size_t P = P_;
   for (std::size_t j = 0; j < P; ++j) dF[j] = glm::dvec3(0);
+  if (dT)
+    for (std::size_t j = 0; j < P; ++j) dT[j] = glm::dvec3(0);
   const KernelState& st = vol.scratch().state;
   const LensTable& tab = vol.scratch().table;
   if (!st.force) return;  // no bone in reach, or no normal: F ≡ 0 here
@@ -202,6 +204,17 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   auto& z = z_;  // per direction: (∂p, ∂n̂, ∂p₀, ∂a²)
   for (std::size_t j = 0; j < P; ++j)
     z[j] = {dpj[j].x, dpj[j].y, dpj[j].z, dn[j].x, dn[j].y, dn[j].z, dp0[j], da2[j]};
+  // The couple T_k = Σ s (r/d) L, L = (v·ω̂)v − d²ω̂ (contact.cpp): the same ∂s terms, with
+  // the lever (r/d)L in place of v, plus ∂(r/d) and ∂L for a moving burr
+  // (∂L = −(∂p·ω̂)v − (v·ω̂)∂p + 2(v·∂p)ω̂). Matrices Σ c L vᵀ are not symmetric.
+  auto& dTG = dTG_;
+  if (dT)
+    for (std::size_t j = 0; j < P; ++j) dTG[j].fill(glm::dvec3(0));
+  std::array<glm::dmat3, kMaxClasses> TVN{}, TD2{};          // Σ c_vn (r/d) L vᵀ, Σ (c_d2 r/d + s ∂(r/d)/∂d²) L vᵀ
+  std::array<glm::dvec3, kMaxClasses> tp0{}, ta2{}, tvn{}, tsv{};  // Σ c_p₀(r/d)L, c_a²(r/d)L, c_vn(r/d)L, s(r/d)v
+  std::array<double, kMaxClasses> tsvw{};                    // Σ s (r/d)(v·ω̂)
+  for (auto& m : TVN) m = glm::dmat3(0.0);
+  for (auto& m : TD2) m = glm::dmat3(0.0);
   auto& tnew = tnew_;
   for (std::size_t i = 0; i < st.lens_count; ++i) {
     const LensVoxel& v = lv[i];
@@ -239,6 +252,23 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     if (tg) {
       const glm::dvec3 cv = c_chi * vv;
       for (std::size_t j = 0; j < P; ++j) dG[j][k] += tg[j] * cv;
+    }
+    if (dT) {
+      const double vw_ = glm::dot(vv, w), s_ = chi * c_chi;
+      const glm::dvec3 L = vw_ * vv - d2 * w, rL = rd * L;
+      TVN[k] += glm::outerProduct(c_vn * rL, vv);
+      tp0[k] += (chi * A * sq) * rL;
+      ta2[k] += (chi * A * e_a2) * rL;
+      if (moves) {
+        TD2[k] += glm::outerProduct((c_d2 * rd + s_ * s_rd) * L, vv);
+        tvn[k] += c_vn * rL;
+        tsv[k] += (s_ * rd) * vv;
+        tsvw[k] += s_ * rd * vw_;
+      }
+      if (tg) {
+        const glm::dvec3 cl = c_chi * rL;
+        for (std::size_t j = 0; j < P; ++j) dTG[j][k] += tg[j] * cl;
+      }
     }
     const bool erodes = eroded && st.kero[k] > 0 && st.wmu[k] != 0;
     if (!erodes) continue;
@@ -294,6 +324,20 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     }
     if (kind_[j] == kMu) dfm += prm_.by_label[label_[j]].mu * c.dFmu_dmu[label_[j]];
     dF[j] += dfm;
+    if (!dT) continue;
+    glm::dvec3 dtm(0);
+    for (int k = 1; k < kMaxClasses; ++k) {
+      const std::size_t kk = std::size_t(k);
+      const double mu = prm_.by_label[kk].mu;
+      if (mu == 0) continue;
+      glm::dvec3 t_k = dTG[j][kk] + TVN[kk] * dn[j] + dp0[j] * tp0[kk] + da2[j] * ta2[kk];
+      if (kind_[j] == kPath)
+        t_k += -2.0 * (TD2[kk] * dpj[j]) - ndp * tvn[kk] - glm::dot(w, dpj[j]) * tsv[kk] - tsvw[kk] * dpj[j] +
+               2.0 * glm::dot(tsv[kk], dpj[j]) * w;
+      dtm += mu * t_k;
+    }
+    if (kind_[j] == kMu) dtm += prm_.by_label[label_[j]].mu * c.dTmu_dmu[label_[j]];
+    dT[j] = dtm;
   }
 }
 

@@ -30,9 +30,10 @@ class TangentState {
   std::size_t directions() const { return P_; }
   // `c`: the contact just evaluated on `vol` (by evaluate or step); `dp`: ∂p/∂θ_j at this
   // position (P entries; zero for physics directions); `eroded`: the kernel eroded with
-  // this step (then the voxel tangents advance). Writes ∂F/∂θ_j to dF (P entries).
+  // this step (then the voxel tangents advance). Writes ∂F/∂θ_j to dF (P entries) and,
+  // when dT is given, ∂T/∂θ_j of the friction couple to dT (P entries).
   void differentiate(const Volume& vol, const ContactResult& c, const glm::dvec3* dp,
-                     bool eroded, glm::dvec3* dF);
+                     bool eroded, glm::dvec3* dF, glm::dvec3* dT = nullptr);
   const std::vector<std::array<double, kMaxClasses>>& dremoved_mm3() const { return drem_; }
   std::size_t tangent_voxels() const { return touched_.size(); }
 
@@ -58,6 +59,7 @@ class TangentState {
   std::array<glm::dvec3, kMaxDirections> dpj_;
   std::array<std::array<double, 8>, kMaxDirections> z_;
   std::array<std::array<glm::dvec3, kMaxClasses>, kMaxDirections> dG_;
+  std::array<std::array<glm::dvec3, kMaxClasses>, kMaxDirections> dTG_;  // ∂χ part of the couple
   std::vector<std::array<double, kMaxClasses>> drem_;
 };
 

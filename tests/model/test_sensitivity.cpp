@@ -43,12 +43,15 @@ struct Check {
   double scale = 0;
 };
 
-// Central differences of whole replays for direction d (step h in its unit).
+// Central differences of whole replays for direction d (step h in its unit): of the force,
+// and of the friction couple in `moment`.
 std::vector<glm::dvec3> central(const burrbench::data_schema::SampleVolume& s, double R,
                                 const bm::ModelParams& prm, const bm::Trajectory& tr,
-                                const bm::Direction& d, double h, const bm::ReplayOptions& o) {
+                                const bm::Direction& d, double h, const bm::ReplayOptions& o,
+                                std::vector<glm::dvec3>& moment) {
   std::vector<glm::dvec3> out(tr.t_s.size());
-  std::vector<glm::dvec3> plus, minus;
+  moment.assign(tr.t_s.size(), glm::dvec3(0));
+  std::vector<glm::dvec3> plus, minus, tplus, tminus;
   for (double sg : {+1.0, -1.0}) {
     bm::ModelParams p = prm;
     bm::Trajectory t = tr;
@@ -61,15 +64,38 @@ std::vector<glm::dvec3> central(const burrbench::data_schema::SampleVolume& s, d
     bm::Volume v = bm::Volume::from_sample(s);
     const auto r = bm::replay(v, R, p, t, o);
     auto& dst = sg > 0 ? plus : minus;
-    for (const auto& smp : r.samples) dst.push_back(smp.contact.force_N);
+    auto& tdst = sg > 0 ? tplus : tminus;
+    for (const auto& smp : r.samples) {
+      dst.push_back(smp.contact.force_N);
+      tdst.push_back(smp.contact.moment_Nmm);
+    }
   }
-  for (std::size_t k = 0; k < out.size(); ++k) out[k] = (plus[k] - minus[k]) / (2 * h);
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    out[k] = (plus[k] - minus[k]) / (2 * h);
+    moment[k] = (tplus[k] - tminus[k]) / (2 * h);
+  }
   return out;
 }
 
+Check compare(const std::vector<glm::dvec3>& s, const std::vector<glm::dvec3>& fd) {
+  Check c;
+  double num = 0, den = 0;
+  for (const auto& f : fd) c.scale = std::max(c.scale, glm::length(f));
+  for (std::size_t k = 0; k < fd.size(); ++k) {
+    const glm::dvec3 e = s[k] - fd[k];
+    num += glm::dot(e, e);
+    den += glm::dot(fd[k], fd[k]);
+    c.max_rel = std::max(c.max_rel, glm::length(e) / c.scale);
+  }
+  c.worst_rel = std::sqrt(num / den);
+  return c;
+}
+
+// Per direction: the force's check, then (in `moments`) the friction couple's.
 std::vector<Check> check_all(const burrbench::data_schema::SampleVolume& s, const bm::ModelParams& prm,
                              const bm::Trajectory& tr, const std::vector<bm::Direction>& dirs,
-                             bool erosion, std::size_t* clamped = nullptr) {
+                             bool erosion, std::size_t* clamped = nullptr,
+                             std::vector<Check>* moments = nullptr) {
   const double R = 1.0;
   bm::ReplayOptions o;
   o.erosion = erosion;
@@ -77,6 +103,7 @@ std::vector<Check> check_all(const burrbench::data_schema::SampleVolume& s, cons
   bm::ReplayOptions os = o;
   os.directions = &dirs;
   os.sensitivities = &sens;
+  os.moment_sensitivities = moments != nullptr;
   bm::Volume v = bm::Volume::from_sample(s);
   const auto with = bm::replay(v, R, prm, tr, os, false);
   // The plain replay is unchanged by the sensitivities (same bits).
@@ -102,18 +129,10 @@ std::vector<Check> check_all(const burrbench::data_schema::SampleVolume& s, cons
     // at the disc rim, r/d jumps where a voxel becomes fully inside): these steps sit near
     // its measured minimum (docs/model.md "Sensitivities").
     const double h = dirs[j].kind == Kind::kPath ? 1e-6 / size : 3e-5;
-    const auto fd = central(s, R, prm, tr, dirs[j], h, o);
-    Check c;
-    double num = 0, den = 0;
-    for (const auto& f : fd) c.scale = std::max(c.scale, glm::length(f));
-    for (std::size_t k = 0; k < fd.size(); ++k) {
-      const glm::dvec3 e = sens.dforce_N[j][k] - fd[k];
-      num += glm::dot(e, e);
-      den += glm::dot(fd[k], fd[k]);
-      c.max_rel = std::max(c.max_rel, glm::length(e) / c.scale);
-    }
-    c.worst_rel = std::sqrt(num / den);
-    out.push_back(c);
+    std::vector<glm::dvec3> fd_moment;
+    const auto fd = central(s, R, prm, tr, dirs[j], h, o, fd_moment);
+    out.push_back(compare(sens.dforce_N[j], fd));
+    if (moments) moments->push_back(compare(sens.dmoment_Nmm[j], fd_moment));
   }
   return out;
 }
@@ -132,14 +151,18 @@ TEST(Sensitivity, KernelDerivativesMatchCentralDifferences) {
   std::vector<bm::Direction> dirs{{Kind::kLogC1, 1, {}}, {Kind::kLogMu, 1, {}}};
   for (glm::dvec3 e : {glm::dvec3(1, 0, 0), glm::dvec3(0, 1, 0), glm::dvec3(0, 0, 1)})
     dirs.push_back({Kind::kPath, 0, std::vector<glm::dvec3>(tr.t_s.size(), e)});
-  const auto checks = check_all(s, prm, tr, dirs, false);
+  std::vector<Check> tm;
+  const auto checks = check_all(s, prm, tr, dirs, false, nullptr, &tm);
   for (std::size_t j = 0; j < dirs.size(); ++j) {
-    std::printf("  fixed chi  %-8s relative error %.2e (2-norm), %.2e (max) (scale %.3g)\n",
-                name(dirs[j].kind), checks[j].worst_rel, checks[j].max_rel, checks[j].scale);
+    std::printf("  fixed chi  %-8s relative error %.2e (2-norm), %.2e (max) (scale %.3g); moment %.2e, %.2e (scale %.3g)\n",
+                name(dirs[j].kind), checks[j].worst_rel, checks[j].max_rel, checks[j].scale, tm[j].worst_rel,
+                tm[j].max_rel, tm[j].scale);
     EXPECT_GT(checks[j].scale, 0) << j;
+    EXPECT_GT(tm[j].scale, 0) << j;
     // C1 and μ enter linearly at fixed χ: exact to rounding. The path goes through the
     // lens table and the disc rim: agreement to the differences' own noise.
     EXPECT_LE(checks[j].worst_rel, dirs[j].kind == Kind::kPath ? 5e-4 : 1e-8) << "direction " << j;
+    EXPECT_LE(tm[j].worst_rel, dirs[j].kind == Kind::kPath ? 5e-4 : 1e-8) << "moment, direction " << j;
   }
 }
 
@@ -152,12 +175,15 @@ TEST(Sensitivity, ErodingReplayMatchesCentralDifferences) {
                                   {Kind::kPath, 0, velocity(tr)},
                                   {Kind::kPath, 0, std::vector<glm::dvec3>(tr.t_s.size(), glm::dvec3(-0.8, 0, -0.6))}};
   std::size_t clamped = 0;
-  const auto checks = check_all(s, prm, tr, dirs, true, &clamped);
+  std::vector<Check> tm;
+  const auto checks = check_all(s, prm, tr, dirs, true, &clamped, &tm);
   EXPECT_EQ(clamped, 0u) << "the smooth scene must not clamp";
   for (std::size_t j = 0; j < dirs.size(); ++j) {
-    std::printf("  eroding    %-8s relative error %.2e (2-norm), %.2e (max) (scale %.3g)\n",
-                name(dirs[j].kind), checks[j].worst_rel, checks[j].max_rel, checks[j].scale);
+    std::printf("  eroding    %-8s relative error %.2e (2-norm), %.2e (max) (scale %.3g); moment %.2e, %.2e (scale %.3g)\n",
+                name(dirs[j].kind), checks[j].worst_rel, checks[j].max_rel, checks[j].scale, tm[j].worst_rel,
+                tm[j].max_rel, tm[j].scale);
     EXPECT_GT(checks[j].scale, 0) << j;
     EXPECT_LE(checks[j].worst_rel, 1e-3) << "direction " << j;
+    EXPECT_LE(tm[j].worst_rel, 1e-3) << "moment, direction " << j;
   }
 }

@@ -27,6 +27,7 @@ struct ReplayOptions {
   // to one without them.
   const std::vector<Direction>* directions = nullptr;
   Sensitivities* sensitivities = nullptr;
+  bool moment_sensitivities = false;  // also ∂T/∂θ_j (Sensitivities::dmoment_Nmm)
 };
 
 struct ReplaySample { ContactResult contact; };  // at each trajectory time

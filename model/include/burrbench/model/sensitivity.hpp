@@ -26,6 +26,9 @@ struct Direction {  // one parameter θ_j the replay is differentiated in
 
 struct Sensitivities {  // filled by replay when directions are given
   std::vector<std::vector<glm::dvec3>> dforce_N;  // [direction][sample]: ∂F/∂θ_j (burr force, volume frame)
+  // [direction][sample]: ∂T/∂θ_j of the friction couple (N·mm, volume frame); filled only
+  // when ReplayOptions::moment_sensitivities is set (it costs a few more sums per voxel).
+  std::vector<std::vector<glm::dvec3>> dmoment_Nmm;
   std::vector<std::array<double, kMaxClasses>> dremoved_mm3;  // [direction]: ∂(removed volume per class)/∂θ_j
   std::size_t tangent_voxels = 0;  // voxels that carried a tangent (bench, docs)
 };
