@@ -20,8 +20,10 @@ _UNITS = {"ft": (R.FT_UNIT, R.FT_SIZE), "stage": (R.STAGE_UNIT, R.STAGE_SIZE),
 class Playback:
     """Shared clock and register images of every device."""
 
-    def __init__(self, source, counter_start=0, status_every=0, ft_fifo_depth=0, stage_fifo_depth=0):
+    def __init__(self, source, counter_start=0, status_every=0, ft_fifo_depth=0, stage_fifo_depth=0,
+                 spindle_rated_Nmm=10.0):
         self.source = source
+        self.spindle_rated_Nmm = spindle_rated_Nmm  # full scale of the load register (1000 = 100 %)
         # the deep FIFOs' records (0: off)
         self.deep_depth = {"ft": ft_fifo_depth, "stage": stage_fifo_depth}
         self.status_every = status_every  # ft sample k with k % N == 0 sets the overload bit
@@ -69,7 +71,7 @@ class Playback:
         if device == "stage":
             return R.stage_image(counter, src.value("stage", k), self._fifo(device, k, R.STAGE_FIFO_DEPTH),
                                  self._deep(device, k))
-        return R.spindle_image(counter, src.value("spindle", k))
+        return R.spindle_image(counter, src.value("spindle", k), src.spindle_load(k), self.spindle_rated_Nmm)
 
 
     def _deep(self, device, k):

@@ -15,7 +15,8 @@ SPINDLE_UNIT = 2  # spindle
 
 FT_SIZE = 420     # addresses 0..419 exist on unit 9
 STAGE_SIZE = 198  # 0..7 current sample, 100..197 FIFO
-SPINDLE_SIZE = 4
+SPINDLE_SIZE = 5
+SPINDLE_LOAD = 4  # int16: load torque in 0.1 % of the rated torque (--spindle-rated-Nmm), like a VFD
 
 FT_INT16 = 180    # Fx,Fy,Fz N*100 ; Mx,My,Mz N*m*1000 (= N*mm)
 FT_FLOAT = 200    # Fx,Fy,Fz N, Tx,Ty,Tz N*mm, float32 ABCD
@@ -179,9 +180,11 @@ def stage_image(counter, position_mm, fifo, deep=()):
     return regs
 
 
-def spindle_image(counter, rpm):
-    """Unit 2: |rpm| uint16 (saturated), direction (0 = +, 1 = -), counter."""
+def spindle_image(counter, rpm, load_Nmm=0.0, rated_Nmm=10.0):
+    """Unit 2: |rpm| uint16 (saturated), direction (0 = +, 1 = -), counter, and the drive's
+    load torque as a VFD reports it: int16 in 0.1 % of the rated torque (saturated)."""
     if math.isnan(rpm):
         rpm = 0.0
     mag = int(round(min(0xFFFF, abs(rpm))))
-    return [mag, 1 if rpm < 0 else 0] + u32_words(counter)
+    load = 0.0 if math.isnan(load_Nmm) else 1000.0 * load_Nmm / rated_Nmm
+    return [mag, 1 if rpm < 0 else 0] + u32_words(counter) + [u16(sat_int16(load))]

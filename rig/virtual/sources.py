@@ -57,6 +57,10 @@ class PatternSource:
     def value(self, device, k):
         return self._fn(device, k)
 
+    def spindle_load(self, k):
+        """The drive's load torque (N·mm): a sawtooth 0, 0.05, ... 4.95 with "ramp", else 0."""
+        return 0.05 * (k % 100) if self.name == "ramp" else 0.0
+
 
 NONFINITE = {
     "ft": (math.nan, math.inf, -math.inf, math.nan, 0.0, 0.0),
@@ -85,7 +89,8 @@ class RecordingSource:
 
     Each device serves the stream holding its canonical channel: ft <- force_N
     (+ torque_Nmm from the same stream if present, else zero), stage <-
-    position_mm, spindle <- spindle_rpm. Times are relative to the earliest
+    position_mm, spindle <- spindle_rpm (+ spindle_torque_Nmm from the same stream
+    if present, else zero: the drive's load register). Times are relative to the earliest
     sample of any stream, so the lags between streams are kept. Before a
     stream's first sample that first sample is served; after the last one the
     last sample is held (counter stops) unless loop is set, in which case the
@@ -172,7 +177,10 @@ class RecordingSource:
                 elif dev == "stage":
                     v = self._channel(chans, "position_mm", n, 3, where)
                 else:
-                    v = self._channel(chans, "spindle_rpm", n, 1, where)[:, 0]
+                    v = self._channel(chans, "spindle_rpm", n, 1, where)
+                    load = (self._channel(chans, "spindle_torque_Nmm", n, 1, where) if "spindle_torque_Nmm" in chans
+                            else np.zeros((n, 1)))
+                    v = np.hstack([v, load])
                 raw_t[dev] = t[fresh]
                 self._vals[dev] = v[fresh]
         t0 = min(int(t[0]) for t in raw_t.values())
@@ -222,5 +230,11 @@ class RecordingSource:
         i = k % v.shape[0] if self.loop else min(k, v.shape[0] - 1)
         row = v[i]
         if device == "spindle":
-            return float(row)
+            return float(row[0])
         return tuple(float(x) for x in row)
+
+    def spindle_load(self, k):
+        """The spindle drive's load torque (N·mm) of spindle sample k."""
+        v = self._vals["spindle"]
+        i = k % v.shape[0] if self.loop else min(k, v.shape[0] - 1)
+        return float(v[i][1])

@@ -37,6 +37,9 @@ def parse_args(argv):
                    help="sample rate of the stage (unit 1) with --pattern; default --rate-hz")
     p.add_argument("--spindle-rate-hz", type=float, default=0.0,
                    help="sample rate of the spindle (unit 2) with --pattern; default --rate-hz")
+    p.add_argument("--spindle-rated-Nmm", type=float, default=10.0,
+                   help="rated torque of the spindle drive (N·mm): its load register (unit 2, address 4) "
+                        "counts 0.1 %% of it, like a VFD (default 10: 0.01 N·mm a count)")
     p.add_argument("--loop", action="store_true",
                    help="repeat the recording (counters keep counting); default: hold the last sample")
     p.add_argument("--host", default="127.0.0.1", help="TCP address to bind (default 127.0.0.1)")
@@ -90,6 +93,8 @@ def parse_args(argv):
     for name in ("stage_rate_hz", "spindle_rate_hz"):
         if getattr(a, name) < 0 or getattr(a, name) > 100000:
             bad.append(f"--{name.replace('_', '-')}: expected 0 < rate <= 100000")
+    if not (a.spindle_rated_Nmm > 0) or a.spindle_rated_Nmm > 1e9:
+        bad.append("--spindle-rated-Nmm: expected 0 < torque <= 1e9 (N·mm)")
     if not 0 <= a.port <= 65535:
         bad.append("--port: expected 0..65535")
     if a.baud <= 0:
@@ -124,7 +129,8 @@ async def serve(args, source):
                     args.drop_every_s, args.restart_at_s, args.restart_down_s,
                     args.restart_resets_counter, args.busy_at_s, args.busy_for_s, args.wrong_unit_every,
                     args.late_sample_every, args.late_sample_ms)
-    playback = Playback(source, args.counter_start, args.status_every, args.ft_fifo_depth, args.stage_fifo_depth)
+    playback = Playback(source, args.counter_start, args.status_every, args.ft_fifo_depth, args.stage_fifo_depth,
+                        args.spindle_rated_Nmm)
     contexts = make_contexts(playback)
     served = ServedLog(args.served_log, playback) if args.served_log else None
     FaultMixin.served_log = served

@@ -133,3 +133,34 @@ def test_burr_axis_and_spin_are_stated_on_import(tmp_path):
         r = run("recording", "import", "--csv", csv, "--out", tmp_path / "X.h5", *args)
         assert r.returncode == 2 and field in r.stderr and r.stderr.startswith("burrbench:"), r.stderr
         assert not (tmp_path / "X.h5").exists()
+
+
+def test_spindle_load_as_torque_or_power(tmp_path):
+    # The drive's load (issue 13): a torque column, or a power column in kW through a map;
+    # not both.
+    t = np.arange(20) * 0.001
+    csv = tmp_path / "R.csv"
+    rows = np.column_stack([t, t, t, t, t, t, t, np.full_like(t, 30000.0), 0.5 + t])
+    csv.write_text("t_s,x_mm,y_mm,z_mm,fx_N,fy_N,fz_N,spindle_rpm,spindle_torque_Nmm\n"
+                   + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in rows))
+    assert run("recording", "import", "--csv", csv, "--out", tmp_path / "T.h5").returncode == 0
+    _, ch = stream(tmp_path / "T.h5")
+    np.testing.assert_array_equal(ch["spindle_torque_Nmm"].ravel(), rows[:, 8])
+    with h5py.File(tmp_path / "T.h5", "r") as f:
+        unit = f["streams/csv/channels/spindle_torque_Nmm"].attrs["unit"]
+        assert unit in ("N*mm", b"N*mm")
+    csv.write_text("time,x,y,z,fx,fy,fz,rpm,P\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in rows))
+    m = tmp_path / "map.toml"
+    m.write_text('format = "burrbench.csv_map"\nformat_version = "1.0"\n[columns]\n'
+                 + "".join(f'{k} = {{ channel = "{c}" }}\n' for k, c in
+                           (("time", "t_s"), ("x", "x_mm"), ("y", "y_mm"), ("z", "z_mm"), ("fx", "fx_N"),
+                            ("fy", "fy_N"), ("fz", "fz_N"), ("rpm", "spindle_rpm")))
+                 + 'P = { channel = "spindle_power_W", unit = "kW" }\n')
+    r = run("recording", "import", "--csv", csv, "--map", m, "--out", tmp_path / "P.h5")
+    assert r.returncode == 0, r.stderr
+    _, ch = stream(tmp_path / "P.h5")
+    np.testing.assert_allclose(ch["spindle_power_W"].ravel(), 1000 * rows[:, 8], rtol=1e-15)
+    csv.write_text("t_s,x_mm,y_mm,z_mm,fx_N,fy_N,fz_N,spindle_torque_Nmm,spindle_power_W\n0,0,0,0,0,0,0,1,1\n")
+    r = run("recording", "import", "--csv", csv, "--out", tmp_path / "B.h5")
+    assert r.returncode == 2 and "not both" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not (tmp_path / "B.h5").exists()

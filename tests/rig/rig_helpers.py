@@ -59,6 +59,9 @@ FT_CHANNELS = [
 ]
 STAGE_CHANNELS = [{"name": "position_mm", "unit": "mm", "type": "int32", "registers": [0, 2, 4], "scale": 0.001}]
 SPINDLE_CHANNELS = [{"name": "spindle_rpm", "unit": "rpm", "type": "uint16", "registers": [0], "negate_if_register": 1}]
+# The drive's load register (address 4): int16, 0.1 % of the rated 10 N·mm a count.
+SPINDLE_LOAD_CHANNELS = SPINDLE_CHANNELS + [
+    {"name": "spindle_torque_Nmm", "unit": "N*mm", "type": "int16", "registers": [4], "scale": 0.01}]
 ORDERS = ["ABCD", "CDAB", "BADC", "DCBA"]
 CONST_CHANNELS = (
     [{"name": f"f32_{o}", "unit": "1", "type": "float32", "word_order": o, "registers": [400 + 2 * i]}
@@ -126,6 +129,10 @@ def ramp_position_um(k):
 def ramp_rpm(k):
     k = np.asarray(k)
     return np.where((k // 10000) % 2 == 1, -1, 1) * ((k % 10000) + 1)
+
+
+def ramp_spindle_load_Nmm(k):
+    return 0.05 * (np.asarray(k) % 100)
 
 
 def assert_contiguous(counter, label=""):

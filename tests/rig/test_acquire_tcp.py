@@ -17,7 +17,7 @@ def test_every_served_value_is_recorded_exactly(tmp_path):
                             "--served-log", str(served_log)]) as (proc, host, port):
         body = (rh.tcp_device("ft_sensor", port, 9, 180, 42, 500, rh.FT_CHANNELS, counter=220, timeout_ms=1000)
                 + rh.tcp_device("stage", port, 1, 0, 8, 500, rh.STAGE_CHANNELS, counter=6, timeout_ms=1000)
-                + rh.tcp_device("spindle", port, 2, 0, 4, 100, rh.SPINDLE_CHANNELS, counter=2, timeout_ms=1000)
+                + rh.tcp_device("spindle", port, 2, 0, 5, 100, rh.SPINDLE_LOAD_CHANNELS, counter=2, timeout_ms=1000)
                 + rh.tcp_device("constants", port, 9, 400, 18, 20, rh.CONST_CHANNELS, timeout_ms=1000))
         out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), 2.0, extra=["--sample-id", "S1", "--notes", "tcp e2e"])
         start = playback_start_ns(proc)
@@ -39,6 +39,10 @@ def test_every_served_value_is_recorded_exactly(tmp_path):
                                rtol=0, atol=1e-9)
     np.testing.assert_array_equal(spindle["channels"]["spindle_rpm"][:, 0] if spindle["channels"]["spindle_rpm"].ndim > 1
                                   else spindle["channels"]["spindle_rpm"], rh.ramp_rpm(spindle["device_counter"]))
+    # The drive's load register, decoded to the canonical spindle_torque_Nmm (issue 13).
+    np.testing.assert_allclose(spindle["channels"]["spindle_torque_Nmm"].reshape(-1),
+                               rh.ramp_spindle_load_Nmm(spindle["device_counter"]), rtol=0, atol=1e-9)
+    assert np.ptp(spindle["channels"]["spindle_torque_Nmm"]) > 0
     # 123456.0 and 123456 in every word order, every sample.
     const = rec["constants"]
     assert const["t_ns"].size >= 20

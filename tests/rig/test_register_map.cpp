@@ -63,6 +63,28 @@ TEST(RegisterMap, VirtualPresetMatchesContractE) {
   EXPECT_EQ(m.devices[1].channels[0].type, ValueType::Int32);
   EXPECT_EQ(m.devices[1].channels[0].scale, std::vector<double>{0.001});
   EXPECT_EQ(m.devices[2].channels[0].negate_if_register, 1);
+  EXPECT_EQ(m.devices[2].count, 5);  // rpm, direction, counter, load
+  EXPECT_EQ(m.devices[2].channels[1].name, "spindle_torque_Nmm");
+  EXPECT_EQ(m.devices[2].channels[1].registers, (std::vector<int>{4}));
+}
+
+// The VFD example (issue 13): speed and the load torque in 0.1 % of nominal, decoded to
+// the canonical spindle_rpm and spindle_torque_Nmm (signed int16, scale τ_n/1000).
+TEST(RegisterMap, VfdSpindleExampleMapsTheLoadRegister) {
+  const auto m = load_rig_map(std::string(BURRBENCH_SOURCE_DIR) + "/examples/rigs/vfd-spindle.toml");
+  ASSERT_EQ(m.devices.size(), 1u);
+  const auto& d = m.devices[0];
+  EXPECT_EQ(d.transport, Transport::Rtu);
+  EXPECT_EQ(d.parity, 'E');
+  ASSERT_EQ(d.channels.size(), 2u);
+  EXPECT_EQ(d.channels[0].name, "spindle_rpm");
+  EXPECT_EQ(d.channels[1].name, "spindle_torque_Nmm");
+  EXPECT_EQ(d.channels[1].unit, "N*mm");
+  EXPECT_EQ(d.channels[1].type, ValueType::Int16);
+  EXPECT_EQ(d.channels[1].registers, (std::vector<int>{2106}));
+  EXPECT_EQ(d.channels[1].scale, std::vector<double>{0.0796});
+  EXPECT_GE(d.channels[1].registers[0], d.start);
+  EXPECT_LT(d.channels[1].registers[0], d.start + d.count);
 }
 
 TEST(RegisterMap, RobotiqPresetIsRtuSlave9At19200) {

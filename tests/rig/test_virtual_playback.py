@@ -236,7 +236,9 @@ def test_plays_a_burrbench_synth_recording(tmp_path):
                             f["streams/ft_sensor/channels/torque_Nmm"][...]])[fresh]
         pos = f["streams/stage/channels/position_mm"][...][f["streams/stage/stale"][...] == 0]
         rpm = f["streams/spindle/channels/spindle_rpm"][...][f["streams/spindle/stale"][...] == 0]
-    with start_virtual_rig(["--recording", str(rec)]) as (proc, host, port):
+        load = f["streams/spindle/channels/spindle_torque_Nmm"][...][f["streams/spindle/stale"][...] == 0]
+    assert np.ptp(load) > 0.05  # the model's cutting load, N·mm
+    with start_virtual_rig(["--recording", str(rec), "--spindle-rated-Nmm", "1"]) as (proc, host, port):
         c = ModbusTcpClient(host, port=port, timeout=2)
         assert c.connect()
         seen = set()
@@ -246,9 +248,11 @@ def test_plays_a_burrbench_synth_recording(tmp_path):
             assert floats(regs[:12]) == [float(np.float32(v)) for v in wrench[k]]
             st = c.read_holding_registers(0, 8, slave=1).registers
             assert i32s(st[:6]) == [int(round(v * 1000)) for v in pos[u32(st[6:8])]]
-            sp = c.read_holding_registers(0, 4, slave=2).registers
+            sp = c.read_holding_registers(0, 5, slave=2).registers
             r = rpm[u32(sp[2:4])]
             assert sp[:2] == [int(round(abs(r))), int(r < 0)]
+            # The load register: int16 in 0.1 % of the rated 1 N·mm (0.001 N·mm a count).
+            assert struct.unpack(">h", struct.pack(">H", sp[4]))[0] == int(round(1000 * load[u32(sp[2:4])]))
             seen.add(k)
             time.sleep(0.05)
         assert len(seen) > 10

@@ -30,14 +30,15 @@ std::string echo(std::string_view s) {
 using detail::to_double;
 using detail::trim;
 
-enum class Quantity { kTime, kLength, kForce, kTorque, kSpeed };
+enum class Quantity { kTime, kLength, kForce, kTorque, kSpeed, kPower };
 
 struct CanonicalColumn {
   const char* name;
   Quantity q;
 };
-// Order = index used below: 0 t, 1-3 position, 4-6 force, 7-9 torque, 10 spindle.
-constexpr std::array<CanonicalColumn, 11> kColumns{{{"t_s", Quantity::kTime},
+// Order = index used below: 0 t, 1-3 position, 4-6 force, 7-9 torque, 10 spindle speed,
+// 11 spindle load torque, 12 spindle power (the drive's load: one of 11, 12).
+constexpr std::array<CanonicalColumn, 13> kColumns{{{"t_s", Quantity::kTime},
                                                     {"x_mm", Quantity::kLength},
                                                     {"y_mm", Quantity::kLength},
                                                     {"z_mm", Quantity::kLength},
@@ -47,7 +48,11 @@ constexpr std::array<CanonicalColumn, 11> kColumns{{{"t_s", Quantity::kTime},
                                                     {"tx_Nmm", Quantity::kTorque},
                                                     {"ty_Nmm", Quantity::kTorque},
                                                     {"tz_Nmm", Quantity::kTorque},
-                                                    {"spindle_rpm", Quantity::kSpeed}}};
+                                                    {"spindle_rpm", Quantity::kSpeed},
+                                                    {"spindle_torque_Nmm", Quantity::kTorque},
+                                                    {"spindle_power_W", Quantity::kPower}}};
+constexpr const char* kColumnList =
+    "t_s, x_mm, y_mm, z_mm, fx_N, fy_N, fz_N, tx_Nmm, ty_Nmm, tz_Nmm, spindle_rpm, spindle_torque_Nmm, spindle_power_W";
 
 std::optional<double> unit_factor(Quantity q, const std::string& u) {
   static const std::map<std::string, double> time{{"s", 1}, {"ms", 1e-3}, {"us", 1e-6}, {"ns", 1e-9}, {"min", 60}};
@@ -55,8 +60,9 @@ std::optional<double> unit_factor(Quantity q, const std::string& u) {
   static const std::map<std::string, double> force{{"N", 1}, {"mN", 1e-3}, {"kN", 1e3}, {"lbf", 4.4482216152605}};
   static const std::map<std::string, double> torque{{"N*mm", 1}, {"Nmm", 1}, {"mN*m", 1}, {"N*m", 1e3}, {"Nm", 1e3}};
   static const std::map<std::string, double> speed{{"rpm", 1}, {"Hz", 60}, {"rad/s", 60 / (2 * std::numbers::pi)}};
+  static const std::map<std::string, double> power{{"W", 1}, {"mW", 1e-3}, {"kW", 1e3}};
   const auto& m = q == Quantity::kTime ? time : q == Quantity::kLength ? length : q == Quantity::kForce ? force
-                : q == Quantity::kTorque ? torque : speed;
+                : q == Quantity::kTorque ? torque : q == Quantity::kPower ? power : speed;
   auto it = m.find(u);
   if (it == m.end()) return std::nullopt;
   return it->second;
@@ -69,6 +75,7 @@ std::string unit_list(Quantity q) {
     case Quantity::kForce: return "N, mN, kN or lbf";
     case Quantity::kTorque: return "N*mm, Nmm, mN*m, N*m or Nm";
     case Quantity::kSpeed: return "rpm, Hz or rad/s";
+    case Quantity::kPower: return "W, mW or kW";
   }
   return {};
 }
@@ -119,7 +126,7 @@ CsvLayout parse_map(std::string_view text, const std::string& file) {
     const std::string ch = c.str("channel");
     m.canonical = canonical_index(ch);
     if (m.canonical < 0) {
-      throw InputError(file, c.field("channel"), "one of t_s, x_mm, y_mm, z_mm, fx_N, fy_N, fz_N, tx_Nmm, ty_Nmm, tz_Nmm, spindle_rpm", "\"" + echo(ch) + "\"");
+      throw InputError(file, c.field("channel"), std::string("one of ") + kColumnList, "\"" + echo(ch) + "\"");
     }
     const Quantity q = kColumns[static_cast<std::size_t>(m.canonical)].q;
     if (auto u = c.opt_str("unit")) {
@@ -234,7 +241,7 @@ Recording parse_csv_recording(std::string_view csv, const std::string& file, std
       const int c = canonical_index(header[i]);
       if (c < 0) {
         throw InputError(file, fmt::format("line {}, column {} (\"{}\")", header_lineno, i + 1, echo(header[i])),
-                         "a canonical name (t_s,x_mm,y_mm,z_mm,fx_N,fy_N,fz_N,tx_Nmm,ty_Nmm,tz_Nmm,spindle_rpm) or a --map");
+                         std::string("a canonical name (") + kColumnList + ") or a --map");
       }
       cols[i] = ColumnMap{header[i], c};
     }
@@ -257,10 +264,14 @@ Recording parse_csv_recording(std::string_view csv, const std::string& file, std
   const int torques = (where[7] >= 0) + (where[8] >= 0) + (where[9] >= 0);
   if (torques != 0 && torques != 3) throw InputError(file, fmt::format("line {} (header)", header_lineno), "all of tx_Nmm, ty_Nmm, tz_Nmm or none");
   const bool has_torque = torques == 3, has_spindle = where[10] >= 0;
+  const bool has_load = where[11] >= 0, has_power = where[12] >= 0;
+  if (has_load && has_power)
+    throw InputError(file, fmt::format("line {} (header)", header_lineno), "spindle_torque_Nmm or spindle_power_W, not both", "both");
 
   Stream s;
   s.name = "csv";
-  Channel pos_c{kPosition, "mm", 3, {}}, force_c{kForce, "N", 3, {}}, torque_c{kTorque, "N*mm", 3, {}}, spin_c{kSpindle, "rpm", 1, {}};
+  Channel pos_c{kPosition, "mm", 3, {}}, force_c{kForce, "N", 3, {}}, torque_c{kTorque, "N*mm", 3, {}}, spin_c{kSpindle, "rpm", 1, {}},
+      load_c{has_power ? kSpindlePower : kSpindleTorque, has_power ? "W" : "N*mm", 1, {}};
   double last_t = 0;
   std::array<double, kColumns.size()> row{};
   while (next(line)) {
@@ -303,12 +314,14 @@ Recording parse_csv_recording(std::string_view csv, const std::string& file, std
       if (has_torque) torque_c.values.push_back(row[static_cast<std::size_t>(7 + k)]);
     }
     if (has_spindle) spin_c.values.push_back(row[10]);
+    if (has_load || has_power) load_c.values.push_back(row[has_power ? 12 : 11]);
   }
   if (s.t_ns.empty()) throw InputError(file, fmt::format("line {}", header_lineno + 1), "at least one data row after the header", "none");
   s.channels.push_back(std::move(pos_c));
   s.channels.push_back(std::move(force_c));
   if (has_torque) s.channels.push_back(std::move(torque_c));
   if (has_spindle) s.channels.push_back(std::move(spin_c));
+  if (has_load || has_power) s.channels.push_back(std::move(load_c));
 
   Recording rec;
   rec.events.push_back({s.t_ns.front(), "start", "", "imported from CSV"});
