@@ -4,7 +4,10 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/provenance.hpp"
+#include "burrbench/data_schema/sensor_loads.hpp"
+#include "burrbench/model/sensor_pose.hpp"
 #include "burrbench/rig/tools.hpp"
 #include "output_paths.hpp"
 #include "verb_registry.hpp"
@@ -64,6 +67,56 @@ void setup(CLI::App& root) {
     rig::write_tare(*out, t);
     std::cout << fmt::format("tare of {} from {} samples: F {:.4f} {:.4f} {:.4f} N  T {:.3f} {:.3f} {:.3f} N*mm → {}\n",
                              t.device, t.samples, t.bias[0], t.bias[1], t.bias[2], t.bias[3], t.bias[4], t.bias[5], *out);
+  });
+
+  // --- sensor-pose: the sensor's rotation and origin from static loads ---
+  auto* pose = rig->add_subcommand("sensor-pose", "The force sensor's rotation and origin (rig frame) from known "
+                                                  "static loads and their tare files; writes a [sensor] snippet");
+  auto loads_path = std::make_shared<std::string>();
+  auto pose_out = std::make_shared<std::string>();
+  auto pose_overwrite = std::make_shared<bool>(false);
+  pose->add_option("LOADS", *loads_path, "static loads (.toml, format burrbench.sensor_loads)")->required();
+  pose->add_option("--out", *pose_out, "TOML with the [sensor] keys for the experiment manifest")->required();
+  pose->add_flag("--overwrite", *pose_overwrite, "replace an existing --out file (refused otherwise)");
+  pose->callback([loads_path, pose_out, pose_overwrite] {
+    using namespace burrbench;
+    const auto spec = data_schema::read_sensor_loads(*loads_path);
+    std::vector<std::string> inputs{*loads_path, spec.unloaded.string()};
+    for (const auto& l : spec.loads) inputs.push_back(l.tare.string());
+    apps::refuse_output_over_inputs(*pose_out, "--out", inputs);
+    apps::check_output_location(*pose_out, "--out");
+    apps::refuse_existing(*pose_out, "--out", *pose_overwrite);
+    const auto zero = rig::read_tare(spec.unloaded);
+    std::vector<model::StaticLoad> loads;
+    for (const auto& l : spec.loads) {
+      const auto t = rig::read_tare(l.tare);
+      model::StaticLoad s{l.force_rig_N, l.point_rig_mm, {}, {}};
+      for (int k = 0; k < 3; ++k) {
+        s.force_sensor_N[k] = t.bias[std::size_t(k)] - zero.bias[std::size_t(k)];
+        s.moment_sensor_Nmm[k] = t.bias[std::size_t(k) + 3] - zero.bias[std::size_t(k) + 3];
+      }
+      loads.push_back(s);
+    }
+    const auto fit = model::estimate_sensor_pose(loads, *loads_path);
+    const glm::dmat3& Q = fit.rotation_sensor_to_rig;
+    const glm::dvec3& o = fit.origin_rig_mm;
+    std::string text = fmt::format(
+        "# burrbench rig sensor-pose {}: {} loads, residual RMS {:.4g} N and {:.4g} N*mm ({} iterations)\n",
+        *loads_path, loads.size(), fit.force_rms_N, fit.moment_rms_Nmm, fit.iterations);
+    if (fit.unobservable_rig != glm::dvec3(0))
+      text += fmt::format("# every load is parallel to ({:.4f}, {:.4f}, {:.4f}): the origin along it is NOT determined\n"
+                          "# (kept at its least-norm value); add a load sideways (a pulley) to fix it\n",
+                          fit.unobservable_rig.x, fit.unobservable_rig.y, fit.unobservable_rig.z);
+    text += "[sensor]\nrotation_sensor_to_rig = [";
+    for (int r = 0; r < 3; ++r)
+      text += fmt::format("{}[{:.12g}, {:.12g}, {:.12g}]", r ? ", " : "", Q[0][r], Q[1][r], Q[2][r]);
+    text += fmt::format("]\norigin_rig_mm = [{:.9g}, {:.9g}, {:.9g}]\n", o.x, o.y, o.z);
+    data_schema::write_file_atomic(*pose_out, text);
+    std::cout << text;
+    for (std::size_t i = 0; i < loads.size(); ++i)
+      std::cout << fmt::format("  load {}: residual {:.4g} N, {:.4g} N*mm\n", i, fit.force_residual_N[i],
+                               fit.moment_residual_Nmm[i]);
+    std::cout << "wrote " << *pose_out << " (paste its [sensor] keys into the experiment manifest)\n";
   });
 }
 BURRBENCH_VERB("rig", setup);

@@ -7,50 +7,10 @@
 #include <cmath>
 
 #include "burrbench/data_schema/error.hpp"
+#include "jacobi.hpp"
 
 namespace burrbench::model {
 namespace {
-
-// Cyclic Jacobi eigen-decomposition of a small symmetric matrix A (row-major, N×N).
-// On return A's diagonal holds the eigenvalues and V's columns the eigenvectors.
-template <int N>
-void jacobi_eigen(std::array<std::array<double, N>, N>& A,
-                  std::array<std::array<double, N>, N>& V) {
-  for (int i = 0; i < N; ++i)
-    for (int j = 0; j < N; ++j) V[i][j] = (i == j) ? 1.0 : 0.0;
-  for (int sweep = 0; sweep < 100; ++sweep) {
-    double off = 0, diag = 0;
-    for (int i = 0; i < N; ++i) {
-      diag += A[i][i] * A[i][i];
-      for (int j = i + 1; j < N; ++j) off += A[i][j] * A[i][j];
-    }
-    if (off <= 1e-30 * diag || off == 0) return;
-    for (int p = 0; p < N; ++p) {
-      for (int q = p + 1; q < N; ++q) {
-        if (A[p][q] == 0) continue;
-        const double theta = (A[q][q] - A[p][p]) / (2 * A[p][q]);
-        const double t =
-            (theta >= 0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1));
-        const double c = 1 / std::sqrt(t * t + 1), s = t * c;
-        for (int k = 0; k < N; ++k) {  // A ← Jᵀ A J
-          const double akp = A[k][p], akq = A[k][q];
-          A[k][p] = c * akp - s * akq;
-          A[k][q] = s * akp + c * akq;
-        }
-        for (int k = 0; k < N; ++k) {
-          const double apk = A[p][k], aqk = A[q][k];
-          A[p][k] = c * apk - s * aqk;
-          A[q][k] = s * apk + c * aqk;
-        }
-        for (int k = 0; k < N; ++k) {
-          const double vkp = V[k][p], vkq = V[k][q];
-          V[k][p] = c * vkp - s * vkq;
-          V[k][q] = s * vkp + c * vkq;
-        }
-      }
-    }
-  }
-}
 
 glm::dvec3 centroid(const std::vector<glm::dvec3>& pts) {
   glm::dvec3 c{0};
@@ -66,7 +26,7 @@ double planarity(const std::vector<glm::dvec3>& pts, const glm::dvec3& c) {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) C[i][j] += d[i] * d[j];
   }
-  jacobi_eigen<3>(C, V);
+  detail::jacobi_eigen<3>(C, V);
   std::array<double, 3> ev{C[0][0], C[1][1], C[2][2]};
   std::sort(ev.begin(), ev.end());
   if (ev[2] <= 0) return 0;
@@ -89,6 +49,36 @@ void check_rotation(const glm::dmat3& R, const std::string& file, const std::str
                      fmt::format("max |RᵀR − I| = {:.3g}, det = {:.6g}", err, det));
 }
 
+glm::dmat3 optimal_rotation(const std::array<std::array<double, 3>, 3>& S3) {
+  // Horn (1987): the optimal unit quaternion is the top eigenvector of N(S).
+  const double Sxx = S3[0][0], Sxy = S3[0][1], Sxz = S3[0][2], Syx = S3[1][0], Syy = S3[1][1],
+               Syz = S3[1][2], Szx = S3[2][0], Szy = S3[2][1], Szz = S3[2][2];
+  std::array<std::array<double, 4>, 4> N{{
+      {Sxx + Syy + Szz, Syz - Szy, Szx - Sxz, Sxy - Syx},
+      {Syz - Szy, Sxx - Syy - Szz, Sxy + Syx, Szx + Sxz},
+      {Szx - Sxz, Sxy + Syx, -Sxx + Syy - Szz, Syz + Szy},
+      {Sxy - Syx, Szx + Sxz, Syz + Szy, -Sxx - Syy + Szz},
+  }};
+  std::array<std::array<double, 4>, 4> V{};
+  detail::jacobi_eigen<4>(N, V);
+  int best = 0;
+  for (int k = 1; k < 4; ++k)
+    if (N[k][k] > N[best][best]) best = k;
+  double q0 = V[0][best], qx = V[1][best], qy = V[2][best], qz = V[3][best];
+  const double qn = std::sqrt(q0 * q0 + qx * qx + qy * qy + qz * qz);
+  q0 /= qn, qx /= qn, qy /= qn, qz /= qn;
+  // Rotation matrix of the quaternion, written row-wise, stored column-major.
+  const double r[3][3] = {
+      {q0 * q0 + qx * qx - qy * qy - qz * qz, 2 * (qx * qy - q0 * qz), 2 * (qx * qz + q0 * qy)},
+      {2 * (qy * qx + q0 * qz), q0 * q0 - qx * qx + qy * qy - qz * qz, 2 * (qy * qz - q0 * qx)},
+      {2 * (qz * qx - q0 * qy), 2 * (qz * qy + q0 * qx), q0 * q0 - qx * qx - qy * qy + qz * qz},
+  };
+  glm::dmat3 R;
+  for (int row = 0; row < 3; ++row)
+    for (int col = 0; col < 3; ++col) R[col][row] = r[row][col];
+  return R;
+}
+
 RegistrationFit fit_rigid(const std::vector<glm::dvec3>& from, const std::vector<glm::dvec3>& to,
                           const std::string& file, const std::string& field) {
   if (from.size() != to.size())
@@ -105,39 +95,15 @@ RegistrationFit fit_rigid(const std::vector<glm::dvec3>& from, const std::vector
   if (planarity(from, ca) < 1e-6 || planarity(to, cb) < 1e-6)
     throw InputError(file, field, "fiducials that are not collinear (rotation undetermined)");
 
-  // Horn (1987): the optimal unit quaternion is the top eigenvector of N(S), with S the
-  // cross-covariance Σ (a−ā)(b−b̄)ᵀ.
-  double S[3][3] = {};
+  // Horn (1987) on the cross-covariance Σ (a−ā)(b−b̄)ᵀ.
+  std::array<std::array<double, 3>, 3> S{};
   for (std::size_t i = 0; i < from.size(); ++i) {
     const glm::dvec3 a = from[i] - ca, b = to[i] - cb;
     for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) S[r][c] += a[r] * b[c];
+      for (int c = 0; c < 3; ++c) S[std::size_t(r)][std::size_t(c)] += a[r] * b[c];
   }
-  const double Sxx = S[0][0], Sxy = S[0][1], Sxz = S[0][2], Syx = S[1][0], Syy = S[1][1],
-               Syz = S[1][2], Szx = S[2][0], Szy = S[2][1], Szz = S[2][2];
-  std::array<std::array<double, 4>, 4> N{{
-      {Sxx + Syy + Szz, Syz - Szy, Szx - Sxz, Sxy - Syx},
-      {Syz - Szy, Sxx - Syy - Szz, Sxy + Syx, Szx + Sxz},
-      {Szx - Sxz, Sxy + Syx, -Sxx + Syy - Szz, Syz + Szy},
-      {Sxy - Syx, Szx + Sxz, Syz + Szy, -Sxx - Syy + Szz},
-  }};
-  std::array<std::array<double, 4>, 4> V{};
-  jacobi_eigen<4>(N, V);
-  int best = 0;
-  for (int k = 1; k < 4; ++k)
-    if (N[k][k] > N[best][best]) best = k;
-  double q0 = V[0][best], qx = V[1][best], qy = V[2][best], qz = V[3][best];
-  const double qn = std::sqrt(q0 * q0 + qx * qx + qy * qy + qz * qz);
-  q0 /= qn, qx /= qn, qy /= qn, qz /= qn;
-  // Rotation matrix of the quaternion, written row-wise, stored column-major.
-  const double r[3][3] = {
-      {q0 * q0 + qx * qx - qy * qy - qz * qz, 2 * (qx * qy - q0 * qz), 2 * (qx * qz + q0 * qy)},
-      {2 * (qy * qx + q0 * qz), q0 * q0 - qx * qx + qy * qy - qz * qz, 2 * (qy * qz - q0 * qx)},
-      {2 * (qz * qx - q0 * qy), 2 * (qz * qy + q0 * qx), q0 * q0 - qx * qx - qy * qy + qz * qz},
-  };
   RegistrationFit fit;
-  for (int row = 0; row < 3; ++row)
-    for (int col = 0; col < 3; ++col) fit.transform.R[col][row] = r[row][col];
+  fit.transform.R = optimal_rotation(S);
   fit.transform.t = cb - fit.transform.R * ca;
   double ss = 0;
   for (std::size_t i = 0; i < from.size(); ++i) {
@@ -160,7 +126,7 @@ double predicted_tre_mm(const std::vector<glm::dvec3>& fid, double fle_mm, const
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) C[i][j] += d[i] * d[j];
   }
-  jacobi_eigen<3>(C, V);
+  detail::jacobi_eigen<3>(C, V);
   const glm::dvec3 r = target - c;
   double sum = 0;
   for (int k = 0; k < 3; ++k) {

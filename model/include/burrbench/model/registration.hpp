@@ -53,6 +53,11 @@ struct RegistrationFit {
   std::vector<double> residual_mm;  // |R·rig_i + t − vol_i| per pair
 };
 
+// Wahba's problem, solved with Horn's (1987) quaternion: the proper rotation R maximising
+// Σ w_i b_iᵀ R a_i (i.e. R a_i ≈ b_i in least squares), from the weighted cross-covariance
+// S[r][c] = Σ w_i a_i[r] b_i[c].
+glm::dmat3 optimal_rotation(const std::array<std::array<double, 3>, 3>& S);
+
 // Least-squares rigid fit of `to ≈ R·from + t`. Needs ≥ 3 pairs, equal counts, finite
 // values, and points not (nearly) collinear in either set (the rotation about their
 // line is then undetermined): otherwise InputError(file, field, ...).
