@@ -50,12 +50,13 @@ void run(const Args& a) {
   std::cout << "solution verification: change against (l, dt); RMS per axis over the used samples\n";
   for (const auto& r : study.recordings) {
     std::cout << fmt::format("{} ({} samples)\n", r.id, r.samples);
-    std::cout << fmt::format("  {:<5} {:>9} {:>9} {:>12} {:>9}", "level", "voxel mm", "step µs", "RMS change N", "peak N");
+    std::cout << fmt::format("  {:<5} {:>9} {:>9} {:>12} {:>12} {:>9}", "level", "voxel mm", "step µs", "RMS change N",
+                             "max change N", "peak N");
     for (const auto& [id, name] : study.classes) std::cout << fmt::format(" {:>14}", name + " mm³");
     std::cout << fmt::format(" {:>7}\n", "wall s");
     for (const auto& L : r.levels) {
-      std::cout << fmt::format("  {:<5} {:>9.4g} {:>9.4g} {:>12.4g} {:>9.4g}", L.level, L.voxel_mm, 1e6 * L.step_s,
-                               L.rms_change_N, L.peak_N);
+      std::cout << fmt::format("  {:<5} {:>9.4g} {:>9.4g} {:>12.4g} {:>12.4g} {:>9.4g}", L.level, L.voxel_mm,
+                               1e6 * L.step_s, L.rms_change_N, L.max_change_N, L.peak_N);
       for (const auto& [id, name] : study.classes) std::cout << fmt::format(" {:>14.5g}", L.removed_mm3[id]);
       std::cout << fmt::format(" {:>7.2f}\n", L.wall_s);
     }

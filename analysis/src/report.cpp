@@ -275,7 +275,7 @@ std::string verification_section(const AnalysisInput& in, const json* fit) {
          "observed order (clamped to [0.5, 4]); the step's error assumes first order (docs/calibration.md).</p>";
     std::vector<std::string> classes;
     h += "<div class=\"scroll\"><table><tr><th>recording</th><th>level</th><th>voxel (mm)</th><th>step (µs)</th>"
-         "<th>RMS change (N)</th><th>peak |F| (N)</th>";
+         "<th>RMS change (N)</th><th>largest change (N)</th><th>peak |F| (N)</th>";
     if (!v.at("recordings").empty())
       for (const auto& [name, _] : v.at("recordings")[0].at("levels")[0].at("removed_mm3").items()) {
         classes.push_back(name);
@@ -286,7 +286,8 @@ std::string verification_section(const AnalysisInput& in, const json* fit) {
       for (const auto& L : r.at("levels")) {
         h += "<tr>" + td(esc(r.value("id", std::string()))) + td(esc(L.value("level", std::string()))) +
              td(num(L.value("voxel_mm", NAN)), true) + td(num(L.value("step_us", NAN)), true) +
-             td(num(L.value("rms_change_N", NAN)), true) + td(num(L.value("peak_N", NAN)), true);
+             td(num(L.value("rms_change_N", NAN)), true) + td(num(L.value("max_change_N", NAN)), true) +
+             td(num(L.value("peak_N", NAN)), true);
         for (const auto& c : classes)
           h += td(num(L.at("removed_mm3").value(c, NAN), 5), true);
         h += "</tr>";
@@ -295,7 +296,7 @@ std::string verification_section(const AnalysisInput& in, const json* fit) {
       h += "<tr class=\"total\">" + td(esc(r.value("id", std::string()))) + td("<b>error at l</b>") +
            td("order " + (ord.is_number() ? num(ord.get<double>(), 3) : std::string("not observed"))) +
            td("step " + num(r.value("step_error_N", NAN), 3) + " N") +
-           td("<b>" + num(r.value("error_N", NAN), 3) + "</b>", true) + td("");
+           td("<b>" + num(r.value("error_N", NAN), 3) + "</b>", true) + td("") + td("");
       for (const auto& c : classes)
         h += td("± " + num(r.at("removed_error").at(c).value("error_mm3", NAN), 3), true);
       h += "</tr>";

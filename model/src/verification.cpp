@@ -133,6 +133,8 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
         if (use[j]) L.peak_N = std::max(L.peak_N, glm::length(p.force_burr_vol_N[j]));
       force[k] = p.force_burr_vol_N;
       L.rms_change_N = k == 0 ? 0.0 : rms_diff(force[k], force[0], use);
+      for (std::size_t j = 0; k > 0 && j < force[k].size(); ++j)
+        if (use[j]) L.max_change_N = std::max(L.max_change_N, glm::length(force[k][j] - force[0][j]));
       if (k == 0) {
         quiet.emplace_back();
         for (std::size_t j = 0; j < p.class_mask.size(); ++j)
@@ -184,7 +186,7 @@ nlohmann::json to_json(const ConvergenceStudy& s) {
       nlohmann::json removed = nlohmann::json::object();
       for (const auto& [id, name] : s.classes) removed[name] = L.removed_mm3[id];
       levels.push_back({{"level", L.level}, {"voxel_mm", L.voxel_mm}, {"step_us", 1e6 * L.step_s},
-                        {"rms_change_N", L.rms_change_N}, {"peak_N", L.peak_N},
+                        {"rms_change_N", L.rms_change_N}, {"max_change_N", L.max_change_N}, {"peak_N", L.peak_N},
                         {"removed_mm3", removed}, {"wall_s", L.wall_s}});
     }
     nlohmann::json removed = nlohmann::json::object();

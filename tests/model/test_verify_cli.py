@@ -39,7 +39,9 @@ def test_study_levels_richardson_and_verdict(synthetic):
         assert list(lv) == ["l", "l/2", "2l", "dt/2"]
         assert (lv["l"]["voxel_mm"], lv["l/2"]["voxel_mm"], lv["2l"]["voxel_mm"]) == pytest.approx((0.1, 0.05, 0.2))
         assert lv["dt/2"]["step_us"] == pytest.approx(lv["l"]["step_us"] / 2)
-        assert lv["l"]["rms_change_N"] == 0
+        assert lv["l"]["rms_change_N"] == 0 and lv["l"]["max_change_N"] == 0
+        for name in ("l/2", "2l", "dt/2"):  # the largest change bounds the RMS one (per axis ≤ |ΔF|)
+            assert lv[name]["max_change_N"] >= lv[name]["rms_change_N"] > 0
         # The step error: first order from the Δt/2 replay.
         assert r["step_error_N"] == pytest.approx(2 * lv["dt/2"]["rms_change_N"], rel=1e-12)
         assert r["error_N"] == pytest.approx(math.hypot(r["voxel_error_N"], r["step_error_N"]), rel=1e-12)

@@ -38,6 +38,7 @@ struct LevelReplay {
   std::string level;          // "l" | "l/2" | "2l" | "dt/2"
   double voxel_mm = 0, step_s = 0;
   double rms_change_N = 0;    // against (l, Δt): RMS over used samples and the 3 axes
+  double max_change_N = 0;    // against (l, Δt): largest |ΔF| over used samples
   double peak_N = 0;          // largest |F| over used samples
   std::array<double, kMaxClasses> removed_mm3{};
   double wall_s = 0;
