@@ -16,9 +16,14 @@
 #     a constant limited by discretization error counts with its widened interval, the
 #     constants reported confidently wrong (outside, not limited), and the wall time at
 #     0.05 mm with and without --coarse-to-fine (ratio of the sums).
+#  7. the moments and the spindle's load (issue 13): one reference experiment (seed 1,
+#     time scale CHANNELS_TIME_SCALE, default 1) whose recordings carry them, calibrated
+#     with the force alone and with [fit] channels = force, torque, spindle: each
+#     constant's profile interval width (hi/lo) and error before and after, and the
+#     trabecular C1–α correlation.
 # The test manifests ask for 4 starts; every run here passes --starts 16, the default.
 # Environment: COVERAGE_TIME_SCALE (default 0.5); SKIP_TIMING=1 runs only the coverages;
-# COVERAGE=reference|registration|mismatch runs one of the three (default all);
+# COVERAGE=reference|registration|mismatch|channels runs one of the four (default all);
 # MISMATCH_REPS; NO_BUILD (below).
 # Usage: calibration.sh BUILD_DIR [REPS]
 set -euo pipefail
@@ -150,10 +155,44 @@ PY
   echo "$hits $lim $wrong $total $wd $wc"
 }
 
-hits=0 chits=0 total=0 idf=0 rhits=0 rchits=0 rtotal=0 ridf=0 mhits=0 mlim=0 mwrong=0 mtotal=0 mwd=0 mwc=0
-[[ ${COVERAGE:-all} == registration || ${COVERAGE:-all} == mismatch ]] || read -r hits chits total idf <<<"$(coverage "")"
-[[ ${COVERAGE:-all} == reference || ${COVERAGE:-all} == mismatch ]] || read -r rhits rchits rtotal ridf <<<"$(coverage registration)"
-[[ ${COVERAGE:-all} == reference || ${COVERAGE:-all} == registration ]] || read -r mhits mlim mwrong mtotal mwd mwc <<<"$(mismatch)"
+# The channels: prints one line per constant and the correlation line.
+channels() {
+  local mw
+  mw=$("$G" "$work/ch" "$B" 1 "${CHANNELS_TIME_SCALE:-1}" wrench)
+  calib "$work/ch/force" "$work/ch/experiment.toml" --starts 16 > /dev/null
+  calib "$work/ch/all" "$mw" --starts 16 > /dev/null
+  $PY - "$work/ch/force/fit.json" "$work/ch/all/fit.json" "$work/ch/truth.toml" <<'PY'
+import json, sys, tomllib
+a, b = (json.load(open(p)) for p in sys.argv[1:3]); t = tomllib.load(open(sys.argv[3], "rb"))["classes"]
+key = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}
+def width(p):
+    lo, hi = p.get("profile_ci95_low"), p.get("profile_ci95_high")
+    return f"x{hi / lo:.4f}" if lo and hi else "open"
+def err(p, tv):
+    return f"{100 * (p['held'] / tv - 1):+.2f}%"
+for pa, pb in zip(a["parameters"], b["parameters"]):
+    if pa["fixed"]:
+        continue
+    tv = t[pa["class_name"]][key[pa["name"]]]
+    print(f"  {pa['class_name']}.{pa['name']}: width {width(pa)} -> {width(pb)}, error {err(pa, tv)} -> {err(pb, tv)}, "
+          f"verdict {pa['verdict']} -> {pb['verdict']}")
+def corr(f):
+    c = f.get("correlation", {}); n = c.get("names", []); m = c.get("matrix", [])
+    try:
+        i, j = n.index("trabecular.c1"), n.index("trabecular.alpha")
+    except ValueError:
+        return "n/a"
+    return f"{m[i * len(n) + j]:.5f}"
+print(f"  trabecular C1-alpha correlation: {corr(a)} -> {corr(b)}")
+PY
+}
+
+hits=0 chits=0 total=0 idf=0 rhits=0 rchits=0 rtotal=0 ridf=0 mhits=0 mlim=0 mwrong=0 mtotal=0 mwd=0 mwc=0 chan=-
+run_part() { [[ ${COVERAGE:-all} == all || ${COVERAGE:-all} == "$1" ]]; }
+run_part reference && read -r hits chits total idf <<<"$(coverage "")"
+run_part registration && read -r rhits rchits rtotal ridf <<<"$(coverage registration)"
+run_part mismatch && read -r mhits mlim mwrong mtotal mwd mwc <<<"$(mismatch)"
+run_part channels && chan=$(channels)
 
 pct() { $PY -c "print(f'{100*$1/max(1,$2):.1f}')"; }
 ok() { $PY -c "print('ok' if $1 else 'MISSED')" 2>/dev/null || echo -; }
@@ -177,3 +216,5 @@ printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$ridf/$rtot
 printf '%-62s %-22s %-10s %s\n' "data at 0.1 mm fitted at 0.05 mm: coverage, ${MISMATCH_REPS:-10} seeds" "$(pct $mhits $mtotal) % ($mhits/$mtotal)" ">= 90 %" "$(covered $mhits $mtotal)"
 printf '%-62s %-22s %-10s %s\n' "  limited by discretization / confidently wrong" "$mlim / $mwrong of $mtotal" "- / 0" "$( (( mtotal == 0 )) && echo - || ok "$mwrong == 0")"
 printf '%-62s %-22s %-10s %s\n' "  wall at 0.05 mm: default / --coarse-to-fine (sum)" "$mwd s / $mwc s ($($PY -c "print(f'{$mwd/max($mwc,1e-9):.2f}')")x)" report -
+printf '%s\n' "force alone -> force, moments and spindle load (profile interval width hi/lo, error against the truth):"
+printf '%s\n' "$chan"

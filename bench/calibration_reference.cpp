@@ -3,6 +3,8 @@
 // MODE layered: the held-out case of tests/calibration/layered_fixture.hpp (TIME_SCALE
 // unused); MODE fine: also writes the same sample at 0.05 mm voxels (sample_fine.h5, the
 // same geometry: every 0.1 mm voxel split into 8) and experiment_fine.toml using it;
+// MODE wrench: the recordings also carry the model's moments and spindle load, and
+// experiment_wrench.toml fits them (printed instead of experiment.toml);
 // MODE registration: the reference case seen from a rig frame rotated 37° and offset,
 // registered from four fiducials with 5 µm of noise drawn from SEED
 // (tests/calibration/registration_fixture.hpp).
@@ -20,8 +22,8 @@
 
 int main(int argc, char** argv) {
   const std::string mode = argc == 6 ? argv[5] : "";
-  if (argc != 5 && !(argc == 6 && (mode == "layered" || mode == "fine" || mode == "registration"))) {
-    std::fprintf(stderr, "usage: %s DIR BURRBENCH SEED TIME_SCALE [layered|fine|registration]\n", argv[0]);
+  if (argc != 5 && !(argc == 6 && (mode == "layered" || mode == "fine" || mode == "registration" || mode == "wrench"))) {
+    std::fprintf(stderr, "usage: %s DIR BURRBENCH SEED TIME_SCALE [layered|fine|registration|wrench]\n", argv[0]);
     return 2;
   }
   try {
@@ -43,7 +45,12 @@ int main(int argc, char** argv) {
       std::printf("%s\n", c.manifest.c_str());
       return 0;
     }
+    s.wrench = mode == "wrench";
     const auto m = burrbench::calibration::testing::make_reference_experiment(argv[1], s, argv[2]);
+    if (mode == "wrench") {
+      std::printf("%s\n", (std::filesystem::path(argv[1]) / "experiment_wrench.toml").c_str());
+      return 0;
+    }
     if (mode == "fine") {
       namespace fs = std::filesystem;
       auto fine = s;

@@ -1,6 +1,7 @@
 #include "burrbench/calibration/objective.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -43,6 +44,40 @@ struct Robust {
 double sample_weight(const ObjectiveSettings& s, double w, bool buried) {
   if (!buried || w == 0) return w;
   return s.buried == data_schema::BuriedPolicy::kExclude ? 0.0 : w * s.buried_weight;
+}
+
+// One recording's additive nuisances at x (0 where not fitted).
+struct Offsets {
+  glm::dvec3 bias{0}, torque_bias{0};
+  double idle = 0, viscous = 0;
+};
+Offsets offsets_at(const RecordingNuisance& nz, const double* x) {
+  Offsets o;
+  auto v3 = [&](int at) { return glm::dvec3(x[at], x[at + 1], x[at + 2]); };
+  if (nz.bias >= 0) o.bias = v3(nz.bias);
+  if (nz.torque_bias >= 0) o.torque_bias = v3(nz.torque_bias);
+  if (nz.spindle >= 0) {
+    o.idle = x[nz.spindle];
+    o.viscous = x[nz.spindle + 1];
+  }
+  return o;
+}
+
+// The raw residuals of sample j (before the weight and the robust loss), rows in the
+// order force x y z, moment x y z, spindle (the channels the layout fits).
+void raw_residuals(const ObjectiveSettings& s, const Channels& ch, const RecordingModel& m,
+                   const Prediction& p, const Offsets& o, std::size_t j, double* r) {
+  const auto& meas = m.measured_sensor_N();
+  for (int a = 0; a < 3; ++a) r[a] = (p.force_sensor_N[j][a] + o.bias[a] - meas[j][a]) / s.sigma_N;
+  int k = 3;
+  if (ch.torque) {
+    const auto& mt = m.measured_torque_Nmm();
+    for (int a = 0; a < 3; ++a)
+      r[k++] = (p.torque_sensor_Nmm[j][a] + o.torque_bias[a] - mt[j][a]) / s.sigma_torque_Nmm;
+  }
+  if (ch.spindle)
+    r[k] = (p.spindle_Nmm[j] + o.idle + o.viscous * m.spindle_krpm()[j] - m.measured_spindle_Nmm()[j]) /
+           s.sigma_spindle_Nmm;
 }
 
 // The point a recording is evaluated at: physics, its lag, depth offset and pose.
@@ -108,8 +143,11 @@ class RecordingCost final : public ceres::CostFunction {
     if (n.lag >= 0) { blocks_.push_back({std::size_t(n.lag), 1}); cols_.push_back({ColumnKind::kLagMs, 0}); }
     if (n.depth >= 0) { blocks_.push_back({std::size_t(n.depth), 1}); cols_.push_back({ColumnKind::kDepthMm, 0}); }
     if (n.pose >= 0) { pose_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.pose), 6}); cols_.push_back({ColumnKind::kPose, 0}); }
+    if (n.torque_bias >= 0) { tbias_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.torque_bias), 3}); cols_.push_back({}); }
+    if (n.spindle >= 0) { spindle_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.spindle), 2}); cols_.push_back({}); }
     for (const auto& b : blocks_) mutable_parameter_block_sizes()->push_back(int(b.size));
-    set_num_residuals(int(3 * obj.models()[rec]->size()));
+    rows_ = std::size_t(L.channels().rows_per_sample());
+    set_num_residuals(int(rows_ * obj.models()[rec]->size()));
   }
   const std::vector<Layout::Block>& blocks() const { return blocks_; }
 
@@ -125,7 +163,7 @@ class RecordingCost final : public ceres::CostFunction {
     std::vector<int> col_of_block(blocks_.size(), -1);
     if (jac)
       for (std::size_t b = 0; b < blocks_.size(); ++b)
-        if (jac[b] && int(b) != bias_block_) {
+        if (jac[b] && int(b) != bias_block_ && int(b) != tbias_block_ && int(b) != spindle_block_) {
           col_of_block[b] = int(want.size());
           if (int(b) == pose_block_)
             for (std::uint8_t k = 0; k < 6; ++k) want.push_back({ColumnKind::kPose, k});
@@ -149,36 +187,49 @@ class RecordingCost final : public ceres::CostFunction {
       cache_.valid = true;
     }
     const Prediction& pred = cache_.pred;
-    const glm::dvec3 bias = nz.bias >= 0 ? glm::dvec3(x[std::size_t(nz.bias)], x[std::size_t(nz.bias) + 1],
-                                                      x[std::size_t(nz.bias) + 2])
-                                         : glm::dvec3(0);
     const auto& s = obj_.settings();
+    const Channels& ch = L.channels();
+    const Offsets off = offsets_at(nz, x.data());
     const Robust robust{s.loss, s.loss_scale * s.loss_scale};
-    const auto& meas = model->measured_sensor_N();
-    const std::size_t n = model->size();
+    const std::size_t n = model->size(), R = rows_;
+    std::array<double, 7> raw{};
     for (std::size_t j = 0; j < n; ++j) {
       const double w = sample_weight(s, w_[j], pred.buried[j] != 0);
       const double sw = std::sqrt(w);
-      for (int a = 0; a < 3; ++a) {
-        const std::size_t row = 3 * j + std::size_t(a);
-        const double r = (pred.force_sensor_N[j][a] + bias[a] - meas[j][a]) / s.sigma_N;
+      raw_residuals(s, ch, *model, pred, off, j, raw.data());
+      for (std::size_t a = 0; a < R; ++a) {
+        const std::size_t row = R * j + a;
+        const double r = raw[a];
         const double sq = r * r;
         const double rt = std::copysign(std::sqrt(robust.rho(sq)), r);
         residuals[row] = sw * rt;
         if (!jac) continue;
+        // Which channel this row is, and its σ.
+        const int chan = a < 3 ? 0 : (ch.torque && a < 6) ? 1 : 2;
+        const int axis = chan == 0 ? int(a) : chan == 1 ? int(a) - 3 : 0;
+        const double sigma = chan == 0 ? s.sigma_N : chan == 1 ? s.sigma_torque_Nmm : s.sigma_spindle_Nmm;
         // d r̃/d r = ρ'(r²)·r / r̃ (→ 1 as r → 0).
-        const double g = sw * (rt != 0 ? robust.drho(sq) * r / rt : 1.0) / s.sigma_N;
+        const double g = sw * (rt != 0 ? robust.drho(sq) * r / rt : 1.0) / sigma;
+        auto column = [&](std::size_t c) {  // d(prediction of this row)/d(column c)
+          return chan == 0 ? pred.columns[c][j][axis]
+                 : chan == 1 ? pred.torque_columns[c][j][axis]
+                             : pred.spindle_columns[c][j];
+        };
         for (std::size_t b = 0; b < blocks_.size(); ++b) {
           if (!jac[b]) continue;
           const std::size_t bs = blocks_[b].size;
           double* J = jac[b] + row * bs;
           if (int(b) == bias_block_) {
-            for (std::size_t k = 0; k < 3; ++k) J[k] = (int(k) == a) ? g : 0.0;
+            for (std::size_t k = 0; k < 3; ++k) J[k] = (chan == 0 && int(k) == axis) ? g : 0.0;
+          } else if (int(b) == tbias_block_) {
+            for (std::size_t k = 0; k < 3; ++k) J[k] = (chan == 1 && int(k) == axis) ? g : 0.0;
+          } else if (int(b) == spindle_block_) {
+            J[0] = chan == 2 ? g : 0.0;
+            J[1] = chan == 2 ? g * model->spindle_krpm()[j] : 0.0;
           } else if (int(b) == pose_block_) {
-            for (std::size_t k = 0; k < 6; ++k)
-              J[k] = g * pred.columns[std::size_t(col_of_block[b]) + k][j][a];
+            for (std::size_t k = 0; k < 6; ++k) J[k] = g * column(std::size_t(col_of_block[b]) + k);
           } else {
-            J[0] = g * pred.columns[std::size_t(col_of_block[b])][j][a];
+            J[0] = g * column(std::size_t(col_of_block[b]));
           }
         }
       }
@@ -194,7 +245,8 @@ class RecordingCost final : public ceres::CostFunction {
   bool geometry_terms_;
   std::vector<Layout::Block> blocks_;
   std::vector<Column> cols_;
-  int bias_block_ = -1, pose_block_ = -1;
+  int bias_block_ = -1, pose_block_ = -1, tbias_block_ = -1, spindle_block_ = -1;
+  std::size_t rows_ = 3;  // residuals per sample
   // The last evaluation (Ceres evaluates one residual block on one thread at a time).
   struct Cache {
     bool valid = false;
@@ -333,12 +385,10 @@ Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights
     if (only >= 0 && std::size_t(only) != r) continue;
     const auto& pred = ev.predictions[r];
     replays_ += pred.replays;
-    const auto& nz = layout_.recordings()[r];
-    const glm::dvec3 bias = nz.bias >= 0 ? glm::dvec3(x[std::size_t(nz.bias)], x[std::size_t(nz.bias) + 1],
-                                                      x[std::size_t(nz.bias) + 2])
-                                         : glm::dvec3(0);
-    const auto& meas = models_[r]->measured_sensor_N();
-    glm::dvec3 prev(0);
+    const Offsets off = offsets_at(layout_.recordings()[r], x.data());
+    const Channels& ch = layout_.channels();
+    const std::size_t R = std::size_t(ch.rows_per_sample());
+    std::array<double, 7> prev{}, cur{};
     bool has_prev = false;  // the previous sample was used (lag-1 pairs never span a gap)
     for (std::size_t j = 0; j < models_[r]->size(); ++j) {
       if (w[r][j] == 0) {
@@ -353,15 +403,14 @@ Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights
         continue;
       }
       ++ev.samples_used;
-      ev.residuals_used += 3;
-      glm::dvec3 cur;
-      for (int a = 0; a < 3; ++a) {
-        const double rr = (pred.force_sensor_N[j][a] + bias[a] - meas[j][a]) / settings_.sigma_N;
-        ev.cost += 0.5 * sw * robust.rho(rr * rr);
-        cur[a] = std::sqrt(sw) * rr;
+      ev.residuals_used += R;
+      raw_residuals(settings_, ch, *models_[r], pred, off, j, cur.data());
+      for (std::size_t a = 0; a < R; ++a) {
+        ev.cost += 0.5 * sw * robust.rho(cur[a] * cur[a]);
+        cur[a] *= std::sqrt(sw);
+        if (has_prev) lag_num += prev[a] * cur[a];
+        lag_den += cur[a] * cur[a];
       }
-      if (has_prev) lag_num += glm::dot(prev, cur);
-      lag_den += glm::dot(cur, cur);
       prev = cur;
       has_prev = true;
     }

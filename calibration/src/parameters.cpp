@@ -22,7 +22,8 @@ Layout::Layout(
     const std::vector<std::pair<std::uint8_t, std::pair<std::string, data_schema::ClassFitSpec>>>&
         classes,
     const std::vector<std::pair<std::string, double>>& recordings_lag_ms,
-    const data_schema::NuisanceSpec& nuisance, double depth_bound_mm) {
+    const data_schema::NuisanceSpec& nuisance, double depth_bound_mm, Channels channels)
+    : channels_(channels) {
   auto add = [&](std::string name, double init, double lo, double hi, bool log, std::size_t size) {
     blocks_.push_back({n_, size});
     for (std::size_t k = 0; k < size; ++k) {
@@ -68,15 +69,26 @@ Layout::Layout(
     }
     if (nuisance.depth_offset)
       r.depth = add(id + ".depth_offset", 0.0, -depth_bound_mm, depth_bound_mm, false, 1);
+    if (channels.torque) r.torque_bias = add(id + ".torque_bias", 0.0, -1e9, 1e9, false, 3);
+    if (channels.spindle) {  // one block: offset and viscous term
+      r.spindle = add(id + ".spindle", 0.0, -1e9, 1e9, false, 2);
+      names_[std::size_t(r.spindle)] = id + ".spindle_idle";
+      names_[std::size_t(r.spindle) + 1] = id + ".spindle_viscous";
+    }
     recordings_.push_back(std::move(r));
   }
-  // Bias has no real bound: drop the placeholder bounds (Ceres: unbounded).
-  for (auto& r : recordings_)
-    if (r.bias >= 0)
-      for (int k = 0; k < 3; ++k) {
-        lower_[std::size_t(r.bias + k)] = -std::numeric_limits<double>::infinity();
-        upper_[std::size_t(r.bias + k)] = std::numeric_limits<double>::infinity();
-      }
+  // Biases and idle terms have no real bound: drop the placeholder bounds (Ceres: unbounded).
+  auto unbound = [&](int at, int size) {
+    for (int k = 0; at >= 0 && k < size; ++k) {
+      lower_[std::size_t(at + k)] = -std::numeric_limits<double>::infinity();
+      upper_[std::size_t(at + k)] = std::numeric_limits<double>::infinity();
+    }
+  };
+  for (auto& r : recordings_) {
+    unbound(r.bias, 3);
+    unbound(r.torque_bias, 3);
+    unbound(r.spindle, 2);
+  }
 }
 
 void Layout::add_mounting(Mounting m, const std::vector<std::size_t>& recs) {

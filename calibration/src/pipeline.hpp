@@ -57,6 +57,7 @@ struct Run {
   SampleWeights w_validate;  // validating samples of the same recordings (may be all 0)
   ObjectiveSettings settings;
   std::string sigma_source = "manifest (sensor.sigma_N)";
+  std::string sigma_torque_source, sigma_spindle_source;  // when those channels are fitted
   std::unique_ptr<Objective> obj;
   std::uint64_t replays_before = 0;
   nlohmann::json stages = nlohmann::json::array();  // {"stage", "wall_s", "replays"} in order
@@ -99,6 +100,8 @@ Metrics metrics(const Objective& obj, const Evaluation& ev, const std::vector<do
 
 void select_recordings(Run& run);   // recordings, classes, layout, pool, weights, σ
 CoarseLevel& coarse_level(Run& run);  // built on first use (after choose_steps)
+// A replay-backed model of one recording with the run's derivatives, steps and channels.
+std::unique_ptr<ReplayRecordingModel> make_model(const Run& run, const model::AlignedRecording& r, ReplayPool& pool);
 void coarse_search(Run& run);       // coarse-to-fine: global search and refine at 2l
 void choose_steps(Run& run);        // difference steps (finite differences only)
 void global_search(Run& run);       // multistart from a Latin hypercube

@@ -89,6 +89,52 @@ model::PoseCorrection pose_of(const EvalPoint& at) {
 constexpr double kPoseStep[6] = {1e-4, 1e-4, 1e-4, 1e-3, 1e-3, 1e-3};  // rad, mm (fd only)
 }  // namespace
 
+void ReplayRecordingModel::set_channels(const Channels& c, const std::string& file) {
+  channels_ = c;
+  if (c.torque && rec_.torque_sensor_Nmm.size() != rec_.t_s.size())
+    throw InputError(file, "fit.channels", "\"torque\" only for recordings with a torque_Nmm channel beside force_N",
+                     "recording " + rec_.id + " has none");
+  if (c.spindle && rec_.spindle_torque_Nmm.t_s.empty())
+    throw InputError(file, "fit.channels",
+                     "\"spindle\" only for recordings with a spindle_torque_Nmm or spindle_power_W channel",
+                     "recording " + rec_.id + " has none");
+  spindle_Nmm_.clear();
+  krpm_.clear();
+  if (c.spindle) {
+    // The viscous term acts on the speed's deviation from the recording's mean, so that
+    // the idle offset (the load at the mean speed) stays determined when the speed never
+    // changes, and the two are not correlated when it does.
+    double mean = 0;
+    for (double t : rec_.t_s) {
+      spindle_Nmm_.push_back(rec_.spindle_torque_Nmm.at(t));
+      krpm_.push_back(std::abs(rec_.spindle_rpm.at(t)) / 1000);
+      mean += krpm_.back() / double(rec_.t_s.size());
+    }
+    for (double& k : krpm_) k -= mean;
+  }
+}
+
+void ReplayRecordingModel::fill_base(const model::ReplayResult& base, const model::Trajectory& tr,
+                                     Prediction& out) const {
+  const std::size_t n = size();
+  BURRBENCH_CHECK(base.samples.size() == n, "replay returned one contact per force sample");
+  out.force_sensor_N.resize(n);
+  out.buried.resize(n);
+  out.class_mask.resize(n);
+  for (std::size_t k = 0; k < std::size_t(kLabels); ++k) out.removed_mm3[k] = base.removed_mm3[k];
+  if (channels_.torque) out.torque_sensor_Nmm.resize(n);
+  if (channels_.spindle) out.spindle_Nmm.resize(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    const auto& c = base.samples[j].contact;
+    out.force_sensor_N[j] = rec_.sensor_force_from_burr_force(c.force_N);
+    out.buried[j] = c.buried ? 1 : 0;
+    out.class_mask[j] = c.class_mask;
+    if (channels_.torque)
+      out.torque_sensor_Nmm[j] = rec_.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[j]);
+    if (channels_.spindle) out.spindle_Nmm[j] = model::spindle_torque_Nmm(c.moment_Nmm, tr.omega_vol_rad_s[j]);
+  }
+}
+
 const char* to_string(Derivatives d) {
   return d == Derivatives::kSensitivities ? "sensitivities" : "fd";
 }
@@ -155,51 +201,80 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
   out.replays = jobs.size();
   const std::size_t n = size();
   const auto& base = jobs[0].result;
-  BURRBENCH_CHECK(base.samples.size() == n, "replay returned one contact per force sample");
-  out.force_sensor_N.resize(n);
-  out.buried.resize(n);
-  out.class_mask.resize(n);
-  for (std::size_t k = 0; k < std::size_t(kLabels); ++k) out.removed_mm3[k] = base.removed_mm3[k];
-  for (std::size_t j = 0; j < n; ++j) {
-    const auto& c = base.samples[j].contact;
-    out.force_sensor_N[j] = rec_.sensor_force_from_burr_force(c.force_N);
-    out.buried[j] = c.buried ? 1 : 0;
-    out.class_mask[j] = c.class_mask;
-  }
+  fill_base(base, jobs[0].trajectory, out);
+  // A column of every fitted channel: the force (sensor frame), and with the moment and
+  // spindle channels their columns, from the same partials and difference pairs.
+  struct Deriv {
+    glm::dvec3 force{0}, moment{0};
+    double spindle = 0;
+  };
+  const bool wrench = channels_.torque || channels_.spindle;
+  auto wrench_of = [&](const model::ContactResult& c, const model::Trajectory& tr, std::size_t j) {
+    return Deriv{rec_.sensor_force_from_burr_force(c.force_N),
+                 wrench ? rec_.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[j]) : glm::dvec3(0),
+                 wrench ? model::spindle_torque_Nmm(c.moment_Nmm, tr.omega_vol_rad_s[j]) : 0.0};
+  };
   auto central = [&](int pair, double h, std::size_t j) {
-    const auto& p = jobs[std::size_t(pair)].result.samples[j].contact.force_N;
-    const auto& m = jobs[std::size_t(pair) + 1].result.samples[j].contact.force_N;
-    return rec_.sensor_force_from_burr_force((p - m) / (2 * h));
+    const auto& P = jobs[std::size_t(pair)];
+    const auto& M = jobs[std::size_t(pair) + 1];
+    const Deriv a = wrench_of(P.result.samples[j].contact, P.trajectory, j);
+    const Deriv b = wrench_of(M.result.samples[j].contact, M.trajectory, j);
+    return Deriv{(a.force - b.force) / (2 * h), (a.moment - b.moment) / (2 * h), (a.spindle - b.spindle) / (2 * h)};
+  };
+  // At fixed geometry: dF and dT on the burr (volume frame) → every channel.
+  const auto& tr0 = jobs[0].trajectory;
+  auto fixed = [&](const glm::dvec3& dF, const glm::dvec3& dT, std::size_t j) {
+    return Deriv{rec_.sensor_force_from_burr_force(dF),
+                 wrench ? rec_.sensor_torque_from_burr_wrench(dF, dT, tr0.centre_vol_mm[j]) : glm::dvec3(0),
+                 wrench ? model::spindle_torque_Nmm(dT, tr0.omega_vol_rad_s[j]) : 0.0};
   };
   out.columns.clear();
+  out.torque_columns.clear();
+  out.spindle_columns.clear();
   for (const auto& c : columns) {
-    std::vector<glm::dvec3> col(n, glm::dvec3(0));
+    std::vector<Deriv> col(n);
     const std::size_t k = c.label;
     for (std::size_t j = 0; j < n; ++j) {
       const auto& ct = base.samples[j].contact;
-      const glm::dvec3 geo = alpha_pair[k] >= 0 ? central(alpha_pair[k], steps_.log_alpha[k], j)
-                                                : glm::dvec3(0);
+      const Deriv geo = alpha_pair[k] >= 0 ? central(alpha_pair[k], steps_.log_alpha[k], j) : Deriv{};
+      const double coupling = at.geometry_terms ? 1.0 : 0.0;
       switch (c.kind) {
         case ColumnKind::kLogAlpha: col[j] = geo; break;
         case ColumnKind::kLogC1: {
-          // ∂F/∂C1_k at fixed geometry: elastic partial plus friction's |F_e| scaling.
+          // ∂F/∂C1_k at fixed geometry: elastic partial plus friction's |F_e| scaling
+          // (the couple T scales with |F_e| like the friction force).
           const double fe = glm::length(ct.elastic_N);
-          glm::dvec3 d = ct.dF_dC1[k];
-          if (fe > 0) d += ct.friction_N * (glm::dot(ct.dF_dC1[k], ct.elastic_N) / (fe * fe));
-          col[j] = rec_.sensor_force_from_burr_force(at.physics.c1[k] * d) -
-                   (at.geometry_terms ? geo : glm::dvec3(0));
+          const double scale = fe > 0 ? glm::dot(ct.dF_dC1[k], ct.elastic_N) / (fe * fe) : 0.0;
+          const glm::dvec3 dF = at.physics.c1[k] * (ct.dF_dC1[k] + ct.friction_N * scale);
+          const glm::dvec3 dT = at.physics.c1[k] * scale * ct.moment_Nmm;
+          col[j] = fixed(dF, dT, j);
+          col[j].force -= coupling * geo.force;
+          col[j].moment -= coupling * geo.moment;
+          col[j].spindle -= coupling * geo.spindle;
           break;
         }
         case ColumnKind::kLogMu:
-          col[j] = rec_.sensor_force_from_burr_force(at.physics.mu[k] * ct.dFmu_dmu[k]) -
-                   (at.geometry_terms ? geo : glm::dvec3(0));
+          col[j] = fixed(at.physics.mu[k] * ct.dFmu_dmu[k], at.physics.mu[k] * ct.dTmu_dmu[k], j);
+          col[j].force -= coupling * geo.force;
+          col[j].moment -= coupling * geo.moment;
+          col[j].spindle -= coupling * geo.spindle;
           break;
         case ColumnKind::kLagMs: col[j] = central(lag_pair, steps_.lag_ms, j); break;
         case ColumnKind::kDepthMm: col[j] = central(depth_pair, steps_.depth_mm, j); break;
         case ColumnKind::kPose: col[j] = central(pose_pair[k], kPoseStep[k], j); break;
       }
     }
-    out.columns.push_back(std::move(col));
+    std::vector<glm::dvec3> f(n), m;
+    std::vector<double> sp;
+    for (std::size_t j = 0; j < n; ++j) f[j] = col[j].force;
+    out.columns.push_back(std::move(f));
+    if (!wrench) continue;
+    for (std::size_t j = 0; j < n; ++j) {
+      m.push_back(col[j].moment);
+      sp.push_back(col[j].spindle);
+    }
+    out.torque_columns.push_back(std::move(m));
+    out.spindle_columns.push_back(std::move(sp));
   }
 }
 
@@ -247,27 +322,39 @@ void ReplayRecordingModel::predict_sensitivities(const EvalPoint& at, const std:
                                  options_, {}});
   jobs[0].options.directions = &dirs;
   jobs[0].options.sensitivities = &sens;
+  jobs[0].options.moment_sensitivities = channels_.torque || channels_.spindle;
   pool_.run(jobs);
   out.replays = 1;
   const std::size_t n = size();
   const auto& base = jobs[0].result;
-  BURRBENCH_CHECK(base.samples.size() == n, "replay returned one contact per force sample");
-  out.force_sensor_N.resize(n);
-  out.buried.resize(n);
-  out.class_mask.resize(n);
-  for (std::size_t k = 0; k < std::size_t(kLabels); ++k) out.removed_mm3[k] = base.removed_mm3[k];
-  for (std::size_t j = 0; j < n; ++j) {
-    const auto& c = base.samples[j].contact;
-    out.force_sensor_N[j] = rec_.sensor_force_from_burr_force(c.force_N);
-    out.buried[j] = c.buried ? 1 : 0;
-    out.class_mask[j] = c.class_mask;
-  }
+  const auto& tr = jobs[0].trajectory;
+  fill_base(base, tr, out);
   out.columns.clear();
+  out.torque_columns.clear();
+  out.spindle_columns.clear();
   for (std::size_t c = 0; c < columns.size(); ++c) {
     std::vector<glm::dvec3> col(n);
-    const auto& d = sens.dforce_N[std::size_t(dir_of[c])];
+    const std::size_t di = std::size_t(dir_of[c]);
+    const auto& d = sens.dforce_N[di];
     for (std::size_t j = 0; j < n; ++j) col[j] = rec_.sensor_force_from_burr_force(d[j]);
     out.columns.push_back(std::move(col));
+    if (!channels_.torque && !channels_.spindle) continue;
+    // Moment about the sensor origin: s·Qᵀ·Rᵀ((p − o) × ∂F + ∂p × F + ∂T); spindle −∂T·ω̂.
+    const auto& dT = sens.dmoment_Nmm[di];
+    const auto& dp = dirs[di].dcentre_vol_mm;  // empty for the constants
+    std::vector<glm::dvec3> tcol;
+    std::vector<double> scol;
+    for (std::size_t j = 0; j < n; ++j) {
+      const auto& ct = base.samples[j].contact;
+      if (channels_.torque) {
+        glm::dvec3 m = rec_.sensor_torque_from_burr_wrench(d[j], dT[j], tr.centre_vol_mm[j]);
+        if (!dp.empty()) m += rec_.sensor_force_from_burr_force(glm::cross(dp[j], ct.force_N));
+        tcol.push_back(m);
+      }
+      if (channels_.spindle) scol.push_back(model::spindle_torque_Nmm(dT[j], tr.omega_vol_rad_s[j]));
+    }
+    out.torque_columns.push_back(std::move(tcol));
+    out.spindle_columns.push_back(std::move(scol));
   }
 }
 

@@ -28,9 +28,7 @@ CoarseLevel& coarse_level(Run& run) {
   c->pool = std::make_unique<ReplayPool>(c->samples, run.opt.threads);
   std::vector<const RecordingModel*> models;
   for (const auto* r : run.recs) {
-    c->owned.push_back(std::make_unique<ReplayRecordingModel>(*r, *c->pool));
-    c->owned.back()->set_derivatives(run.opt.derivatives);
-    c->owned.back()->set_steps(run.steps);
+    c->owned.push_back(make_model(run, *r, *c->pool));
     models.push_back(c->owned.back().get());
   }
   c->obj = std::make_unique<Objective>(*run.layout, models, run.settings);

@@ -70,6 +70,19 @@ CalibrationOutput results(Run& run) {
   st["buried"] = ds::to_string(run.settings.buried);
   st["buried_weight"] = run.settings.buried == ds::BuriedPolicy::kDownweight ? run.settings.buried_weight : 0.0;
   st["sigma_source"] = run.sigma_source;
+  {
+    const Channels& ch = L.channels();
+    nlohmann::json c = {{"force", true}, {"torque", ch.torque}, {"spindle", ch.spindle}};
+    if (ch.torque) {
+      c["sigma_torque_Nmm"] = run.settings.sigma_torque_Nmm;
+      c["sigma_torque_source"] = run.sigma_torque_source;
+    }
+    if (ch.spindle) {
+      c["sigma_spindle_Nmm"] = run.settings.sigma_spindle_Nmm;
+      c["sigma_spindle_source"] = run.sigma_spindle_source;
+    }
+    st["channels"] = c;
+  }
   st["residual_variance"] = run.unc.residual_variance;
   st["noise_model"] = {
       {"method", run.opt.noise_inflation ? "ar1_inflation" : "white"},
@@ -199,6 +212,14 @@ CalibrationOutput results(Run& run) {
   std::string s = fmt::format("calibrated {} recording(s), {} used samples ({} buried, {} excluded), "
                               "σ = {:.4g} N\n", run.models.size(), ev.samples_used, ev.samples_buried,
                               ev.samples_excluded, run.settings.sigma_N);
+  if (L.channels().torque || L.channels().spindle)
+    s += fmt::format("channels: force{}{}\n",
+                     L.channels().torque ? fmt::format(", moment (σ = {:.4g} N·mm, {})", run.settings.sigma_torque_Nmm,
+                                                       run.sigma_torque_source)
+                                         : "",
+                     L.channels().spindle ? fmt::format(", spindle load (σ = {:.4g} N·mm, {})",
+                                                        run.settings.sigma_spindle_Nmm, run.sigma_spindle_source)
+                                          : "");
   for (const auto* r : run.recs) s += fmt::format("  {}: {}\n", r->id, r->registration.text());
   s += reg_text;
   s += fmt::format("global search: best optimum reached by {} of {} starts ({} solved locally after the "

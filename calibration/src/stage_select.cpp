@@ -109,7 +109,8 @@ void select_recordings(Run& run) {
 
   std::vector<std::pair<std::string, double>> rec_lags;
   for (std::size_t i : rec_index) rec_lags.emplace_back(run.exp.recordings[i].id, M.recordings[i].lag_ms);
-  run.layout = std::make_unique<Layout>(classes, rec_lags, M.fit.nuisance, 0.5 * M.burr.radius_mm);
+  run.layout = std::make_unique<Layout>(classes, rec_lags, M.fit.nuisance, 0.5 * M.burr.radius_mm,
+                                        Channels{M.fit.fit_torque, M.fit.fit_spindle});
   // Mountings registered by fiducials (same sample, same fiducials) share a pose correction.
   if (M.fit.nuisance.pose) {
     std::vector<std::vector<std::size_t>> groups;
@@ -150,8 +151,7 @@ void select_recordings(Run& run) {
   for (const auto* r : run.recs) run.used_samples.emplace(r->sample_id, run.exp.samples.at(r->sample_id));
   run.pool = std::make_unique<ReplayPool>(run.used_samples, run.opt.threads);
   for (const auto* r : run.recs) {
-    run.owned.push_back(std::make_unique<ReplayRecordingModel>(*r, *run.pool));
-    run.owned.back()->set_derivatives(run.opt.derivatives);
+    run.owned.push_back(make_model(run, *r, *run.pool));
     run.models.push_back(run.owned.back().get());
   }
   for (const auto* r : run.recs) {
@@ -187,7 +187,54 @@ void select_recordings(Run& run) {
     run.settings.sigma_N = *s;
     run.sigma_source = fmt::format("estimated from {} no-contact samples (1.4826·MAD)", n_free);
   }
+  // The moment's and the spindle load's noise: the manifest's, else from the samples
+  // without predicted contact (as σ_N; the per-recording median absorbs the biases and
+  // the idle torque).
+  const Channels& ch = run.layout->channels();
+  if (ch.torque || ch.spindle) {
+    Objective probe(*run.layout, run.models, run.settings);
+    const auto ev0 = probe.evaluate(run.layout->initial(), run.w_all);
+    run.replays_before += probe.replays();
+    std::vector<std::vector<glm::dvec3>> qt(run.models.size());
+    std::vector<std::vector<double>> qs(run.models.size());
+    for (std::size_t r = 0; r < run.models.size(); ++r)
+      for (std::size_t j = 0; j < run.models[r]->size(); ++j) {
+        if (!(run.w_all[r][j] > 0) || ev0.predictions[r].class_mask[j] != 0) continue;
+        if (ch.torque) qt[r].push_back(run.models[r]->measured_torque_Nmm()[j]);
+        if (ch.spindle) qs[r].push_back(run.models[r]->measured_spindle_Nmm()[j]);
+      }
+    auto pick = [&](const std::optional<double>& given, std::optional<double> est, std::size_t n,
+                    const char* field, double& into, std::string& source) {
+      if (given) {
+        into = *given;
+        source = std::string("manifest (") + field + ")";
+        return;
+      }
+      if (!est)
+        throw InputError(mfile, field, "a noise level, or >= 10 used samples without contact to estimate it from",
+                         fmt::format("{} such samples", n));
+      into = *est;
+      source = fmt::format("estimated from {} no-contact samples (1.4826·MAD)", n);
+    };
+    std::size_t n = 0;
+    if (ch.torque) {
+      const auto est = model::no_contact_sigma_N(qt, n);
+      pick(M.sensor.sigma_Nmm, est, n, "sensor.sigma_Nmm", run.settings.sigma_torque_Nmm, run.sigma_torque_source);
+    }
+    if (ch.spindle) {
+      const auto est = model::no_contact_sigma(qs, n);
+      pick(M.spindle.sigma_Nmm, est, n, "spindle.sigma_Nmm", run.settings.sigma_spindle_Nmm, run.sigma_spindle_source);
+    }
+  }
   run.obj = std::make_unique<Objective>(*run.layout, run.models, run.settings);
+}
+
+std::unique_ptr<ReplayRecordingModel> make_model(const Run& run, const model::AlignedRecording& r, ReplayPool& pool) {
+  auto m = std::make_unique<ReplayRecordingModel>(r, pool);
+  m->set_derivatives(run.opt.derivatives);
+  m->set_steps(run.steps);
+  m->set_channels(run.layout->channels(), run.mfile);
+  return m;
 }
 
 }  // namespace burrbench::calibration::detail

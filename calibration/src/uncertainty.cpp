@@ -232,6 +232,15 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     add("bias_z", "N", r.bias < 0 ? -1 : r.bias + 2, 0.0);
     add("lag", "ms", r.lag, r.lag_fixed_ms);
     add("depth_offset", "mm", r.depth, 0.0);
+    if (r.torque_bias >= 0) {
+      add("torque_bias_x", "N*mm", r.torque_bias, 0.0);
+      add("torque_bias_y", "N*mm", r.torque_bias + 1, 0.0);
+      add("torque_bias_z", "N*mm", r.torque_bias + 2, 0.0);
+    }
+    if (r.spindle >= 0) {
+      add("spindle_idle", "N*mm", r.spindle, 0.0);
+      add("spindle_viscous", "N*mm per 1000 rpm", r.spindle + 1, 0.0);
+    }
   }
   // A mounting's pose correction, listed under the mounting's name (its sample id).
   static const char* kPose[6] = {"pose_rx", "pose_ry", "pose_rz", "pose_tx", "pose_ty", "pose_tz"};

@@ -50,7 +50,8 @@ NamedMatrix read_matrix(JsonView v) {
 const std::set<std::string> kParamNames{"alpha", "c1", "mu"};
 const std::set<std::string> kNuisanceNames{"bias_x",  "bias_y",  "bias_z",  "lag",     "depth_offset",
                                             "pose_rx", "pose_ry", "pose_rz", "pose_tx", "pose_ty",
-                                            "pose_tz"};
+                                            "pose_tz", "torque_bias_x", "torque_bias_y", "torque_bias_z",
+                                            "spindle_idle", "spindle_viscous"};
 
 }  // namespace
 
@@ -81,7 +82,7 @@ void validate(const FitResult& f, const std::string& file) {
   for (std::size_t i = 0; i < f.nuisance.size(); ++i) {
     const auto& n = f.nuisance[i];
     if (!kNuisanceNames.count(n.name))
-      throw InputError(file, fmt::format("nuisance[{}].name", i), "bias_x | bias_y | bias_z | lag | depth_offset | pose_rx..pose_tz",
+      throw InputError(file, fmt::format("nuisance[{}].name", i), "bias_x | bias_y | bias_z | lag | depth_offset | pose_rx..pose_tz | torque_bias_x..z | spindle_idle | spindle_viscous",
                        "\"" + n.name + "\"");
   }
   for (const auto* m : {&f.covariance, &f.correlation}) {

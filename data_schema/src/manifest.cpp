@@ -130,6 +130,9 @@ void validate(const ExperimentManifest& m, const std::string& file) {
     throw InputError(file, "sensor.sigma_N", "a finite noise level > 0 N", fmt::format("{}", *m.sensor.sigma_N));
   if (!std::isfinite(glm::length(m.sensor.origin_rig_mm)))
     throw InputError(file, "sensor.origin_rig_mm", "finite values (mm, rig frame)", vec_text(m.sensor.origin_rig_mm));
+  for (auto [v, field] : {std::pair{m.sensor.sigma_Nmm, "sensor.sigma_Nmm"}, {m.spindle.sigma_Nmm, "spindle.sigma_Nmm"}})
+    if (v && !(std::isfinite(*v) && *v > 0))
+      throw InputError(file, field, "a finite noise level > 0 N*mm", fmt::format("{}", *v));
 
   if (m.recordings.empty()) throw InputError(file, "recordings", "at least one [[recordings]] entry");
   const auto& nu = m.fit.nuisance;
@@ -307,7 +310,12 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
                              SensorMeasures::kForceOnSample);
   m.sensor.sigma_N = sensor.opt_num("sigma_N");
   if (sensor.has("origin_rig_mm")) m.sensor.origin_rig_mm = sensor.vec3("origin_rig_mm");
+  m.sensor.sigma_Nmm = sensor.opt_num("sigma_Nmm");
   sensor.done();
+  if (auto sp = root.opt_table("spindle")) {
+    m.spindle.sigma_Nmm = sp->opt_num("sigma_Nmm");
+    sp->done();
+  }
 
   for (auto& r : root.tables("recordings")) {
     RecordingRef rr;
@@ -392,6 +400,16 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
       if (ms < 1 || ms > kMaxMultistart)
         throw InputError(file, "fit.multistart", fmt::format("1..{}", kMaxMultistart), std::to_string(ms));
       f.multistart = int(ms);
+    }
+    if (fit->has("channels")) {
+      bool force = false;
+      for (const auto& c : fit->strings("channels")) {
+        if (c == "force") force = true;
+        else if (c == "torque") f.fit_torque = true;
+        else if (c == "spindle") f.fit_spindle = true;
+        else throw InputError(file, "fit.channels", "\"force\", \"torque\" or \"spindle\"", "\"" + c + "\"");
+      }
+      if (!force) throw InputError(file, "fit.channels", "a list holding \"force\" (always fitted)", "none");
     }
     if (auto pr = fit->opt_table("precision")) {
       auto read = [&](const char* key) -> std::optional<double> {
@@ -504,6 +522,7 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
   toml::table sensor{{"rotation_sensor_to_rig", rows(m.sensor.rotation_sensor_to_rig)},
                      {"measures", to_string(m.sensor.measures)}};
   if (m.sensor.sigma_N) sensor.insert("sigma_N", *m.sensor.sigma_N);
+  if (m.sensor.sigma_Nmm) sensor.insert("sigma_Nmm", *m.sensor.sigma_Nmm);
   if (m.sensor.origin_rig_mm != glm::dvec3(0))
     sensor.insert("origin_rig_mm", toml::array{m.sensor.origin_rig_mm.x, m.sensor.origin_rig_mm.y, m.sensor.origin_rig_mm.z});
   toml::table classes;
@@ -526,6 +545,10 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
   if (m.fit.precision_c1) precision.insert("c1", *m.fit.precision_c1);
   if (m.fit.precision_mu) precision.insert("mu", *m.fit.precision_mu);
   if (!precision.empty()) fit.insert("precision", precision);
+  toml::array channels{"force"};
+  if (m.fit.fit_torque) channels.push_back("torque");
+  if (m.fit.fit_spindle) channels.push_back("spindle");
+  fit.insert("channels", channels);
   const toml::table root{
       {"format", kManifestFormat},
       {"format_version", version_string(kManifestVersionMajor, kManifestVersionMinor)},
@@ -537,6 +560,7 @@ void write_manifest(const std::filesystem::path& path, const ExperimentManifest&
                            {"spin_sign", m.burr.spin_sign},
                            {"tool_offset_mm", arr(m.burr.tool_offset_mm)}}},
       {"sensor", sensor},
+      {"spindle", m.spindle.sigma_Nmm ? toml::table{{"sigma_Nmm", *m.spindle.sigma_Nmm}} : toml::table{}},
       {"recordings", recordings},
       {"fit", fit}};
   std::ostringstream text;

@@ -66,25 +66,41 @@ std::string ConvergenceStudy::verdict() const {
                      largest_error_N, worst_recording, sigma_N, largest_error_N / sigma_N);
 }
 
-std::optional<double> no_contact_sigma_N(const std::vector<std::vector<glm::dvec3>>& no_contact,
-                                         std::size_t& samples_used) {
+namespace {
+// 1.4826·MAD of the components' deviations from their per-recording medians.
+std::optional<double> mad_sigma(const std::vector<std::vector<std::vector<double>>>& by_rec_component,
+                                std::size_t components, std::size_t& samples_used) {
   std::vector<double> dev;
-  for (const auto& rec : no_contact) {
-    if (rec.size() < 10) continue;
-    for (int a = 0; a < 3; ++a) {
-      std::vector<double> v;
-      v.reserve(rec.size());
-      for (const auto& f : rec) v.push_back(f[a]);
+  for (const auto& rec : by_rec_component)
+    for (auto v : rec) {
+      if (v.size() < 10) continue;
       std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
       const double med = v[v.size() / 2];
       for (double x : v) dev.push_back(std::abs(x - med));
     }
-  }
-  samples_used = dev.size() / 3;
-  if (dev.size() < 30) return std::nullopt;
+  samples_used = dev.size() / components;
+  if (dev.size() < 10 * components) return std::nullopt;
   std::nth_element(dev.begin(), dev.begin() + long(dev.size() / 2), dev.end());
   const double s = 1.4826 * dev[dev.size() / 2];
   return s > 0 ? std::optional<double>(s) : std::nullopt;
+}
+}  // namespace
+
+std::optional<double> no_contact_sigma_N(const std::vector<std::vector<glm::dvec3>>& no_contact,
+                                         std::size_t& samples_used) {
+  std::vector<std::vector<std::vector<double>>> c;
+  for (const auto& rec : no_contact) {
+    c.emplace_back(3);
+    for (const auto& f : rec)
+      for (int a = 0; a < 3; ++a) c.back()[std::size_t(a)].push_back(f[a]);
+  }
+  return mad_sigma(c, 3, samples_used);
+}
+
+std::optional<double> no_contact_sigma(const std::vector<std::vector<double>>& no_contact, std::size_t& samples_used) {
+  std::vector<std::vector<std::vector<double>>> c;
+  for (const auto& rec : no_contact) c.push_back({rec});
+  return mad_sigma(c, 1, samples_used);
 }
 
 ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& params,

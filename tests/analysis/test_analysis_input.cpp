@@ -73,7 +73,7 @@ TEST(AnalysisInput, BrokenFilesAreInputErrors) {
   replace(j, "\"burrbench.analysis\"", "\"burrbench.fit\"");
   expect_error(j, csv, "wrong format");
   j = json;
-  replace(j, "\"1.0\"", "\"2.0\"");
+  replace(j, "\"1.1\"", "\"2.0\"");
   expect_error(j, csv, "major version");
   expect_error("{ not json", csv, "not JSON");
   std::string c = csv;

@@ -28,6 +28,10 @@ struct ReferenceSpec {
   bool trabecular = true;      // false: every move stays over compact bone
   bool erosion = true;         // false: the truth has α = ∞ (no erosion)
   bool depth_offset = false;   // fit a depth offset per recording
+  // Also synthesise the sensor's moments and the spindle's load (noise 0.05 N·mm and
+  // 0.005 N·mm, a moment bias, the drive's idle and viscous torque) and write
+  // experiment_wrench.toml fitting them beside experiment.toml (issue 13).
+  bool wrench = false;
   int multistart = 4;  // global search: manifest start + 3 Latin-hypercube points
   // truth
   double alpha1 = 150, c1_1 = 16, mu1 = 0.4;
@@ -81,13 +85,13 @@ approach = [0.0, 0.0, -1.0]
 // `burrbench synth` of one protocol in `dir` (sample.h5, truth.toml) into NAME.h5.
 inline void synth_recording(const std::filesystem::path& dir, const std::string& name,
                             const std::string& burrbench, double noise_N, glm::dvec3 bias_N,
-                            double lag_ms, std::uint64_t seed) {
+                            double lag_ms, std::uint64_t seed, const std::string& extra = "") {
   const std::string cmd = fmt::format(
       "'{}' synth --sample '{}' --protocol '{}' --params '{}' --out '{}' --truth '{}' "
-      "--noise-N {} --bias-N {},{},{} --lag-ms {} --seed {} > /dev/null 2>&1",
+      "--noise-N {} --bias-N {},{},{} --lag-ms {} --seed {} {} > /dev/null 2>&1",
       burrbench, (dir / "sample.h5").string(), (dir / (name + ".protocol.toml")).string(),
       (dir / "truth.toml").string(), (dir / (name + ".h5")).string(),
-      (dir / (name + ".truth.json")).string(), noise_N, bias_N.x, bias_N.y, bias_N.z, lag_ms, seed);
+      (dir / (name + ".truth.json")).string(), noise_N, bias_N.x, bias_N.y, bias_N.z, lag_ms, seed, extra);
   if (std::system(cmd.c_str()) != 0) throw std::runtime_error("synth failed: " + cmd);
 }
 
@@ -174,7 +178,10 @@ speed_mm_s = 2.0
   int i = 0;
   for (const auto& n : names) {
     synth_recording(dir, n, burrbench, s.noise_N, glm::dvec3(0.05 + 0.01 * i, -0.03, 0.1 - 0.02 * i),
-                    s.lag_ms, s.seed * 100 + std::uint64_t(i));
+                    s.lag_ms, s.seed * 100 + std::uint64_t(i),
+                    s.wrench ? "--torque-noise-Nmm 0.05 --torque-bias-Nmm 0.5,-0.2,1.0 --spindle-noise-Nmm 0.005 "
+                               "--spindle-idle-Nmm 0.3 --spindle-viscous-Nmm-per-krpm 0.01"
+                             : "");
     recs += fmt::format(R"(
 [[recordings]]
 id = "{0}"
@@ -189,7 +196,7 @@ lag_ms = 0.0
     ++i;
   }
   const fs::path manifest = dir / "experiment.toml";
-  write_text(manifest, fmt::format(R"(format = "burrbench.experiment"
+  const std::string text = fmt::format(R"(format = "burrbench.experiment"
 format_version = "1.0"
 name = "calibration-reference"
 description = "synthetic: compact | trabecular side by side; plunge, sweep, polish; known truth"
@@ -227,7 +234,13 @@ multistart = {}
   lag = true
   lag_bounds_ms = [-20.0, 20.0]
   depth_offset = {}
-)", R, recs, s.seed, s.multistart, s.depth_offset ? "true" : "false"));
+)", R, recs, s.seed, s.multistart, s.depth_offset ? "true" : "false");
+  write_text(manifest, text);
+  if (s.wrench) {
+    std::string w = text;
+    w.replace(w.find("[fit]\n"), 6, "[fit]\nchannels = [\"force\", \"torque\", \"spindle\"]\n");
+    write_text(dir / "experiment_wrench.toml", w);
+  }
   return manifest;
 }
 

@@ -2,7 +2,9 @@
 // The least-squares objective over all recordings and its Ceres solve.
 //
 // Residual per used sample and axis: r = (predicted sensor force + bias − measured)/σ,
-// then multiplied by √w (w: bootstrap multiplicity × buried weight; 0 = not used).
+// then multiplied by √w (w: bootstrap multiplicity × buried weight; 0 = not used). With
+// the torque channel, 3 more per sample: (predicted moment + moment bias − measured)/σ_M;
+// with the spindle channel 1 more: (predicted load + idle + viscous·krpm − measured)/σ_S.
 // The robust loss is applied per residual (not per recording, which is what a Ceres
 // LossFunction on a whole residual block would do): r̃ = sign(r)·√ρ(r²), so Σ r̃² = Σ ρ(r²).
 #include <atomic>
@@ -23,6 +25,9 @@ struct ObjectiveSettings {
   data_schema::BuriedPolicy buried = data_schema::BuriedPolicy::kExclude;
   double buried_weight = 0.1;  // squared-residual weight of a buried sample when down-weighted
   double sigma_N = 0.02;
+  // The other channels' noise (used when the layout fits them, Layout::channels()).
+  double sigma_torque_Nmm = 1.0;
+  double sigma_spindle_Nmm = 0.1;
 };
 
 // Per recording, per force sample: weight of its residuals (0 = not used: outside the

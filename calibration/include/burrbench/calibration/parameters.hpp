@@ -54,6 +54,8 @@ struct RecordingNuisance {
   std::string recording_id;
   int bias = -1, lag = -1, depth = -1;  // offsets in x (bias: 3 consecutive), -1 = fixed
   int pose = -1;  // registration pose correction of its mounting: 6 consecutive (ω rad, τ mm), shared
+  int torque_bias = -1;  // moment bias, N·mm, sensor frame: 3 consecutive (torque channel fitted)
+  int spindle = -1;      // spindle idle torque (N·mm) and viscous term (N·mm per 1000 rpm): 2 consecutive
   int mounting = -1;                    // index into Layout::mountings(), -1 = none
   double lag_fixed_ms = 0;              // value used when the lag is fixed (and start value)
   std::array<double, 2> lag_bounds_ms{-20, 20};
@@ -70,6 +72,12 @@ struct Mounting {
   std::array<double, 36> sqrt_information{};  // L (row-major, upper), LᵀL = prior information
 };
 
+// The measured channels a fit uses besides the force ([fit] channels).
+struct Channels {
+  bool torque = false, spindle = false;
+  int rows_per_sample() const { return 3 + (torque ? 3 : 0) + (spindle ? 1 : 0); }
+};
+
 // Every parameter of one calibration and its place in the free vector x.
 class Layout {
  public:
@@ -78,7 +86,8 @@ class Layout {
   Layout(const std::vector<std::pair<std::uint8_t, std::pair<std::string,
                                                               data_schema::ClassFitSpec>>>& classes,
          const std::vector<std::pair<std::string, double>>& recordings_lag_ms,
-         const data_schema::NuisanceSpec& nuisance, double depth_bound_mm);
+         const data_schema::NuisanceSpec& nuisance, double depth_bound_mm, Channels channels = {});
+  const Channels& channels() const { return channels_; }
 
   const std::vector<PhysicsParam>& physics() const { return physics_; }
   const std::vector<RecordingNuisance>& recordings() const { return recordings_; }
@@ -100,7 +109,7 @@ class Layout {
   double natural(std::size_t i, double x) const;
   double dnatural(std::size_t i, double x) const;
   bool is_log(std::size_t i) const { return log_[i]; }
-  // Block sizes in x order (1 each, 3 for a bias).
+  // Block sizes in x order (1 each, 3 for a bias, 2 for the spindle's idle terms).
   struct Block { std::size_t offset, size; };
   const std::vector<Block>& blocks() const { return blocks_; }
 
@@ -108,6 +117,7 @@ class Layout {
   std::vector<PhysicsParam> physics_;
   std::vector<RecordingNuisance> recordings_;
   std::vector<Mounting> mountings_;
+  Channels channels_;
   std::size_t n_ = 0;
   std::vector<double> init_, lower_, upper_;
   std::vector<bool> log_;

@@ -49,6 +49,13 @@ struct Prediction {
   PerLabel removed_mm3{};                        // bone removed per class over the replay
   std::vector<std::vector<glm::dvec3>> columns;  // one per requested Column, per sample
   std::uint64_t replays = 0;                     // replays this prediction cost
+  // With the torque / spindle channels (RecordingModel::set_channels): the sensor's
+  // predicted moment (N·mm, sensor frame, no bias) and the spindle's cutting load (N·mm,
+  // no idle terms), with their columns in the order of `columns`.
+  std::vector<glm::dvec3> torque_sensor_Nmm;
+  std::vector<double> spindle_Nmm;
+  std::vector<std::vector<glm::dvec3>> torque_columns;
+  std::vector<std::vector<double>> spindle_columns;
 };
 
 class RecordingModel {
@@ -61,6 +68,16 @@ class RecordingModel {
   // Must be safe to call concurrently for DIFFERENT models (one call per model at a time).
   virtual void predict(const EvalPoint& at, const std::vector<Column>& columns,
                        Prediction& out) const = 0;
+  // The other measured channels (empty when the recording has none): the sensor's moment
+  // (N·mm, sensor frame), the spindle's load torque (N·mm) and its speed in 1000 rpm minus
+  // the recording's mean (the viscous term's regressor), at the force samples.
+  virtual const std::vector<glm::dvec3>& measured_torque_Nmm() const { return no_vectors_; }
+  virtual const std::vector<double>& measured_spindle_Nmm() const { return no_values_; }
+  virtual const std::vector<double>& spindle_krpm() const { return no_values_; }
+
+ private:
+  inline static const std::vector<glm::dvec3> no_vectors_{};
+  inline static const std::vector<double> no_values_{};
 };
 
 }  // namespace burrbench::calibration

@@ -76,6 +76,12 @@ class ReplayRecordingModel final : public RecordingModel {
                Prediction& out) const override;
 
   const model::AlignedRecording& recording() const { return rec_; }
+  // Also predict the sensor's moment and the spindle's load (and, with sensitivities,
+  // their columns). InputError when the recording lacks a channel asked for.
+  void set_channels(const Channels& c, const std::string& file_for_messages);
+  const std::vector<glm::dvec3>& measured_torque_Nmm() const override { return rec_.torque_sensor_Nmm; }
+  const std::vector<double>& measured_spindle_Nmm() const override { return spindle_Nmm_; }
+  const std::vector<double>& spindle_krpm() const override { return krpm_; }
   void set_steps(const DiffSteps& s) { steps_ = s; }
   void set_derivatives(Derivatives d) { derivatives_ = d; }
   const DiffSteps& steps() const { return steps_; }
@@ -83,8 +89,12 @@ class ReplayRecordingModel final : public RecordingModel {
  private:
   void predict_sensitivities(const EvalPoint& at, const std::vector<Column>& columns,
                              Prediction& out) const;
+  // The base replay's predictions (force, and the moment and spindle load when asked).
+  void fill_base(const model::ReplayResult& base, const model::Trajectory& tr, Prediction& out) const;
   const model::AlignedRecording& rec_;
   ReplayPool& pool_;
+  Channels channels_;
+  std::vector<double> spindle_Nmm_, krpm_;  // at the force samples
   model::ReplayOptions options_;
   DiffSteps steps_;
   Derivatives derivatives_ = Derivatives::kFiniteDifferences;

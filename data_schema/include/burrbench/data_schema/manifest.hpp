@@ -43,6 +43,11 @@ struct SensorConfig {
   // The sensor's origin (the point its moments are taken about), rig frame, mm
   // (MODEL.md "Moments"): absent in older manifests = the rig origin.
   glm::dvec3 origin_rig_mm{0, 0, 0};
+  std::optional<double> sigma_Nmm;         // moment noise; absent → estimated like sigma_N
+};
+
+struct SpindleConfig {                     // [spindle]: the drive's load channel
+  std::optional<double> sigma_Nmm;         // load-torque noise; absent → estimated
 };
 
 // Rig → volume, x_vol = rotation·x_rig + translation_mm; either given directly or as
@@ -129,6 +134,10 @@ struct FitSpec {
   std::optional<double> precision_alpha, precision_c1, precision_mu;
   std::vector<ClassFitSpec> classes;
   NuisanceSpec nuisance;
+  // [fit] channels: which measured channels the fit uses besides the force (always):
+  // "torque" (the sensor's moments, with a moment bias per recording) and "spindle" (the
+  // drive's load torque, with an idle offset and a viscous term per recording).
+  bool fit_torque = false, fit_spindle = false;
 };
 
 struct ExperimentManifest {
@@ -137,6 +146,7 @@ struct ExperimentManifest {
   std::vector<SampleRef> samples;
   BurrConfig burr;
   SensorConfig sensor;
+  SpindleConfig spindle;
   std::vector<RecordingRef> recordings;
   FitSpec fit;
 

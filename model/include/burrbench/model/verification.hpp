@@ -82,5 +82,8 @@ nlohmann::json to_json(const ConvergenceStudy& s);
 // nullopt below 10 samples in all; `samples_used` counts those that entered.
 std::optional<double> no_contact_sigma_N(const std::vector<std::vector<glm::dvec3>>& no_contact,
                                          std::size_t& samples_used);
+// The same for a one-component channel (the spindle's load).
+std::optional<double> no_contact_sigma(const std::vector<std::vector<double>>& no_contact,
+                                       std::size_t& samples_used);
 
 }  // namespace burrbench::model

@@ -1,0 +1,107 @@
+"""Fitting the moments and the spindle's load beside the force (issue 13, [fit] channels):
+the synthetic example re-made with the model's moment and spindle load (noise, a moment
+bias, the drive's idle and viscous torque), calibrated with the force alone and with all
+three channels. The extra channels recover the truth with intervals that hold it, and
+narrow the intervals of the constants they carry (α through the spindle's energy, μ
+through the friction couple); their nuisances come back too."""
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+BURRBENCH = os.environ["BURRBENCH"]
+SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
+PROTOCOLS = SRC / "examples" / "protocols"
+TRUTH = {"alpha": 500.0, "c1": 16.0, "mu": 0.4}  # compact (the recordings never reach trabecular bone)
+EXTRA = ["--torque-noise-Nmm", "0.05", "--torque-bias-Nmm", "0.5,-0.2,1.0", "--spindle-noise-Nmm", "0.005",
+         "--spindle-idle-Nmm", "0.3", "--spindle-viscous-Nmm-per-krpm", "0.01"]
+
+
+def run(*args, timeout=900):
+    p = subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, timeout=timeout)
+    assert p.returncode == 0, p.stdout + p.stderr
+    return p.stdout
+
+
+@pytest.fixture(scope="module")
+def fits(tmp_path_factory):
+    d = tmp_path_factory.mktemp("channels")
+    subprocess.run(["sh", str(SRC / "examples/experiments/synthetic/make.sh"), BURRBENCH, str(d)],
+                   check=True, capture_output=True, timeout=300)
+    for name, seed, lag in (("plunge", 11, 0), ("sweep", 12, 2), ("polish", 13, 2)):
+        (d / f"{name}.h5").unlink()
+        (d / f"{name}.truth.json").unlink()
+        run("synth", "--sample", d / "sample.h5", "--protocol", PROTOCOLS / f"{name}.toml", "--params",
+            d / "params_true.toml", "--out", d / f"{name}.h5", "--truth", d / f"{name}.truth.json",
+            "--noise-N", "0.02", "--bias-N", "0.05,-0.03,0.1", "--lag-ms", lag, "--seed", seed, *EXTRA)
+    text = (d / "experiment.toml").read_text()
+    (d / "all.toml").write_text(text.replace('seed = 1\n', 'seed = 1\nchannels = ["force", "torque", "spindle"]\n', 1))
+    import h5py
+    out = {"dir": d, "mean_krpm": {}}
+    for rec in ("plunge", "sweep"):
+        with h5py.File(d / f"{rec}.h5") as f:
+            out["mean_krpm"][rec] = float(abs(f["streams/spindle/channels/spindle_rpm"][()]).mean()) / 1000
+    for name, manifest in (("force", "experiment.toml"), ("all", "all.toml")):
+        # 6 starts (the manifest asks for 2): with the spindle's load the landscape has a
+        # local optimum at the bounds (α small, μ large) that one of two starts can end in.
+        stdout = run("calibrate", d / manifest, "--out", d / name, "--no-cross-validation", "--no-discretization-check",
+                     "--starts", "6")
+        out[name] = (json.loads((d / name / "fit.json").read_text()), stdout)
+    return out
+
+
+def compact(fit):
+    return {p["name"]: p for p in fit["parameters"] if p["class_name"] == "compact"}
+
+
+def test_all_channels_recover_the_truth_within_intervals_that_hold_it(fits):
+    fit, stdout = fits["all"]
+    ch = fit["settings"]["channels"]
+    assert ch["torque"] and ch["spindle"] and "estimated" in ch["sigma_torque_source"]
+    assert ch["sigma_torque_Nmm"] == pytest.approx(0.05, rel=0.15)
+    # The sweep turns at two speeds, so the no-contact spindle samples hold two idle levels
+    # (the viscous term): the median absorbs one, and the estimate errs high.
+    assert 0.0045 < ch["sigma_spindle_Nmm"] < 0.008
+    assert "channels: force, moment" in stdout and "spindle load" in stdout
+    tol = {"alpha": 0.10, "c1": 0.02, "mu": 0.05}
+    for name, p in compact(fit).items():
+        assert p["verdict"] == "identifiable", p
+        assert abs(p["estimate"] / TRUTH[name] - 1) < tol[name], (name, p["estimate"])
+        assert p["profile_ci95_low"] <= TRUTH[name] <= p["profile_ci95_high"], (name, p)
+    nz = {(n["recording_id"], n["name"]): n for n in fit["nuisance"]}
+    for rec in ("plunge", "sweep"):
+        for axis, want in zip("xyz", (0.5, -0.2, 1.0)):
+            n = nz[(rec, f"torque_bias_{axis}")]
+            assert abs(n["estimate"] - want) < 4 * n["std_error"] + 0.01, n
+        assert nz[(rec, "spindle_idle")]["unit"] == "N*mm"
+    # The idle offset is the drive's load at the recording's mean speed (0.3 + 0.01 per 1000 rpm).
+    for rec in ("plunge", "sweep"):
+        n = nz[(rec, "spindle_idle")]
+        assert n["estimate"] == pytest.approx(0.3 + 0.01 * fits["mean_krpm"][rec], abs=0.01), n
+
+
+def test_the_new_channels_narrow_the_intervals(fits):
+    force, all_ = compact(fits["force"][0]), compact(fits["all"][0])
+    assert fits["force"][0]["settings"]["channels"] == {"force": True, "torque": False, "spindle": False}
+    widths = {}
+    for name in ("alpha", "c1", "mu"):
+        a, b = force[name], all_[name]
+        wa = b["profile_ci95_high"] / b["profile_ci95_low"]
+        wf = a["profile_ci95_high"] / a["profile_ci95_low"]
+        widths[name] = (wf, wa)
+    # α (the spindle's energy balance) and μ (the couple) gain most.
+    assert widths["alpha"][1] < widths["alpha"][0], widths
+    assert widths["mu"][1] < widths["mu"][0], widths
+
+
+def test_channels_are_refused_where_they_cannot_be_fitted(fits, tmp_path):
+    from bad_input import assert_refused
+    d = fits["dir"]
+    text = (d / "all.toml").read_text().replace('channels = ["force", "torque", "spindle"]', 'channels = ["torque"]')
+    (tmp_path / "bad.toml").write_text(text.replace('path = "', f'path = "{d}/'))
+    p = subprocess.run([BURRBENCH, "calibrate", str(tmp_path / "bad.toml"), "--out", str(tmp_path / "bad")],
+                       capture_output=True, text=True, timeout=300)
+    assert_refused(p.returncode, p.stderr, tmp_path / "bad.toml", "fit.channels", "force")
+    assert not (tmp_path / "bad").exists()
