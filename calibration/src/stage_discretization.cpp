@@ -100,6 +100,19 @@ void discretization_check(Run& run) {
     fp.ci95_with_discretization_low = lo * std::exp(-err);
     fp.ci95_with_discretization_high = hi * std::exp(err);
     fp.limited_by_discretization = err > 0.5 * half;
+    // A refit that ran into a bound measured nothing but the bound: the coarse model is
+    // outside the range where halving the voxel is a small change.
+    constexpr double kBoundLog = 0.01;
+    if (fit.x[i] - L.lower(i) < kBoundLog || L.upper(i) - fit.x[i] < kBoundLog) {
+      fp.limited_by_discretization = true;
+      fp.ci95_with_discretization_low = fp.ci95_with_discretization_high = NAN;
+      run.warnings.push_back(fmt::format(
+          "{} {}: the refit at voxel {:.4g} mm ran into its bound ({:.4g} {}): at twice the voxel the model is too "
+          "coarse for the check to measure the discretization error; treat the estimate as limited by it and verify "
+          "on a finer sample (`burrbench verify`, `burrbench sample resample --split 2`)",
+          fp.class_name, fp.name, c.voxel_mm, fp.coarse_estimate, fp.unit));
+      continue;
+    }
     if (fp.limited_by_discretization)
       run.warnings.push_back(fmt::format(
           "{} {}: the estimate moves {:+.1f} % when the voxels are merged ({:.4g} → {:.4g} mm), more than "

@@ -254,9 +254,12 @@ CalibrationOutput results(Run& run) {
                            : "");
       if (p.verdict == "imprecise") s += fmt::format("  {:<12} {:<5}   IMPRECISE: {}\n", p.class_name, p.name, p.reason);
       if (p.limited_by_discretization)
-        s += fmt::format("  {:<12} {:<5}   LIMITED by discretization error: {:.6g} at voxel {:.4g} mm; with "
-                         "that error [{:.6g}, {:.6g}]\n", p.class_name, p.name, p.coarse_estimate,
-                         run.coarse_voxel_mm, p.ci95_with_discretization_low, p.ci95_with_discretization_high);
+        s += std::isfinite(p.ci95_with_discretization_low)
+                 ? fmt::format("  {:<12} {:<5}   LIMITED by discretization error: {:.6g} at voxel {:.4g} mm; with "
+                               "that error [{:.6g}, {:.6g}]\n", p.class_name, p.name, p.coarse_estimate,
+                               run.coarse_voxel_mm, p.ci95_with_discretization_low, p.ci95_with_discretization_high)
+                 : fmt::format("  {:<12} {:<5}   LIMITED by discretization error: the refit at voxel {:.4g} mm ran "
+                               "into its bound; verify on a finer sample\n", p.class_name, p.name, run.coarse_voxel_mm);
     }
   }
   for (const auto& n : out.nuisance)
