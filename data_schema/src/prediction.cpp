@@ -94,25 +94,19 @@ void validate_recording(const PR& r, const std::string& file) {
       throw InputError(
           file, fmt::format("{}/t_s[{}]", b, k), "finite, strictly increasing times",
           k > 0 ? fmt::format("{} after {}", r.t_s[k], r.t_s[k - 1]) : fmt::format("{}", r.t_s[k]));
-  for (const auto& f : kVec3) {
+  // Every vector dataset finite and one per sample; the 2.2 wrench ones may be empty.
+  auto vectors = [&](const Vec3Field& f, bool optional) {
     const auto& v = r.*f.member;
+    if (optional && v.empty()) return;
     same_len(v.size(), f.name);
     for (std::size_t k = 0; k < n; ++k)
       for (int c = 0; c < 3; ++c)
         if (!std::isfinite(v[k][c]))
           throw InputError(file, fmt::format("{}/{}[{}][{}]", b, f.name, k, c), "a finite value",
                            fmt::format("{}", v[k][c]));
-  }
-  for (const auto& f : kWrench3) {
-    const auto& v = r.*f.member;
-    if (v.empty()) continue;
-    same_len(v.size(), f.name);
-    for (std::size_t k = 0; k < n; ++k)
-      for (int c = 0; c < 3; ++c)
-        if (!std::isfinite(v[k][c]))
-          throw InputError(file, fmt::format("{}/{}[{}][{}]", b, f.name, k, c), "a finite value",
-                           fmt::format("{}", v[k][c]));
-  }
+  };
+  for (const auto& f : kVec3) vectors(f, false);
+  for (const auto& f : kWrench3) vectors(f, true);
   for (const auto& f : kWrench1) {
     const auto& v = r.*f.member;
     if (v.empty()) continue;

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from synthetic import make_synthetic, run_ok
+
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 PROTOCOLS = SRC / "examples" / "protocols"
@@ -19,21 +21,14 @@ EXTRA = ["--torque-noise-Nmm", "0.05", "--torque-bias-Nmm", "0.5,-0.2,1.0", "--s
          "--spindle-idle-Nmm", "0.3", "--spindle-viscous-Nmm-per-krpm", "0.01"]
 
 
-def run(*args, timeout=900):
-    p = subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, timeout=timeout)
-    assert p.returncode == 0, p.stdout + p.stderr
-    return p.stdout
-
-
 @pytest.fixture(scope="module")
 def fits(tmp_path_factory):
     d = tmp_path_factory.mktemp("channels")
-    subprocess.run(["sh", str(SRC / "examples/experiments/synthetic/make.sh"), BURRBENCH, str(d)],
-                   check=True, capture_output=True, timeout=300)
+    make_synthetic(d)
     for name, seed, lag in (("plunge", 11, 0), ("sweep", 12, 2), ("polish", 13, 2)):
         (d / f"{name}.h5").unlink()
         (d / f"{name}.truth.json").unlink()
-        run("synth", "--sample", d / "sample.h5", "--protocol", PROTOCOLS / f"{name}.toml", "--params",
+        run_ok("synth", "--sample", d / "sample.h5", "--protocol", PROTOCOLS / f"{name}.toml", "--params",
             d / "params_true.toml", "--out", d / f"{name}.h5", "--truth", d / f"{name}.truth.json",
             "--noise-N", "0.02", "--bias-N", "0.05,-0.03,0.1", "--lag-ms", lag, "--seed", seed, *EXTRA)
     text = (d / "experiment.toml").read_text()
@@ -46,7 +41,7 @@ def fits(tmp_path_factory):
     for name, manifest in (("force", "experiment.toml"), ("all", "all.toml")):
         # 6 starts (the manifest asks for 2): with the spindle's load the landscape has a
         # local optimum at the bounds (α small, μ large) that one of two starts can end in.
-        stdout = run("calibrate", d / manifest, "--out", d / name, "--no-cross-validation", "--no-discretization-check",
+        stdout = run_ok("calibrate", d / manifest, "--out", d / name, "--no-cross-validation", "--no-discretization-check",
                      "--starts", "6")
         out[name] = (json.loads((d / name / "fit.json").read_text()), stdout)
     return out

@@ -12,28 +12,23 @@ from pathlib import Path
 
 import pytest
 
+from synthetic import make_synthetic, run_ok
+
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 TRUTH = {("compact", "alpha"): 500.0, ("compact", "c1"): 16.0, ("compact", "mu"): 0.4,
          ("trabecular", "alpha"): 200.0, ("trabecular", "c1"): 6.0, ("trabecular", "mu"): 0.3}
 
 
-def run(*args, timeout=900):
-    p = subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, timeout=timeout)
-    assert p.returncode == 0, p.stdout + p.stderr
-    return p.stdout
-
-
 @pytest.fixture(scope="module")
 def half(tmp_path_factory):
     d = tmp_path_factory.mktemp("synthetic_half")
-    subprocess.run(["sh", str(SRC / "examples/experiments/synthetic/make.sh"), BURRBENCH, str(d)],
-                   check=True, capture_output=True, timeout=300)
-    run("sample", "resample", d / "sample.h5", "--split", "2", "--out", d / "sample_half.h5")
+    make_synthetic(d)
+    run_ok("sample", "resample", d / "sample.h5", "--split", "2", "--out", d / "sample_half.h5")
     text = (d / "experiment.toml").read_text()
     assert 'path = "sample.h5"' in text
     (d / "experiment_half.toml").write_text(text.replace('path = "sample.h5"', 'path = "sample_half.h5"'))
-    out = run("calibrate", d / "experiment_half.toml", "--out", d / "fit", "--no-cross-validation")
+    out = run_ok("calibrate", d / "experiment_half.toml", "--out", d / "fit", "--no-cross-validation")
     return json.loads((d / "fit" / "fit.json").read_text()), out, d
 
 
@@ -84,7 +79,7 @@ def test_coarse_to_fine_reaches_the_same_optimum(half):
     # Search and first refinement at 2l, the rest at l/2: the same optimum (within the
     # profile threshold) and the same intervals, from fewer fine replays.
     fit, _, d = half
-    out = run("calibrate", d / "experiment_half.toml", "--out", d / "c2f", "--no-cross-validation", "--coarse-to-fine")
+    out = run_ok("calibrate", d / "experiment_half.toml", "--out", d / "c2f", "--no-cross-validation", "--coarse-to-fine")
     c2f = json.loads((d / "c2f" / "fit.json").read_text())
     st = c2f["settings"]
     assert st["coarse_to_fine"]["used"] is True and st["coarse_to_fine"]["coarse_voxel_mm"] == pytest.approx(0.1)

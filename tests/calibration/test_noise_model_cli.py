@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from synthetic import make_synthetic, run_ok
+
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 
@@ -18,8 +20,7 @@ SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 @pytest.fixture(scope="module")
 def fits(tmp_path_factory):
     d = tmp_path_factory.mktemp("synthetic")
-    subprocess.run(["sh", str(SRC / "examples/experiments/synthetic/make.sh"), BURRBENCH, str(d)],
-                   check=True, capture_output=True, timeout=300)
+    make_synthetic(d)
     out = {}
     for name, extra in (("ar1", []), ("white", ["--white-noise"])):
         p = subprocess.run([BURRBENCH, "calibrate", str(d / "experiment.toml"), "--out", str(d / name),

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from synthetic import make_synthetic, run_ok
+
 from bad_input import assert_refused
 
 BURRBENCH = os.environ["BURRBENCH"]
@@ -18,8 +20,7 @@ SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 @pytest.fixture(scope="module")
 def synthetic(tmp_path_factory):
     d = tmp_path_factory.mktemp("synthetic_verify")
-    subprocess.run(["sh", str(SRC / "examples/experiments/synthetic/make.sh"), BURRBENCH, str(d)],
-                   check=True, capture_output=True, timeout=300)
+    make_synthetic(d)
     return d
 
 
