@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/analysis/criteria.hpp"
 #include "burrbench/calibration/calibrate.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
@@ -21,7 +22,7 @@ namespace fs = std::filesystem;
 using namespace burrbench;
 
 struct Args {
-  std::string experiment, out;
+  std::string experiment, out, criteria;
   calibration::CalibrateOptions options;
   bool no_cv = false, no_profiles = false, white_noise = false, no_discretization = false, overwrite = false;
   std::string derivatives = "sensitivities";
@@ -37,6 +38,12 @@ void run(const Args& a) {
                                         : calibration::Derivatives::kSensitivities;
   calibration::validate(o);  // before any output folder is made
   const auto manifest = data_schema::read_manifest(a.experiment);
+  // Criteria fixed before the fit: checked now, their hash recorded in fit.json.
+  std::string criteria_sha;
+  if (!a.criteria.empty()) {
+    (void)analysis::read_criteria(a.criteria);
+    criteria_sha = sha256_file(a.criteria);
+  }
   std::vector<fs::path> inputs{manifest.file};
   for (const auto& s : manifest.samples) inputs.push_back(s.path);
   for (const auto& r : manifest.recordings) inputs.push_back(r.path);
@@ -45,7 +52,14 @@ void run(const Args& a) {
   folder.refuse_inputs({"fit.json", "params.toml"}, inputs);
   TerminalProgress progress("calibrate");
   o.progress = &progress;
-  const auto res = calibration::calibrate(a.experiment, o);
+  auto res = calibration::calibrate(a.experiment, o);
+  if (!a.criteria.empty()) {
+    if (sha256_file(a.criteria) != criteria_sha)
+      throw InputError(a.criteria, "file", "unchanged during the fit (criteria are fixed before it)", "changed");
+    const std::string path = fs::absolute(a.criteria).string();
+    res.fit.settings["criteria"] = {{"path", path}, {"sha256", criteria_sha}};
+    res.fit.provenance.inputs.push_back({path, criteria_sha});
+  }
   data_schema::write_fit(folder.staging() / "fit.json", res.fit);
   data_schema::write_params(folder.staging() / "params.toml", res.params);
   folder.commit();
@@ -62,6 +76,9 @@ void setup(CLI::App& root) {
   cmd->add_option("EXPERIMENT,--experiment", a->experiment, "experiment manifest (.toml), as --experiment E.toml or just E.toml")->required();
   cmd->add_option("--out", a->out, "output directory (fit.json, params.toml): new or empty")->required();
   cmd->add_flag("--overwrite", a->overwrite, "write into an existing --out folder, replacing fit.json and params.toml");
+  cmd->add_option("--criteria", a->criteria,
+                  "acceptance criteria (.toml) fixed before the fit: their SHA-256 goes into fit.json, and "
+                  "validate --fit reports whether the criteria it uses are these");
   cmd->add_option("--threads", a->options.threads, "replay threads")->capture_default_str();
   cmd->add_option("--max-iterations", a->options.max_iterations, "Ceres iterations")->capture_default_str();
   cmd->add_option("--bootstrap", a->options.bootstrap, "block-bootstrap replicates (0: none)")

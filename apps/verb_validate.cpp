@@ -1,6 +1,7 @@
 // `burrbench validate`: the release gate. Replays an experiment with fixed parameters
 // (no fitting), computes the metrics, compares them with acceptance criteria, writes the
 // report, and exits 0 (pass), 1 (fail) or 2 (bad input). docs/report.md.
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -14,6 +15,7 @@
 #include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/analysis/report.hpp"
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/model/verification.hpp"
@@ -25,12 +27,29 @@ namespace fs = std::filesystem;
 using namespace burrbench;
 
 struct Args {
-  std::string experiment, params, criteria, out, assets;
+  std::string experiment, params, criteria, out, assets, fit;
   std::string context = "Release gate of the voxel burr–bone drilling model: does the model, with "
                         "the given constants, reproduce the forces recorded on the rig well enough "
                         "for the simulator's intended use?";
   bool no_tare = false, no_verification = false, overwrite = false;
 };
+
+// validate --fit: the parameter set must hold the constants that fit held at its optimum
+// (as calibrate wrote them to params.toml), or the report would show another fit's
+// intervals beside these constants.
+void check_params_from_fit(const data_schema::ParameterSet& params, const std::string& params_file,
+                           const data_schema::FitResult& fit, const std::string& fit_file) {
+  for (const auto& [label, c] : params.classes)
+    for (const char* name : {"alpha", "c1", "mu"}) {
+      const auto* p = fit.parameter(label, name);
+      if (!p) throw InputError(fit_file, "parameters", fmt::format("class {} ({}) {} of the parameter set", int(label), c.name, name), "missing");
+      const double want = std::isfinite(p->held) ? p->held : p->estimate;
+      const double have = std::string(name) == "alpha" ? c.alpha_N_per_mm2 : std::string(name) == "c1" ? c.c1_N_per_mm2 : c.mu;
+      if (!(want == have || std::abs(have - want) <= 1e-9 * std::abs(want)))
+        throw InputError(params_file, fmt::format("classes.{}.{}", c.name, name),
+                         fmt::format("the value the fit held ({:.10g}; --fit {})", want, fit_file), fmt::format("{:.10g}", have));
+    }
+}
 
 void run(const Args& a) {
   std::error_code ec;
@@ -38,6 +57,7 @@ void run(const Args& a) {
   const auto criteria = analysis::read_criteria(a.criteria);
   const auto params = data_schema::read_params(a.params);
   const auto manifest = data_schema::read_manifest(a.experiment);
+  if (!a.fit.empty()) check_params_from_fit(params, a.params, data_schema::read_fit(a.fit), a.fit);
   // Written whole at the end, or not at all (a failed or interrupted replay leaves nothing).
   data_schema::OutputFolder folder(a.out, "--out", a.overwrite);
   // The criteria and parameters are copied beside the report, unless they already are
@@ -56,6 +76,10 @@ void run(const Args& a) {
     if (!params_there) {
       names.push_back("params.toml");
       inputs.push_back(a.params);
+    }
+    if (!a.fit.empty()) {
+      names.push_back("fit.json");
+      inputs.push_back(a.fit);
     }
     folder.refuse_inputs(names, inputs);
   }
@@ -77,10 +101,17 @@ void run(const Args& a) {
   in.criteria_sha256 = sha256_file(a.criteria);
   in.provenance.inputs.push_back({in.params_path, in.params_sha256});
   in.provenance.inputs.push_back({in.criteria_path, in.criteria_sha256});
+  if (!a.fit.empty()) {
+    in.fit_path = fs::absolute(a.fit).string();
+    in.fit_sha256 = sha256_file(a.fit);
+    in.provenance.inputs.push_back({in.fit_path, in.fit_sha256});
+    in.calibration["fit"] = in.fit_path;
+  }
   const fs::path dir = folder.staging();
   analysis::write_analysis_input(dir, in);
   data_schema::copy_file_atomic(a.criteria, dir / "criteria.toml");
   if (!params_there) data_schema::copy_file_atomic(a.params, dir / "params.toml");
+  if (!a.fit.empty()) data_schema::copy_file_atomic(a.fit, dir / "fit.json");
   const auto s = analysis::write_report(dir, dir / "report.html", {a.assets, a.context, nullptr});
   if (criteria_there) fs::remove(dir / "criteria.toml");  // read by the report; the folder has it
   folder.commit();
@@ -96,6 +127,7 @@ void run(const Args& a) {
     std::cout << fmt::format("  {} {} [{}] {} = {:.4g}\n", r.pass ? "PASS" : "FAIL", c.name, r.axis,
                              c.metric, r.value);
   }
+  if (!s.criteria_predate_text.empty()) std::cout << "criteria: " << s.criteria_predate_text << "\n";
   if (in.verification.is_object()) std::cout << "verification: " << in.verification.value("verdict", std::string()) << "\n";
   std::cout << fmt::format("gate: {} ({} of {} checks failed)\n", s.pass ? "PASS" : "FAIL", failed,
                            s.results.size());
@@ -114,6 +146,9 @@ void setup(CLI::App& root) {
       ->required();
   cmd->add_flag("--overwrite", a->overwrite, "write into an existing --out folder, replacing the files of the same names");
   cmd->add_option("--assets", a->assets, "report assets folder (see `burrbench report --help`)");
+  cmd->add_option("--fit", a->fit,
+                  "the fit.json the parameters came from: the report shows its intervals, correlations, search "
+                  "and nuisances, and whether the criteria were fixed before it (calibrate --criteria)");
   cmd->add_option("--context-of-use", a->context, "context-of-use statement for the report");
   cmd->add_flag("--no-tare", a->no_tare, "do not subtract the no-contact mean force (sensor bias)");
   cmd->add_flag("--no-verification", a->no_verification,

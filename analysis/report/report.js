@@ -73,6 +73,33 @@
     }
   }
 
+  // The sensor's moment and the spindle's load (report section 8), when logged.
+  function wrenchPlots(rec, i) {
+    var el = document.getElementById("plot-torque-" + i);
+    if (el && rec.tm) {
+      var s = [], cols = [rec.t];
+      for (var a = 0; a < 3; a++) {
+        s.push({ label: "measured M" + AX[a], stroke: MEAS[a], width: 1 });
+        cols.push(rec.tm[a]);
+      }
+      for (a = 0; a < 3; a++) {
+        s.push({ label: "predicted M" + AX[a], stroke: PRED[a], width: 1, dash: [6, 3] });
+        cols.push(rec.tp[a]);
+      }
+      plot(el, "Moment, sensor frame — " + rec.id, "t (s)", "M (N·mm)", s, cols);
+    }
+    el = document.getElementById("plot-spindle-" + i);
+    if (el && rec.sm)
+      plot(el, "Spindle load — " + rec.id, "t (s)", "τ (N·mm)",
+           [{ label: "measured", stroke: MEAS[0], width: 1 },
+            { label: "predicted", stroke: PRED[0], width: 2 }], [rec.t, rec.sm, rec.sp]);
+    el = document.getElementById("plot-energy-" + i);
+    if (el && rec.em)
+      plot(el, "Cumulative cutting energy — " + rec.id, "t (s)", "∫(τ − idle)|ω| dt (mJ)",
+           [{ label: "measured", stroke: MEAS[0], width: 1.5 },
+            { label: "predicted", stroke: PRED[0], width: 1.5, dash: [6, 3] }], [rec.t, rec.em, rec.ep]);
+  }
+
   function histograms() {
     (data.histograms || []).forEach(function (h, i) {
       var el = document.getElementById("plot-hist-" + i);
@@ -123,7 +150,7 @@
 
   overview();
   searchPlots();
-  data.recordings.forEach(function (rec, i) { forcePlots(rec, i); residualPlots(rec, i); });
+  data.recordings.forEach(function (rec, i) { forcePlots(rec, i); wrenchPlots(rec, i); residualPlots(rec, i); });
   histograms();
   document.body.setAttribute("data-plots-done", "1");
 })();

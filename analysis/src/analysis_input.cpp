@@ -1,5 +1,6 @@
 #include "burrbench/analysis/analysis_input.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -27,6 +28,24 @@ constexpr const char* kCsvHeader =
     "recording_id,t_s,measured_x_N,measured_y_N,measured_z_N,predicted_x_N,predicted_y_N,"
     "predicted_z_N,used";
 
+constexpr const char* kWrenchHeader =
+    "recording_id,t_s,torque_meas_x_Nmm,torque_meas_y_Nmm,torque_meas_z_Nmm,torque_pred_x_Nmm,"
+    "torque_pred_y_Nmm,torque_pred_z_Nmm,spindle_meas_Nmm,spindle_pred_Nmm,spindle_offset_Nmm,spin_rad_s";
+
+// One finite number of a CSV field, else InputError naming file, line and column.
+double csv_number(const std::string& field, const std::string& file, const std::string& where, std::size_t column) {
+  double v = 0;
+  try {
+    std::size_t used = 0;
+    v = std::stod(field, &used);
+    if (used != field.size()) throw std::invalid_argument("trailing");
+  } catch (const std::exception&) {
+    throw InputError(file, where + " column " + std::to_string(column + 1), "a number", field);
+  }
+  if (!std::isfinite(v)) throw InputError(file, where + " column " + std::to_string(column + 1), "a finite number", field);
+  return v;
+}
+
 std::string role_checked(const std::string& role, const std::string& file, const std::string& f) {
   if (role != "calibrate" && role != "validate")
     throw InputError(file, f, "\"calibrate\" or \"validate\"", role);
@@ -46,6 +65,7 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
   j["context_of_use"] = in.context_of_use;
   j["params"] = {{"path", in.params_path}, {"sha256", in.params_sha256}};
   j["criteria"] = {{"path", in.criteria_path}, {"sha256", in.criteria_sha256}};
+  if (!in.fit_sha256.empty()) j["fit"] = {{"path", in.fit_path}, {"sha256", in.fit_sha256}};
   j["seed"] = in.seed;
   j["model"] = in.model;
   j["calibration"] = in.calibration;
@@ -73,6 +93,26 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
                                {"path", r.path}, {"sha256", r.sha256}, {"notes", r.notes},
                                {"registration", r.registration},
                                {"segments", segs}, {"samples", r.t_s.size()}});
+    if (r.has_torque() || r.has_spindle() || !r.energy.empty()) {
+      BURRBENCH_CHECK(!r.has_torque() || (r.torque_measured_Nmm.size() == r.t_s.size() &&
+                                          r.torque_predicted_Nmm.size() == r.t_s.size()),
+                      "moment series lengths differ for recording " + r.id);
+      BURRBENCH_CHECK(!r.has_spindle() || (r.spindle_measured_Nmm.size() == r.t_s.size() &&
+                                           r.spindle_predicted_Nmm.size() == r.t_s.size() &&
+                                           r.spindle_offset_Nmm.size() == r.t_s.size() &&
+                                           r.spin_rad_s.size() == r.t_s.size()),
+                      "spindle series lengths differ for recording " + r.id);
+      json energy = json::array();
+      for (const auto& e : r.energy)
+        energy.push_back({{"class_label", e.class_label}, {"class_name", e.class_name},
+                          {"alpha_N_per_mm2", e.alpha_N_per_mm2}, {"removed_mm3", e.removed_mm3},
+                          {"friction_energy_mJ", e.friction_energy_mJ}});
+      auto& jr = j["recordings"].back();
+      jr["torque"] = r.has_torque();
+      jr["spindle"] = r.has_spindle();
+      if (r.has_spindle()) jr["spindle_offset_source"] = r.spindle_offset_source;
+      jr["energy"] = energy;
+    }
   }
   if (!in.verification.is_null()) j["verification"] = in.verification;
   j["provenance"] = data_schema::provenance_json(in.provenance);
@@ -89,7 +129,92 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
     }
   }
   f.commit();
+  const bool any_wrench = std::any_of(in.recordings.begin(), in.recordings.end(),
+                                      [](const RecordingSeries& r) { return r.has_torque() || r.has_spindle(); });
+  if (!any_wrench) return;
+  data_schema::AtomicFile w(dir / "wrench.csv");
+  w << kWrenchHeader << "\n";
+  auto opt = [](bool has, double v) { return has ? fmt::format("{}", v) : std::string(); };
+  for (const auto& r : in.recordings) {
+    if (!r.has_torque() && !r.has_spindle()) continue;
+    const std::string id = csv_quote(r.id);
+    const bool T = r.has_torque(), S = r.has_spindle();
+    for (std::size_t i = 0; i < r.t_s.size(); ++i) {
+      const glm::dvec3 m = T ? r.torque_measured_Nmm[i] : glm::dvec3(0), p = T ? r.torque_predicted_Nmm[i] : glm::dvec3(0);
+      w << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{}\n", id, r.t_s[i], opt(T, m.x), opt(T, m.y), opt(T, m.z),
+                       opt(T, p.x), opt(T, p.y), opt(T, p.z), opt(S, S ? r.spindle_measured_Nmm[i] : 0),
+                       opt(S, S ? r.spindle_predicted_Nmm[i] : 0), opt(S, S ? r.spindle_offset_Nmm[i] : 0),
+                       opt(S, S ? r.spin_rad_s[i] : 0));
+    }
+  }
+  w.commit();
 }
+
+namespace {
+
+// DIR/wrench.csv (1.2) into the recordings that analysis.json says carry moments or a
+// spindle load; each such recording needs exactly its force rows, at the same times.
+void read_wrench_csv(const fs::path& path, std::vector<RecordingSeries>& recs,
+                     const std::vector<std::pair<bool, bool>>& channels) {
+  const std::string cfile = path.string();
+  std::map<std::string, std::size_t> by_id;
+  bool any = false;
+  for (std::size_t r = 0; r < recs.size(); ++r)
+    if (channels[r].first || channels[r].second) {
+      by_id.emplace(recs[r].id, r);
+      any = true;
+    }
+  if (!any) return;
+  std::ifstream cf(path);
+  if (!cf) throw InputError(cfile, "file", "a readable wrench CSV (analysis.json lists moments or a spindle load)", "cannot open");
+  std::string line;
+  if (!std::getline(cf, line) || line != kWrenchHeader)
+    throw InputError(cfile, "header", std::string("\"") + kWrenchHeader + "\"");
+  std::vector<std::size_t> rows(recs.size(), 0);
+  std::size_t line_no = 1;
+  while (std::getline(cf, line)) {
+    ++line_no;
+    if (line.empty()) continue;
+    const auto fields = csv_split(line);
+    const std::string where = fmt::format("line {}", line_no);
+    if (fields.size() != 12) throw InputError(cfile, where, "12 fields", std::to_string(fields.size()));
+    const auto it = by_id.find(fields[0]);
+    if (it == by_id.end())
+      throw InputError(cfile, where + " recording_id", "an id analysis.json lists with moments or a spindle load", fields[0]);
+    auto& rs = recs[it->second];
+    const auto [T, S] = channels[it->second];
+    const std::size_t k = rows[it->second]++;
+    if (k >= rs.t_s.size()) throw InputError(cfile, where, fmt::format("{} rows for recording {}", rs.t_s.size(), rs.id));
+    if (csv_number(fields[1], cfile, where, 1) != rs.t_s[k])
+      throw InputError(cfile, where + " t_s", "the time of the same row in predictions.csv", fields[1]);
+    auto num = [&](std::size_t c, bool has) {
+      if (!has) {
+        if (!fields[c].empty()) throw InputError(cfile, where + " column " + std::to_string(c + 1), "empty (channel not logged)", fields[c]);
+        return 0.0;
+      }
+      return csv_number(fields[c], cfile, where, c);
+    };
+    if (T) {
+      rs.torque_measured_Nmm.emplace_back(num(2, T), num(3, T), num(4, T));
+      rs.torque_predicted_Nmm.emplace_back(num(5, T), num(6, T), num(7, T));
+    } else {
+      for (std::size_t c = 2; c < 8; ++c) num(c, false);
+    }
+    if (S) {
+      rs.spindle_measured_Nmm.push_back(num(8, S));
+      rs.spindle_predicted_Nmm.push_back(num(9, S));
+      rs.spindle_offset_Nmm.push_back(num(10, S));
+      rs.spin_rad_s.push_back(num(11, S));
+    } else {
+      for (std::size_t c = 8; c < 12; ++c) num(c, false);
+    }
+  }
+  for (const auto& [id, r] : by_id)
+    if (rows[r] != recs[r].t_s.size())
+      throw InputError(cfile, "recording " + id, fmt::format("{} rows", recs[r].t_s.size()), std::to_string(rows[r]));
+}
+
+}  // namespace
 
 AnalysisInput read_analysis_input(const fs::path& dir) {
   const fs::path meta_path = dir / "analysis.json";
@@ -98,7 +223,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
   JsonView o(j, file, "",
         {"format", "format_version", "mode", "experiment", "context_of_use", "params",
          "criteria", "seed", "model", "calibration", "limitations", "parameters", "samples",
-         "recordings", "provenance", "verification"});
+         "recordings", "provenance", "verification", "fit"});
   data_schema::check_format(file, "format", o.str("format"), kAnalysisFormat);
   data_schema::check_version(file, "format_version", o.str("format_version"), kAnalysisVersionMajor);
 
@@ -119,6 +244,11 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
     JsonView c(o.get("criteria"), file, "criteria", {"path", "sha256"});
     in.criteria_path = c.str("path");
     in.criteria_sha256 = c.str("sha256");
+  }
+  if (o.has("fit")) {  // 1.2
+    JsonView fj(o.get("fit"), file, "fit", {"path", "sha256"});
+    in.fit_path = fj.str("path");
+    in.fit_sha256 = fj.str("sha256");
   }
   if (!o.get("seed").is_number_unsigned()) throw InputError(file, "seed", "an unsigned integer");
   in.seed = o.get("seed").get<std::uint64_t>();
@@ -164,10 +294,12 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
   }
   std::map<std::string, std::size_t> by_id;
   std::vector<std::size_t> expected_rows;
+  std::vector<std::pair<bool, bool>> channels;  // per recording: moments, spindle load (1.2)
   i = 0;
   for (const auto& rj : o.array("recordings")) {
     JsonView r(rj, file, fmt::format("recordings[{}]", i++),
-          {"id", "sample", "role", "path", "sha256", "notes", "registration", "segments", "samples"});
+          {"id", "sample", "role", "path", "sha256", "notes", "registration", "segments", "samples",
+           "torque", "spindle", "spindle_offset_source", "energy"});
     RecordingSeries rs;
     rs.id = r.str("id");
     rs.sample_id = r.str("sample");
@@ -190,6 +322,26 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
     if (!by_id.emplace(rs.id, in.recordings.size()).second)
       throw InputError(file, r.field("id"), "a unique recording id", rs.id);
     expected_rows.push_back(std::size_t(rows));
+    auto flag = [&](const char* k) {
+      if (!r.has(k)) return false;
+      if (!r.get(k).is_boolean()) throw InputError(file, r.field(k), "true or false");
+      return r.get(k).get<bool>();
+    };
+    channels.emplace_back(flag("torque"), flag("spindle"));
+    if (channels.back().second) {
+      rs.spindle_offset_source = r.str("spindle_offset_source");
+      if (rs.spindle_offset_source != "fit" && rs.spindle_offset_source != "tare" && rs.spindle_offset_source != "none")
+        throw InputError(file, r.field("spindle_offset_source"), "\"fit\", \"tare\" or \"none\"", rs.spindle_offset_source);
+    }
+    if (r.has("energy")) {  // 1.2
+      std::size_t e = 0;
+      for (const auto& ej : r.array("energy")) {
+        JsonView ev(ej, file, r.field(fmt::format("energy[{}]", e++)),
+                    {"class_label", "class_name", "alpha_N_per_mm2", "removed_mm3", "friction_energy_mJ"});
+        rs.energy.push_back({int(ev.finite("class_label")), ev.str("class_name"), ev.finite("alpha_N_per_mm2"),
+                             ev.finite("removed_mm3"), ev.finite("friction_energy_mJ")});
+      }
+    }
     rs.t_s.reserve(std::size_t(rows));
     rs.measured_N.reserve(std::size_t(rows));
     rs.predicted_N.reserve(std::size_t(rows));
@@ -223,16 +375,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
     if (rs.t_s.size() >= expected_rows[it->second])
       throw InputError(cfile, where, fmt::format("at most {} rows for recording", expected_rows[it->second]));
     double v[8];
-    for (int c = 0; c < 8; ++c) {
-      try {
-        std::size_t used = 0;
-        v[c] = std::stod(fields[c + 1], &used);
-        if (used != fields[c + 1].size()) throw std::invalid_argument("trailing");
-      } catch (const std::exception&) {
-        throw InputError(cfile, where + " column " + std::to_string(c + 2), "a number", fields[c + 1]);
-      }
-      if (!std::isfinite(v[c])) throw InputError(cfile, where, "finite numbers");
-    }
+    for (std::size_t c = 0; c < 8; ++c) v[c] = csv_number(fields[c + 1], cfile, where, c + 1);
     if (fields[8] != "0" && fields[8] != "1") throw InputError(cfile, where + " used", "0 or 1", fields[8]);
     if (!rs.t_s.empty() && !(v[0] > rs.t_s.back()))
       throw InputError(cfile, where + " t_s", "strictly increasing times per recording");
@@ -246,6 +389,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
       throw InputError(cfile, "recording " + in.recordings[r].id,
                        fmt::format("{} rows", expected_rows[r]),
                        std::to_string(in.recordings[r].t_s.size()));
+  read_wrench_csv(dir / "wrench.csv", in.recordings, channels);
   return in;
 }
 

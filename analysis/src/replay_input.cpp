@@ -56,6 +56,82 @@ std::optional<model::PoseCorrection> fitted_pose(const ds::FitResult* fit, const
   return p;
 }
 
+// The moments and the spindle's load beside the force (MODEL.md "Moments"): predicted
+// with the fit's moment bias and spindle idle/viscous terms, or, without a fit, with the
+// tare (the measured mean over samples with no predicted contact), as for the force.
+void fill_wrench(const model::AlignedRecording& r, const model::ReplayResult& res,
+                 const model::Trajectory& tr, const ds::FitResult* fit, bool tare, RecordingSeries& rs) {
+  const std::size_t n = res.samples.size();
+  auto no_contact = [&](std::size_t k) { return res.samples[k].contact.class_mask == 0; };
+  if (r.torque_sensor_Nmm.size() == n) {
+    rs.torque_measured_Nmm = r.torque_sensor_Nmm;
+    rs.torque_predicted_Nmm.resize(n);
+    glm::dvec3 free_sum(0);
+    std::size_t free_n = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const auto& c = res.samples[k].contact;
+      rs.torque_predicted_Nmm[k] = r.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[k]);
+      if (no_contact(k)) {
+        free_sum += r.torque_sensor_Nmm[k] - rs.torque_predicted_Nmm[k];
+        ++free_n;
+      }
+    }
+    glm::dvec3 bias(nuisance(fit, r.id, "torque_bias_x", NAN), nuisance(fit, r.id, "torque_bias_y", NAN),
+                    nuisance(fit, r.id, "torque_bias_z", NAN));
+    if (!std::isfinite(bias.x))
+      bias = tare && free_n >= kMinTareSamples ? free_sum / double(free_n) : glm::dvec3(0);
+    for (auto& p : rs.torque_predicted_Nmm) p += bias;
+  }
+  if (!r.spindle_torque_Nmm.t_s.empty()) {
+    rs.spindle_measured_Nmm.resize(n);
+    rs.spindle_predicted_Nmm.resize(n);
+    rs.spindle_offset_Nmm.resize(n);
+    rs.spin_rad_s.resize(n);
+    std::vector<double> krpm(n);
+    double mean_krpm = 0;
+    // The tare: the drive's load without contact while spinning, fitted as idle + slope·krpm
+    // by least squares (a mean when the speed never changes), so samples with the spindle
+    // stopped or at another speed do not bias it.
+    double s1 = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      rs.spindle_measured_Nmm[k] = r.spindle_torque_Nmm.at(r.t_s[k]);
+      rs.spindle_predicted_Nmm[k] = model::spindle_torque_Nmm(res.samples[k].contact.moment_Nmm, tr.omega_vol_rad_s[k]);
+      rs.spin_rad_s[k] = glm::length(tr.omega_vol_rad_s[k]);
+      // The viscous term acts on the speed's deviation from the recording's mean, as in
+      // the fit (calibration/replay_model.cpp), so the fitted idle offset means the same.
+      krpm[k] = std::abs(r.spindle_rpm.at(r.t_s[k])) / 1000;
+      mean_krpm += krpm[k] / double(n);
+      if (no_contact(k) && rs.spin_rad_s[k] > 0) {
+        const double y = rs.spindle_measured_Nmm[k];
+        s1 += 1;
+        sx += krpm[k];
+        sy += y;
+        sxx += krpm[k] * krpm[k];
+        sxy += krpm[k] * y;
+      }
+    }
+    const double idle = nuisance(fit, r.id, "spindle_idle", NAN);
+    const double viscous = nuisance(fit, r.id, "spindle_viscous", 0.0);
+    const bool can_tare = tare && s1 >= double(kMinTareSamples);
+    rs.spindle_offset_source = std::isfinite(idle) ? "fit" : can_tare ? "tare" : "none";
+    double tare_a = 0, tare_b = 0;
+    if (can_tare) {
+      const double det = s1 * sxx - sx * sx;
+      if (det / (s1 * s1) > 1e-6) {  // the speed varies by more than ~1 rpm
+        tare_b = (s1 * sxy - sx * sy) / det;
+        tare_a = (sy - tare_b * sx) / s1;
+      } else {
+        tare_a = sy / s1;
+      }
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      rs.spindle_offset_Nmm[k] = std::isfinite(idle) ? idle + viscous * (krpm[k] - mean_krpm)
+                                                     : can_tare ? tare_a + tare_b * krpm[k] : 0.0;
+      rs.spindle_predicted_Nmm[k] += rs.spindle_offset_Nmm[k];
+    }
+  }
+}
+
 }  // namespace
 
 AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet& params,
@@ -164,6 +240,11 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     const bool fitted_bias = fit && std::isfinite(nuisance(fit, r.id, "bias_x", NAN));
     if (!fitted_bias && opt.tare && free_n >= kMinTareSamples) bias = free_sum / double(free_n);
     for (auto& p : rs.predicted_N) p += bias;  // the bias is added to the prediction
+    fill_wrench(r, res, tr, fit, opt.tare, rs);
+    for (const auto& [label, c] : params.classes)
+      if (res.removed_mm3[std::size_t(label)] > 0 || res.friction_energy_mJ[std::size_t(label)] > 0)
+        rs.energy.push_back({int(label), c.name, c.alpha_N_per_mm2, res.removed_mm3[std::size_t(label)],
+                             res.friction_energy_mJ[std::size_t(label)]});
     // A recording whose segments carry both roles appears once per role, each with its
     // own used samples (its fitted nuisances are the recording's, whichever the role).
     const bool both = std::any_of(r.use_calibrate.begin(), r.use_calibrate.end(), [](auto u) { return u != 0; }) &&

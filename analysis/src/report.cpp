@@ -14,6 +14,8 @@
 #include <opencv2/core/utility.hpp>
 
 #include "bone_image.hpp"
+#include "report_html.hpp"
+#include "report_wrench.hpp"
 #include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
@@ -51,16 +53,9 @@ std::string strip_url_schemes(std::string s) {
   return s;
 }
 
-std::string num(double v, int prec = 4) {
-  if (!std::isfinite(v)) return "n/a";
-  return fmt::format("{:.{}g}", v, prec);
-}
-
-std::string esc(std::string_view s) { return html_escape(s); }
-
-std::string td(const std::string& text_already_escaped, bool numeric = false) {
-  return fmt::format("<td{}>{}</td>", numeric ? " class=\"num\"" : "", text_already_escaped);
-}
+using html::esc;
+using html::num;
+using html::td;
 
 std::string kv_table(const json& j) {
   std::string h = "<table>";
@@ -100,7 +95,9 @@ json decimated(const RecordingSeries& r) {
       p[a].push_back(r.predicted_N[i][a]);
     }
   }
-  return {{"id", r.id}, {"role", r.role}, {"t", t}, {"m", m}, {"p", p}, {"stride", k}};
+  json rec = {{"id", r.id}, {"role", r.role}, {"t", t}, {"m", m}, {"p", p}, {"stride", k}};
+  add_wrench_plot_data(r, k, rec);
+  return rec;
 }
 
 json histogram(const AnalysisInput& in, const std::string& role) {
@@ -161,6 +158,24 @@ std::string discretization_cell(const json& p) {
   auto n = [&](const char* k) { return d.contains(k) && d.at(k).is_number() ? num(d.at(k).get<double>()) : std::string("—"); };
   if (!d.value("limited", false)) return n("coarse_estimate");
   return n("coarse_estimate") + "<br><b>limited</b>: [" + n("ci95_low") + ", " + n("ci95_high") + "]";
+}
+
+// The fit's nuisance estimates that were free (per recording; a pose per sample mounting).
+std::string nuisance_table(const json& fit) {
+  if (!fit.contains("nuisance") || !fit.at("nuisance").is_array()) return {};
+  std::string rows;
+  for (const auto& n : fit.at("nuisance")) {
+    if (n.value("fixed", false)) continue;
+    auto v = [&](const char* k) { return n.contains(k) && n.at(k).is_number() ? num(n.at(k).get<double>()) : std::string("—"); };
+    rows += "<tr>" + td(esc(n.value("recording_id", std::string()))) + td(esc(n.value("name", std::string()))) +
+            td(esc(n.value("unit", std::string()))) + td(v("estimate"), true) + td(v("std_error"), true) +
+            td("[" + v("ci95_low") + ", " + v("ci95_high") + "]", true) + "</tr>";
+  }
+  if (rows.empty()) return {};
+  return "<h3>Nuisance estimates</h3><p class=\"muted\">Per recording (a registration's pose per sample "
+         "mounting): what the fit estimated beside the constants.</p><div class=\"scroll\"><table id=\"nuisance-table\">"
+         "<tr><th>recording</th><th>nuisance</th><th>unit</th><th>estimate</th><th>std. error</th><th>95 %</th></tr>" +
+         rows + "</table></div>";
 }
 
 std::string parameter_section(const AnalysisInput& in, const json* fit) {
@@ -241,6 +256,10 @@ std::string parameter_section(const AnalysisInput& in, const json* fit) {
       }
       h += "</table></div>";
     }
+    h += nuisance_table(*fit);
+    if (in.mode == "validate")
+      h += "<p class=\"muted\">The constants replayed here are this fit's (<code>" + esc(in.fit_path) +
+           "</code>, given to validate with <code>--fit</code>; checked against the parameter set).</p>";
   } else {
     h += "<p>Fixed parameters replayed (no fit in this run): <code>" + esc(in.params_path) +
          "</code>. Intervals and identifiability come from the calibration that produced them.</p>";
@@ -341,9 +360,42 @@ std::string cross_validation_section(const std::vector<MetricRow>& rows, const j
   return h;
 }
 
+// Were the criteria fixed before the fit? calibrate --criteria records their SHA-256 in
+// fit.json (settings.criteria); the criteria of this report must be that same content.
+void criteria_predate(const json& fit, const AnalysisInput& in, ReportSummary& sum) {
+  const json* rec = nullptr;
+  if (fit.contains("settings") && fit.at("settings").contains("criteria") && fit.at("settings").at("criteria").is_object())
+    rec = &fit.at("settings").at("criteria");
+  const std::string when = fit.contains("provenance") && fit.at("provenance").is_object()
+                               ? fit.at("provenance").value("created_utc", std::string("?"))
+                               : std::string("?");
+  if (!rec || !rec->contains("sha256")) {
+    sum.criteria_predate_text =
+        "Not established: the fit recorded no criteria (run calibrate with --criteria to fix them before the fit).";
+    return;
+  }
+  const std::string sha = rec->value("sha256", std::string());
+  sum.criteria_predate_fit = sha == in.criteria_sha256;
+  sum.criteria_predate_text =
+      *sum.criteria_predate_fit
+          ? fmt::format("Fixed before the fit: calibrate recorded these criteria (SHA-256 {}) when it fitted the "
+                        "constants ({}).", sha.substr(0, 12), when)
+          : fmt::format("Changed after the fit: calibrate recorded criteria with SHA-256 {} ({}, {}); the criteria "
+                        "used here have {}.", sha.substr(0, 12), rec->value("path", std::string("?")), when,
+                        in.criteria_sha256.substr(0, 12));
+}
+
 std::string criteria_section(const ReportSummary& s) {
   if (!s.has_criteria) return "<p class=\"muted\">No acceptance criteria were given for this run.</p>";
-  std::string h =
+  std::string h;
+  if (!s.criteria_predate_text.empty())
+    h += fmt::format("<p id=\"criteria-predate\"><span class=\"verdict {}\">{}</span> {}</p>",
+                     !s.criteria_predate_fit ? "none" : *s.criteria_predate_fit ? "pass" : "fail",
+                     !s.criteria_predate_fit ? "CRITERIA NOT SHOWN TO PREDATE THE FIT"
+                     : *s.criteria_predate_fit ? "CRITERIA FIXED BEFORE THE FIT"
+                                               : "CRITERIA CHANGED AFTER THE FIT",
+                     esc(s.criteria_predate_text));
+  h +=
       "<table><tr><th>#</th><th>criterion</th><th>metric</th><th>data</th><th>segment</th>"
       "<th>axis</th><th>threshold</th><th>value</th><th>result</th></tr>";
   for (const auto& r : s.results) {
@@ -398,8 +450,11 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   const bool has_analysis = fs::exists(dir / "analysis.json");
   AnalysisInput in;
   if (has_analysis) in = read_analysis_input(dir);
-  // A validate run replayed fixed constants: a fit.json lying in its folder is not its own.
-  const bool has_fit = fs::exists(dir / "fit.json") && (!has_analysis || in.mode == "calibrate");
+  // A validate run replayed fixed constants: a fit.json lying in its folder is its own only
+  // when validate --fit put it there (analysis.json names it by hash).
+  const bool has_fit = fs::exists(dir / "fit.json") &&
+                       (!has_analysis || in.mode == "calibrate" ||
+                        (!in.fit_sha256.empty() && sha256_file(dir / "fit.json") == in.fit_sha256));
   std::optional<data_schema::FitResult> fit_result;
   if (has_fit) fit_result = data_schema::read_fit(dir / "fit.json");  // validates
   if (!has_analysis && fit_result) {
@@ -448,6 +503,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   json fit;
   if (has_fit) {
     fit = data_schema::read_json_file(dir / "fit.json");
+    if (sum.has_criteria) criteria_predate(fit, in, sum);
   }
 
   fs::create_directories(out_dir);
@@ -461,7 +517,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
                                     : "<p><span class=\"verdict fail\" id=\"verdict\">ACCEPTANCE CRITERIA: FAIL</span></p>")
                         : "<p><span class=\"verdict none\" id=\"verdict\">No acceptance criteria</span></p>";
   b += "<nav><a href=\"#glance\">At a glance</a><a href=\"#cou\">Context</a><a href=\"#model\">Model</a><a href=\"#verif\">Verification</a><a href=\"#data\">Data</a>"
-       "<a href=\"#calib\">Calibration</a><a href=\"#params\">Parameters</a><a href=\"#force\">Force</a>"
+       "<a href=\"#calib\">Calibration</a><a href=\"#params\">Parameters</a><a href=\"#force\">Force</a><a href=\"#wrench\">Moments</a>"
        "<a href=\"#resid\">Residuals</a><a href=\"#metrics\">Metrics</a><a href=\"#cv\">Cross-validation</a>"
        "<a href=\"#bone\">Removed bone</a><a href=\"#accept\">Acceptance</a><a href=\"#limits\">Limitations</a>"
        "<a href=\"#repro\">Reproducibility</a></nav>";
@@ -531,7 +587,9 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   for (std::size_t i = 0; i < in.recordings.size(); ++i)
     b += fmt::format("<h3>{}</h3><div class=\"plot\" id=\"plot-force-{}\"></div>", esc(in.recordings[i].id), i);
 
-  b += "<h2 id=\"resid\">8. Residuals</h2><p class=\"muted\">e = measured − predicted.</p>";
+  b += "<h2 id=\"wrench\">8. Moments and the spindle's load</h2>" + wrench_section(in, has_fit ? &fit : nullptr);
+
+  b += "<h2 id=\"resid\">9. Residuals</h2><p class=\"muted\">e = measured − predicted.</p>";
   for (std::size_t i = 0; i < in.recordings.size(); ++i)
     b += fmt::format("<h3>{}</h3><div class=\"plotrow\"><div class=\"plot\" id=\"plot-resid-t-{}\"></div>"
                      "<div class=\"plot\" id=\"plot-resid-p-{}\"></div></div>",
@@ -545,15 +603,15 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     }
   }
 
-  b += "<h2 id=\"metrics\">9. Validation metrics</h2><p class=\"muted\">NRMSE is normalised by the "
+  b += "<h2 id=\"metrics\">10. Validation metrics</h2><p class=\"muted\">NRMSE is normalised by the "
        "measured range (max − min) of the same series; R² = 1 − SSE/SST; Theil U2 = √(Σe²/Σm²); "
        "SG = Sprague–Geers; definitions in docs/report.md. Only used samples count.</p>"
        "<h3>Per recording</h3>" + metric_table_html(rows, false) + "<h3>Pooled by role</h3>" +
        metric_table_html(rows, true);
 
-  b += "<h2 id=\"cv\">10. Cross-validation</h2>" + cross_validation_section(rows, has_fit ? &fit : nullptr);
+  b += "<h2 id=\"cv\">11. Cross-validation</h2>" + cross_validation_section(rows, has_fit ? &fit : nullptr);
 
-  b += "<h2 id=\"bone\">11. Removed bone</h2><p class=\"muted\">Depth map: thickness of bone "
+  b += "<h2 id=\"bone\">12. Removed bone</h2><p class=\"muted\">Depth map: thickness of bone "
        "removed by the replay in each (x, y) column of the volume (plan view, y up).</p>";
   for (const auto& s : in.samples) {
     const auto png = render_removed_depth_png(s);
@@ -567,16 +625,20 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
          base64(png) + "\">";
   }
 
-  b += "<h2 id=\"accept\">12. Acceptance criteria</h2>" + criteria_section(sum);
+  b += "<h2 id=\"accept\">13. Acceptance criteria</h2>" + criteria_section(sum);
 
-  b += "<h2 id=\"limits\">13. Limitations</h2><ul>";
+  b += "<h2 id=\"limits\">14. Limitations</h2><ul>";
   for (const auto& l : in.limitations) b += "<li>" + esc(l) + "</li>";
   b += "<li>Metrics use only samples marked used (buried or excluded samples and spans outside used "
        "segments are left out).</li></ul>";
 
-  b += "<h2 id=\"repro\">14. Reproducibility</h2><h3>Command lines</h3><pre>" +
+  b += "<h2 id=\"repro\">15. Reproducibility</h2><h3>Command lines</h3><pre>" +
        esc(in.provenance.command_line.empty() ? "(library call)" : in.provenance.command_line) + "\n" +
-       esc(invocation().empty() ? "(report: library call)" : invocation()) + "</pre>";
+       esc(invocation().empty() ? "(report: library call)" : invocation()) +
+       (has_fit && in.mode == "validate" && fit.contains("provenance") && fit.at("provenance").is_object()
+            ? "\n" + esc(fit.at("provenance").value("command_line", std::string("(calibrate: not recorded)")))
+            : std::string()) +
+       "</pre>";
   b += "<h3>Versions</h3>" + versions_table(assets);
   b += "<h3>Inputs</h3><table><tr><th>file</th><th>SHA-256</th></tr>";
   for (const auto& f : in.provenance.inputs)
@@ -630,8 +692,9 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   if (!fs::equivalent(dir, out_dir, ec)) {
     // Only from an analysis directory: a report that replayed a fit wrote its own fresh
     // predictions.csv above, which an older file must not replace.
-    if (has_analysis && fs::exists(dir / "predictions.csv"))
-      data_schema::copy_file_atomic(dir / "predictions.csv", out_dir / "predictions.csv");
+    if (has_analysis)
+      for (const char* name : {"predictions.csv", "wrench.csv"})
+        if (fs::exists(dir / name)) data_schema::copy_file_atomic(dir / name, out_dir / name);
     if (fit_result) {
       // The copy beside the report carries the metrics (FitResult::metrics is analysis's
       // to fill); the calibrate directory's own fit.json is an input and stays as it is.
@@ -645,6 +708,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
              {"rows", metric_rows_to_json(rows)}};
   if (sum.has_criteria) {
     mj["pass"] = sum.pass;
+    mj["criteria_predate_fit"] = sum.criteria_predate_fit ? json(*sum.criteria_predate_fit) : json(nullptr);
     mj["criteria"] = json::array();
     for (const auto& r : sum.results)
       mj["criteria"].push_back({{"index", r.index}, {"name", sum.criteria.criteria[r.index].name},

@@ -459,6 +459,27 @@ CovarianceOutcome Objective::covariance(const std::vector<double>& x_in, const S
     for (int a = J.rows[std::size_t(row)]; a < J.rows[std::size_t(row) + 1]; ++a)
       for (int b = J.rows[std::size_t(row)]; b < J.rows[std::size_t(row) + 1]; ++b)
         H(J.cols[std::size_t(a)], J.cols[std::size_t(b)]) += J.values[std::size_t(a)] * J.values[std::size_t(b)];
+  if (layout_.channels().rows_per_sample() > 3) {
+    // Rows come per recording block, rows_per_sample per sample with the force first,
+    // then the registration priors (kept in both).
+    const std::size_t per = std::size_t(layout_.channels().rows_per_sample());
+    std::vector<std::uint8_t> force_row(std::size_t(J.num_rows), 1);
+    std::size_t row = 0;
+    for (const auto* model : models_)
+      for (std::size_t k = 0; k < per * model->size(); ++k, ++row) {
+        BURRBENCH_CHECK(row < force_row.size(), "Jacobian rows: one block of rows_per_sample rows per sample");
+        force_row[row] = k % per < 3;
+      }
+    Eigen::MatrixXd Hf = Eigen::MatrixXd::Zero(Eigen::Index(m), Eigen::Index(m));
+    for (int r = 0; r < J.num_rows; ++r) {
+      if (!force_row[std::size_t(r)]) continue;
+      for (int a = J.rows[std::size_t(r)]; a < J.rows[std::size_t(r) + 1]; ++a)
+        for (int b = J.rows[std::size_t(r)]; b < J.rows[std::size_t(r) + 1]; ++b)
+          Hf(J.cols[std::size_t(a)], J.cols[std::size_t(b)]) += J.values[std::size_t(a)] * J.values[std::size_t(b)];
+    }
+    out.info.assign(H.data(), H.data() + m * m);  // symmetric: storage order does not matter
+    out.info_force.assign(Hf.data(), Hf.data() + m * m);
+  }
   Eigen::VectorXd d = H.diagonal();
   out.info_diag.assign(d.data(), d.data() + m);
   Eigen::VectorXd s = d.unaryExpr([](double v) { return v > 0 ? 1 / std::sqrt(v) : 0.0; });

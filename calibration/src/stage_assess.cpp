@@ -246,6 +246,7 @@ void assess(Run& run) {
   run.out.nuisance = run.unc.nuisance;
   run.out.covariance = run.unc.covariance;
   run.out.correlation = run.unc.correlation;
+  run.out.channel_information = run.unc.channel_information;
 }
 
 }  // namespace burrbench::calibration::detail

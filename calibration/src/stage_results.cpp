@@ -262,6 +262,20 @@ CalibrationOutput results(Run& run) {
                                "into its bound; verify on a finer sample\n", p.class_name, p.name, run.coarse_voxel_mm);
     }
   }
+  if (out.channel_information.is_object()) {
+    // What the moments and the spindle's load add, linearised at the optimum.
+    s += "channels (95 % factor of the linearised interval, force alone -> all channels):";
+    for (const auto& p : out.channel_information["parameters"]) {
+      auto f = [](const nlohmann::json& v) { return v.is_number() ? fmt::format("x{:.4g}", v.get<double>()) : std::string("none"); };
+      s += fmt::format(" {}.{} {} -> {};", p["class_name"].get<std::string>(), p["name"].get<std::string>(),
+                       f(p["ci95_factor_force"]), f(p["ci95_factor_all"]));
+    }
+    for (const auto& c : out.channel_information["correlations"]) {
+      auto f = [](const nlohmann::json& v) { return v.is_number() ? fmt::format("{:.4f}", v.get<double>()) : std::string("n/a"); };
+      s += fmt::format(" {} C1-alpha correlation {} -> {};", c["class_name"].get<std::string>(), f(c["force"]), f(c["all"]));
+    }
+    s.back() = '\n';
+  }
   for (const auto& n : out.nuisance)
     if (!n.fixed)
       s += fmt::format("  {:<12} {:<12} = {:.4g} ± {:.2g} {}\n", n.recording_id, n.name, n.estimate,

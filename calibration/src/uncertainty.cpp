@@ -1,6 +1,9 @@
 #include "burrbench/calibration/uncertainty.hpp"
 
 #include <cmath>
+#include <map>
+
+#include <Eigen/Dense>
 
 #include <fmt/format.h>
 
@@ -246,6 +249,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
   static const char* kPose[6] = {"pose_rx", "pose_ry", "pose_rz", "pose_tx", "pose_ty", "pose_tz"};
   for (const auto& m : L.mountings())
     for (int k = 0; k < 6; ++k) add_to(m.name, kPose[k], k < 3 ? "rad" : "mm", m.offset + k, 0.0);
+  rep.channel_information = channel_information(L, cov);
   // Natural-unit covariance of the identifiable free entries (delta method) and correlation.
   if (cov.ok) {
     std::vector<double> g(m);
@@ -263,6 +267,85 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
       }
   }
   return rep;
+}
+
+namespace {
+
+// Pseudo-inverse of the information restricted to `keep` (entries the rows inform), by
+// the eigen-decomposition of its unit-diagonal form; eigenvalues below 1e-14 of the
+// largest count as null (Ceres's DENSE_SVD covariance uses the same bound).
+Eigen::MatrixXd pseudo_inverse(const std::vector<double>& info, std::size_t m, const std::vector<std::size_t>& keep) {
+  const Eigen::Index k = Eigen::Index(keep.size());
+  Eigen::MatrixXd H(k, k);
+  for (Eigen::Index a = 0; a < k; ++a)
+    for (Eigen::Index b = 0; b < k; ++b) H(a, b) = info[keep[std::size_t(a)] * m + keep[std::size_t(b)]];
+  const Eigen::VectorXd s = H.diagonal().cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd Hn = s.asDiagonal() * H * s.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Hn);
+  const double lmax = es.eigenvalues().maxCoeff();
+  Eigen::VectorXd inv = es.eigenvalues().unaryExpr([&](double l) { return l > 1e-14 * lmax ? 1 / l : 0.0; });
+  return s.asDiagonal() * es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose() * s.asDiagonal();
+}
+
+}  // namespace
+
+nlohmann::json channel_information(const Layout& L, const CovarianceOutcome& cov) {
+  const std::size_t m = cov.indices.size();
+  if (!cov.ok || m == 0 || cov.info.size() != m * m || cov.info_force.size() != m * m) return nullptr;
+  const double scale = cov.residual_variance * cov.inflation;
+  std::vector<std::size_t> all(m), informed;
+  for (std::size_t a = 0; a < m; ++a) {
+    all[a] = a;
+    if (cov.info_force[a * m + a] > 0) informed.push_back(a);  // the moment bias and spindle terms drop out
+  }
+  const Eigen::MatrixXd Ca = pseudo_inverse(cov.info, m, all) * scale;
+  const Eigen::MatrixXd Cf = pseudo_inverse(cov.info_force, m, informed) * scale;
+  auto pos = [&](int x_index, const std::vector<std::size_t>& set) -> Eigen::Index {
+    for (std::size_t k = 0; k < set.size(); ++k)
+      if (int(cov.indices[set[k]]) == x_index) return Eigen::Index(k);
+    return -1;
+  };
+  auto se = [](const Eigen::MatrixXd& C, Eigen::Index k) { return k < 0 ? double(NAN) : std::sqrt(std::max(0.0, C(k, k))); };
+  auto factor = [](double s) { return std::isfinite(s) ? std::exp(kZ95 * s) : NAN; };
+  auto json_num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  const Channels& ch = L.channels();
+  nlohmann::json channels = nlohmann::json::array({"force"});
+  if (ch.torque) channels.push_back("torque");
+  if (ch.spindle) channels.push_back("spindle");
+  nlohmann::json j = {
+      {"channels", channels},
+      {"method", "linearised at the optimum: SE of ln(theta) from (J^T J)^-1 x residual variance x noise factor, "
+                 "over the rows of every channel and over the force rows alone (registration priors in both); "
+                 "the profile intervals are the fit's, this compares the information"},
+      {"parameters", nlohmann::json::array()},
+      {"correlations", nlohmann::json::array()}};
+  std::map<std::uint8_t, std::array<int, 2>> c1_alpha;  // label → x index of c1, alpha
+  for (const auto& p : L.physics()) {
+    if (p.index < 0) continue;
+    const double sa = se(Ca, pos(p.index, all)), sf = se(Cf, pos(p.index, informed));
+    if (!std::isfinite(sa)) continue;  // held as not identifiable: not in the covariance
+    j["parameters"].push_back({{"class_id", p.label}, {"class_name", p.class_name}, {"name", to_string(p.kind)},
+                               {"se_log_all", json_num(sa)}, {"se_log_force", json_num(sf)},
+                               {"ci95_factor_all", json_num(factor(sa))}, {"ci95_factor_force", json_num(factor(sf))}});
+    auto& pair = c1_alpha.try_emplace(p.label, std::array<int, 2>{-1, -1}).first->second;
+    if (p.kind == PhysKind::kC1) pair[0] = p.index;
+    if (p.kind == PhysKind::kAlpha) pair[1] = p.index;
+  }
+  auto corr = [&](const Eigen::MatrixXd& C, const std::vector<std::size_t>& set, int i, int k) {
+    const Eigen::Index a = pos(i, set), b = pos(k, set);
+    if (a < 0 || b < 0 || !(C(a, a) > 0) || !(C(b, b) > 0)) return double(NAN);
+    return C(a, b) / std::sqrt(C(a, a) * C(b, b));
+  };
+  for (const auto& [label, pair] : c1_alpha) {
+    if (pair[0] < 0 || pair[1] < 0) continue;
+    std::string name;
+    for (const auto& p : L.physics())
+      if (p.label == label) name = p.class_name;
+    j["correlations"].push_back({{"class_id", label}, {"class_name", name}, {"pair", "c1-alpha"},
+                                 {"all", json_num(corr(Ca, all, pair[0], pair[1]))},
+                                 {"force", json_num(corr(Cf, informed, pair[0], pair[1]))}});
+  }
+  return j;
 }
 
 }  // namespace burrbench::calibration

@@ -148,6 +148,7 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
                   {"termination", s.termination}, {"multistart", s.multistart}, {"stages", s.stages}}},
       {"cross_validation", cv},
       {"multistart", f.multistart},
+      {"channel_information", f.channel_information},
       {"metrics", f.metrics},
       {"settings", f.settings},
       {"provenance", provenance_json(detail::stamped(f.provenance))},
@@ -248,6 +249,8 @@ FitResult read_fit(const std::filesystem::path& path) {
     c.done();
   }
   if (root.has("multistart")) f.multistart = root.array("multistart");
+  if (root.has("channel_information") && !root.get("channel_information").is_null())  // 1.3
+    f.channel_information = root.object("channel_information");
   f.metrics = root.object("metrics");
   f.settings = root.object("settings");
   f.provenance = read_provenance(root.sub("provenance"));

@@ -73,7 +73,7 @@ TEST(AnalysisInput, BrokenFilesAreInputErrors) {
   replace(j, "\"burrbench.analysis\"", "\"burrbench.fit\"");
   expect_error(j, csv, "wrong format");
   j = json;
-  replace(j, "\"1.1\"", "\"2.0\"");
+  replace(j, "\"1.2\"", "\"2.0\"");
   expect_error(j, csv, "major version");
   expect_error("{ not json", csv, "not JSON");
   std::string c = csv;
@@ -90,6 +90,97 @@ TEST(AnalysisInput, BrokenFilesAreInputErrors) {
   // The inputs were not modified by reading (we only wrote them here).
   spit(dir / "analysis.json", json);
   spit(dir / "predictions.csv", csv);
+  EXPECT_NO_THROW(read_analysis_input(dir));
+}
+
+namespace {
+// R1 with moments, a spindle load and its energy; R2 with moments only.
+AnalysisInput wrench_input() {
+  auto in = burrbench::testing::small_input();
+  for (std::size_t k = 0; k < 2; ++k) {
+    auto& r = in.recordings[k];
+    for (std::size_t i = 0; i < r.t_s.size(); ++i) {
+      r.torque_measured_Nmm.emplace_back(std::sin(r.t_s[i]), 0.1 * double(i), -1.0 / 3.0);
+      r.torque_predicted_Nmm.push_back(r.torque_measured_Nmm.back() * 0.9);
+      if (k == 1) continue;
+      r.spindle_measured_Nmm.push_back(0.3 + 0.01 * std::cos(7 * r.t_s[i]));
+      r.spindle_predicted_Nmm.push_back(0.31);
+      r.spindle_offset_Nmm.push_back(0.3);
+      r.spin_rad_s.push_back(3141.5926535897934);
+    }
+  }
+  in.recordings[0].spindle_offset_source = "tare";
+  in.recordings[0].energy = {{1, "compact", 500.0, 0.125, 62.5}};
+  return in;
+}
+}  // namespace
+
+TEST(AnalysisInput, WrenchSeriesRoundTripExactly) {
+  const auto in = wrench_input();
+  const auto dir = burrbench::testing::temp_dir("wrench");
+  write_analysis_input(dir, in);
+  ASSERT_TRUE(fs::exists(dir / "wrench.csv"));
+  const auto back = read_analysis_input(dir);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const auto& a = in.recordings[k];
+    const auto& b = back.recordings[k];
+    EXPECT_EQ(a.torque_measured_Nmm, b.torque_measured_Nmm);
+    EXPECT_EQ(a.torque_predicted_Nmm, b.torque_predicted_Nmm);
+    EXPECT_EQ(a.spindle_measured_Nmm, b.spindle_measured_Nmm);
+    EXPECT_EQ(a.spindle_predicted_Nmm, b.spindle_predicted_Nmm);
+    EXPECT_EQ(a.spindle_offset_Nmm, b.spindle_offset_Nmm);
+    EXPECT_EQ(a.spin_rad_s, b.spin_rad_s);
+    EXPECT_EQ(a.spindle_offset_source, b.spindle_offset_source);
+    ASSERT_EQ(a.energy.size(), b.energy.size());
+  }
+  EXPECT_FALSE(back.recordings[1].has_spindle());
+  EXPECT_EQ(back.recordings[0].energy[0].friction_energy_mJ, 62.5);
+  EXPECT_EQ(back.recordings[0].energy[0].class_name, "compact");
+  // Without moments or a spindle load nothing is written, and nothing is looked for.
+  const auto plain = burrbench::testing::temp_dir("no_wrench");
+  write_analysis_input(plain, burrbench::testing::small_input());
+  EXPECT_FALSE(fs::exists(plain / "wrench.csv"));
+  EXPECT_NO_THROW(read_analysis_input(plain));
+}
+
+TEST(AnalysisInput, BrokenWrenchFilesAreInputErrors) {
+  const auto dir = burrbench::testing::temp_dir("wrench_broken");
+  write_analysis_input(dir, wrench_input());
+  const std::string json = slurp(dir / "analysis.json"), csv = slurp(dir / "wrench.csv");
+  const auto expect_error = [&](const std::string& j, const std::string& c, const std::string& what,
+                                const std::string& file) {
+    spit(dir / "analysis.json", j);
+    spit(dir / "wrench.csv", c);
+    try {
+      read_analysis_input(dir);
+      ADD_FAILURE() << "accepted: " << what;
+    } catch (const burrbench::InputError& e) {
+      EXPECT_EQ(e.file(), (dir / file).string()) << what;
+    }
+  };
+  std::string c = csv;
+  replace(c, "\nR1,0.01,", "\nR1,0.011,");
+  expect_error(json, c, "a time that is not the force row's", "wrench.csv");
+  expect_error(json, csv.substr(0, csv.size() / 2), "truncated", "wrench.csv");
+  expect_error(json, "recording_id,t_s\n", "wrong header", "wrench.csv");
+  c = csv;
+  c.insert(c.find('\n', c.find("\nR2,") + 1), "3141");  // spin speed in R2, which logged no spindle load
+  expect_error(json, c, "a value in a channel not logged", "wrench.csv");
+  std::string j = json;
+  replace(j, "\"spindle_offset_source\": \"tare\"", "\"spindle_offset_source\": \"guess\"");
+  expect_error(j, csv, "unknown offset source", "analysis.json");
+  j = json;
+  replace(j, "\"friction_energy_mJ\": 62.5", "\"friction_energy_mJ\": \"much\"");
+  expect_error(j, csv, "energy not a number", "analysis.json");
+  fs::remove(dir / "wrench.csv");
+  spit(dir / "analysis.json", json);
+  try {
+    read_analysis_input(dir);
+    ADD_FAILURE() << "accepted a missing wrench.csv";
+  } catch (const burrbench::InputError& e) {
+    EXPECT_EQ(e.file(), (dir / "wrench.csv").string());
+  }
+  spit(dir / "wrench.csv", csv);
   EXPECT_NO_THROW(read_analysis_input(dir));
 }
 

@@ -100,3 +100,67 @@ def test_channels_are_refused_where_they_cannot_be_fitted(fits, tmp_path):
                        capture_output=True, text=True, timeout=300)
     assert_refused(p.returncode, p.stderr, tmp_path / "bad.toml", "fit.channels", "force")
     assert not (tmp_path / "bad").exists()
+
+
+def test_channel_information_agrees_with_the_two_fits(fits):
+    """fit.json channel_information compares, at the all-channel optimum, the linearised
+    interval from every row with the one from the force rows alone. Checked against two
+    independent numbers: the all-channel fit's own covariance (Ceres) and the force-only
+    fit's covariance at its own optimum."""
+    all_, force = fits["all"][0], fits["force"][0]
+    assert force["channel_information"] is None
+    ci = all_["channel_information"]
+    assert ci["channels"] == ["force", "torque", "spindle"]
+    rows = {p["name"]: p for p in ci["parameters"] if p["class_name"] == "compact"}
+    assert set(rows) == {"alpha", "c1", "mu"}
+    for name, row in rows.items():
+        a, f = compact(all_)[name], compact(force)[name]
+        assert row["se_log_all"] == pytest.approx(a["std_error"] / a["estimate"], rel=0.02), (name, row, a)
+        assert row["se_log_force"] == pytest.approx(f["std_error"] / f["estimate"], rel=0.10), (name, row, f)
+        assert row["ci95_factor_force"] > row["ci95_factor_all"] > 1, row
+    (corr,) = [c for c in ci["correlations"] if c["class_name"] == "compact"]
+    assert corr["pair"] == "c1-alpha" and -1 <= corr["all"] <= 1 and -1 <= corr["force"] <= 1
+
+
+def test_report_shows_the_moments_the_spindle_energy_and_what_the_channels_add(fits, tmp_path):
+    import re
+    import sys
+    d = fits["dir"]
+    run_ok("report", d / "all", "--out", tmp_path / "rep" / "report.html")
+    rep = tmp_path / "rep"
+    analysis = json.loads((rep / "analysis.json").read_text())
+    assert analysis["format_version"] == "1.2"
+    recs = {r["id"]: r for r in analysis["recordings"]}
+    assert all(recs[r]["torque"] and recs[r]["spindle"] for r in ("plunge", "sweep", "polish"))
+    # Fitted recordings take the fit's idle terms; the held-out polish the tare.
+    assert [recs[r]["spindle_offset_source"] for r in ("plunge", "sweep", "polish")] == ["fit", "fit", "tare"]
+    header = (rep / "wrench.csv").read_text().splitlines()[0]
+    assert header.startswith("recording_id,t_s,torque_meas_x_Nmm")
+    # Energy balance through the report: α·removed equals the replay's friction work, and
+    # the drive's measured cutting energy equals the predicted one (noise ≈ 0.005 N·mm).
+    for rid in ("plunge", "sweep", "polish"):
+        (e,) = recs[rid]["energy"]
+        assert e["class_name"] == "compact"
+        assert e["alpha_N_per_mm2"] * e["removed_mm3"] == pytest.approx(e["friction_energy_mJ"], rel=1e-6)
+    html = (rep / "report.html").read_text()
+    sec = html[html.index('id="wrench"'):html.index('id="resid"')]
+    table = sec[sec.index('id="energy-table"'):sec.index("</table>", sec.index('id="energy-table"'))]
+    ratios = [float(x) for x in re.findall(r"<td class=\"num\"><b>([0-9.]+)</b></td></tr>", table)]
+    assert len(ratios) == 3 and all(abs(r - 1) < 0.05 for r in ratios), ratios
+    chan = sec[sec.index('id="channel-table"'):]
+    assert "correlation C1–α" in chan and chan.count("(in ln θ)") == 3
+    # Re-rendering the analysis directory reads wrench.csv back: the same section.
+    run_ok("report", rep, "--out", tmp_path / "again" / "report.html")
+    again = (tmp_path / "again" / "report.html").read_text()
+    assert again[again.index('id="energy-table"'):again.index('id="resid"')] == \
+        html[html.index('id="energy-table"'):html.index('id="resid"')]
+    # A real browser draws the moment, spindle and energy plots of every recording.
+    p = subprocess.run([sys.executable if sys.executable.startswith("/usr/bin") else "/usr/bin/python3",
+                        str(SRC / "tests" / "analysis" / "browser_check.py"), str(rep / "report.html"),
+                        str(tmp_path / "chromium")], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    seen = json.loads(p.stdout)
+    assert seen["console_errors"] == []
+    for kind in ("torque", "spindle", "energy"):
+        for i in range(3):
+            assert re.search(rf'id="plot-{kind}-{i}" data-rendered="1"', seen["dom"]), (kind, i)

@@ -116,8 +116,8 @@ TEST(FormatsFit, BadFilesAreRejected) {
     burrbench::test::write_text(dir / "F.json", text);
     burrbench::test::expect_rejected_unchanged(dir / "F.json", [&] { bb::read_fit(dir / "F.json"); }, frags);
   };
-  bad("\"format_version\": \"1.2\"", "\"format_version\": \"2.0\"", {"F.json: format_version", "unknown major version"});
-  bad("\"format_version\": \"1.2\"", "\"format_version\": \"1.2\", \"extra\": 1", {"F.json: extra: expected a known key"});
+  bad("\"format_version\": \"1.3\"", "\"format_version\": \"2.0\"", {"F.json: format_version", "unknown major version"});
+  bad("\"format_version\": \"1.3\"", "\"format_version\": \"1.3\", \"extra\": 1", {"F.json: extra: expected a known key"});
   bad("\"limited\": true", "\"limited\": 1", {"F.json: parameters[0].discretization.limited"});
   bad("\"coarse_estimate\": 15.5", "\"coarse_estimate\": 15.5, \"typo\": 0", {"F.json: parameters[0].discretization.typo"});
   bad("\"samples_used\": 1000", "\"samples_used\": 1000, \"x\": 2", {"residuals_summary.x", "known key"});

@@ -1,8 +1,9 @@
 #pragma once
 // What the report reads from its directory (docs/report.md, "DIR layout"): the
 // "analysis input" that `calibrate` and `validate` fill — metadata in DIR/analysis.json
-// (format "burrbench.analysis") and the per-sample series in DIR/predictions.csv.
-// Forces are in the SENSOR frame, as the sensor reports them (N).
+// (format "burrbench.analysis"), the per-sample force series in DIR/predictions.csv and,
+// when a recording logged the sensor's moments or the spindle's load, those series in
+// DIR/wrench.csv. Forces and moments are in the SENSOR frame, as the sensor reports them.
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -17,7 +18,17 @@ namespace burrbench::analysis {
 
 inline constexpr const char* kAnalysisFormat = "burrbench.analysis";
 inline constexpr int kAnalysisVersionMajor = 1;
-inline constexpr int kAnalysisVersionMinor = 1;  // 1.1: verification
+inline constexpr int kAnalysisVersionMinor = 2;  // 1.1: verification; 1.2: wrench
+
+// One class's share of a recording's cutting energy (MODEL.md energy balance): the work
+// of erosion α·V_removed equals the friction work ∫ΣW dt the replay integrated for it.
+struct ClassEnergy {
+  int class_label = 0;
+  std::string class_name;
+  double alpha_N_per_mm2 = 0;
+  double removed_mm3 = 0;
+  double friction_energy_mJ = 0;  // ∫ΣW dt over the class's voxels, N·mm = mJ
+};
 
 struct SegmentSpan {
   std::string label;
@@ -36,6 +47,22 @@ struct RecordingSeries {
   std::vector<double> t_s;
   std::vector<glm::dvec3> measured_N, predicted_N;
   std::vector<std::uint8_t> used;
+  // 1.2, wrench.csv: the sensor's moment (N·mm, sensor frame), measured and predicted
+  // with the fitted moment bias or the tare added (both empty when not logged); the
+  // spindle's load torque (N·mm, positive braking), measured and predicted with the
+  // fitted idle and viscous terms or the tare added, that added offset on its own, and
+  // the spin speed |ω| (rad/s) (all four empty when not logged).
+  std::vector<glm::dvec3> torque_measured_Nmm, torque_predicted_Nmm;
+  std::vector<double> spindle_measured_Nmm, spindle_predicted_Nmm, spindle_offset_Nmm,
+      spin_rad_s;
+  // 1.2: where the spindle's offset came from: "fit" (idle and viscous nuisances),
+  // "tare" (the mean load of samples with no predicted contact) or "none" (neither: too
+  // few samples without contact, so the offset is 0 and the measured energy not usable).
+  std::string spindle_offset_source;
+  // 1.2: per bone class touched, α·removed and the replay's friction work (empty before).
+  std::vector<ClassEnergy> energy;
+  bool has_torque() const { return !torque_measured_Nmm.empty(); }
+  bool has_spindle() const { return !spindle_measured_Nmm.empty(); }
 };
 
 struct SampleInfo {
@@ -60,6 +87,8 @@ struct AnalysisInput {
   std::string context_of_use;
   std::string params_path, params_sha256;  // validate: the fixed parameters
   std::string criteria_path, criteria_sha256;
+  // 1.2: validate --fit: the fit the constants came from (copied beside as fit.json).
+  std::string fit_path, fit_sha256;
   std::uint64_t seed = 0;
   nlohmann::json model = nlohmann::json::object();        // name, version, replay settings
   nlohmann::json calibration = nlohmann::json::object();  // method and settings
@@ -73,9 +102,10 @@ struct AnalysisInput {
   nlohmann::json verification;
 };
 
-// Writes DIR/analysis.json and DIR/predictions.csv (creates DIR).
+// Writes DIR/analysis.json, DIR/predictions.csv and, when a recording has moments or a
+// spindle load, DIR/wrench.csv (creates DIR).
 void write_analysis_input(const std::filesystem::path& dir, const AnalysisInput& in);
-// Reads both; InputError naming the file and field on any defect (unknown keys,
+// Reads them; InputError naming the file and field on any defect (unknown keys,
 // missing fields, wrong version, unknown recording ids, NaN, lengths, huge sizes).
 AnalysisInput read_analysis_input(const std::filesystem::path& dir);
 

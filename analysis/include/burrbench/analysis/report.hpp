@@ -6,6 +6,7 @@
 // report it also writes predictions.csv, residuals.csv, metrics.json, removed-bone PNGs
 // and a copy of fit.json.
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,11 @@ struct ReportSummary {
   std::vector<CriterionResult> results;
   Criteria criteria;
   std::size_t recordings = 0, samples = 0;
+  // Were the criteria fixed before the fit? Set when the report has both criteria and a
+  // fit: true when the fit recorded (calibrate --criteria) the same file content, false
+  // when it recorded other content; unset when the fit recorded none (not established).
+  std::optional<bool> criteria_predate_fit;
+  std::string criteria_predate_text;  // one sentence, for the report and the console
 };
 
 // $BURRBENCH_REPORT_ASSETS if set, else <exe dir>/../share/burrbench/report if it has

@@ -77,6 +77,9 @@ struct CovarianceOutcome {
   std::vector<double> info_diag;     // diag(JᵀJ) per covered entry
   std::vector<double> eig_values;    // of the unit-diagonal information matrix (ascending)
   std::vector<std::vector<double>> eig_vectors;  // eig_vectors[j] = eigenvector of eig_values[j]
+  // With channels besides the force: JᵀJ over every row (info) and over the force rows
+  // and priors alone (info_force), |indices|² row-major, to compare what each adds.
+  std::vector<double> info, info_force;
 };
 
 class Objective {

@@ -27,7 +27,16 @@ struct UncertaintyReport {
   double residual_variance = 1;
   double inflation = 1;                               // noise-model factor on the covariance
   std::vector<bool> held;                             // x entries held as not identifiable
+  // With channels besides the force: what they add (fit.json "channel_information").
+  nlohmann::json channel_information;
 };
+
+// The linearised comparison at the optimum of what the channels besides the force add:
+// per free physics parameter the SE of ln θ from (JᵀJ)⁻¹ over every row and over the
+// force rows alone (same residual-variance and noise-model scale), the 95 % factors
+// exp(1.96·SE), and per class the C1–α correlation both ways. Null when the fit used the
+// force alone or the covariance failed.
+nlohmann::json channel_information(const Layout& L, const CovarianceOutcome& cov);
 
 // Parameters flagged before any interval is computed, with their reasons (x order).
 struct Flags {

@@ -17,7 +17,8 @@ namespace burrbench::data_schema {
 
 inline constexpr const char* kFitFormat = "burrbench.fit";
 inline constexpr int kFitVersionMajor = 1;
-inline constexpr int kFitVersionMinor = 2;  // 1.1: held value, verdict, profile, multistart; 1.2: discretization check
+inline constexpr int kFitVersionMinor = 3;  // 1.1: held value, verdict, profile, multistart; 1.2: discretization check;
+                                            // 1.3: channel_information
 
 inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -103,6 +104,11 @@ struct FitResult {
   // 1.1: every multistart end point [{"start": {...}, "end": {...}, "cost", "termination",
   // "iterations"}] sorted by cost (the waterfall), and how many reached the best optimum.
   nlohmann::json multistart = nlohmann::json::array();
+  // 1.3: with channels besides the force, what they add (calibration::channel_information:
+  // channels, method, parameters[{class_id, class_name, name, se_log_all, se_log_force,
+  // ci95_factor_all, ci95_factor_force}], correlations[{class_id, class_name, pair, all,
+  // force}]); null otherwise.
+  nlohmann::json channel_information;
   Provenance provenance;
   std::string experiment_path, experiment_sha256;
 

@@ -1,0 +1,100 @@
+"""The dossier's link from a fit to its release gate (issue 14): `calibrate --criteria`
+records the acceptance criteria's SHA-256 in fit.json before it fits, and `validate --fit`
+brings that fit into the report (intervals, correlations, search, nuisances, both command
+lines) and says whether the criteria it checks are the ones fixed before the fit."""
+import json
+import shutil
+import subprocess
+
+import pytest
+
+from bad_input import assert_refused
+from synthetic import BURRBENCH, SRC, make_synthetic, run_ok
+
+CRITERIA = SRC / "examples" / "criteria" / "release.toml"
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory):
+    d = make_synthetic(tmp_path_factory.mktemp("fitted"))
+    shutil.copy(CRITERIA, d / "criteria.toml")
+    run_ok("calibrate", d / "experiment.toml", "--out", d / "cal", "--criteria", d / "criteria.toml",
+           "--no-cross-validation", "--no-discretization-check")
+    run_ok("calibrate", d / "experiment.toml", "--out", d / "plain", "--no-cross-validation",
+           "--no-discretization-check", "--no-profiles")
+    return d
+
+
+def gate(d, out, fit, criteria, params=None):
+    return subprocess.run([BURRBENCH, "validate", d / "experiment.toml", "--params", params or fit.parent / "params.toml",
+                           "--criteria", criteria, "--fit", fit, "--out", out, "--no-verification"],
+                          capture_output=True, text=True, timeout=600)
+
+
+def test_calibrate_records_the_criteria(fitted):
+    fit = json.loads((fitted / "cal" / "fit.json").read_text())
+    rec = fit["settings"]["criteria"]
+    import hashlib
+    assert rec["sha256"] == hashlib.sha256((fitted / "criteria.toml").read_bytes()).hexdigest()
+    assert any(i["sha256"] == rec["sha256"] for i in fit["provenance"]["inputs"])
+    assert "criteria" not in json.loads((fitted / "plain" / "fit.json").read_text())["settings"]
+
+
+def test_validate_with_the_fit_brings_its_intervals_and_the_criteria_predate_it(fitted, tmp_path):
+    p = gate(fitted, tmp_path / "gate", fitted / "cal" / "fit.json", fitted / "criteria.toml")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "criteria: Fixed before the fit" in p.stdout
+    out = tmp_path / "gate"
+    assert (out / "fit.json").read_bytes() == (fitted / "cal" / "fit.json").read_bytes()
+    assert json.loads((out / "metrics.json").read_text())["criteria_predate_fit"] is True
+    html = (out / "report.html").read_text()
+    assert "CRITERIA FIXED BEFORE THE FIT" in html
+    params = html[html.index('id="params"'):html.index('id="force"')]
+    fit = json.loads((fitted / "cal" / "fit.json").read_text())
+    # The fit's profile intervals, waterfall, correlations and nuisances are in the dossier.
+    assert "profile 95 %" in params and "plot-waterfall" in params and "Parameter correlation matrix" in params
+    assert 'id="nuisance-table"' in params and "<td>plunge</td><td>lag</td>" in params
+    # Both command lines: the calibration's (from fit.json) and the gate's.
+    repro = html[html.index('id="repro"'):]
+    assert "calibrate" in fit["provenance"]["command_line"]
+    assert fit["provenance"]["command_line"].split()[1] in repro and "validate" in repro
+
+
+def test_criteria_changed_after_the_fit_are_flagged(fitted, tmp_path):
+    changed = tmp_path / "looser.toml"
+    changed.write_text((fitted / "criteria.toml").read_text().replace("max = 0.10", "max = 0.30"))
+    p = gate(fitted, tmp_path / "gate", fitted / "cal" / "fit.json", changed)
+    assert p.returncode == 0, p.stdout + p.stderr  # the gate itself is the criteria's
+    assert "criteria: Changed after the fit" in p.stdout
+    html = (tmp_path / "gate" / "report.html").read_text()
+    assert "CRITERIA CHANGED AFTER THE FIT" in html
+    assert json.loads((tmp_path / "gate" / "metrics.json").read_text())["criteria_predate_fit"] is False
+    # A fit that recorded no criteria: not established, said so.
+    p = gate(fitted, tmp_path / "gate2", fitted / "plain" / "fit.json", fitted / "criteria.toml")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "criteria: Not established" in p.stdout
+    assert json.loads((tmp_path / "gate2" / "metrics.json").read_text())["criteria_predate_fit"] is None
+    # Without --fit the fit.json is not the report's and the check is absent.
+    p = subprocess.run([BURRBENCH, "validate", fitted / "experiment.toml", "--params", fitted / "cal" / "params.toml",
+                        "--criteria", fitted / "criteria.toml", "--out", tmp_path / "gate3", "--no-verification"],
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0 and "criteria:" not in p.stdout
+    assert "criteria_predate_fit" not in json.loads((tmp_path / "gate3" / "metrics.json").read_text()) or \
+        json.loads((tmp_path / "gate3" / "metrics.json").read_text())["criteria_predate_fit"] is None
+
+
+def test_parameters_from_another_fit_are_refused(fitted, tmp_path):
+    other = tmp_path / "other.toml"
+    other.write_text((fitted / "params_true.toml").read_text())
+    p = gate(fitted, tmp_path / "gate", fitted / "cal" / "fit.json", fitted / "criteria.toml", params=other)
+    assert_refused(p.returncode, p.stderr, other, "classes.", "the value the fit held")
+    assert not (tmp_path / "gate").exists()
+
+
+def test_calibrate_refuses_broken_criteria_before_fitting(fitted, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text((fitted / "criteria.toml").read_text().replace('metric = "nrmse"', 'metric = "nrsme"'))
+    p = subprocess.run([BURRBENCH, "calibrate", fitted / "experiment.toml", "--out", tmp_path / "cal", "--criteria", bad],
+                       capture_output=True, text=True, timeout=120)
+    assert_refused(p.returncode, p.stderr, bad, "metric")
+    assert not (tmp_path / "cal").exists()
