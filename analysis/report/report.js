@@ -113,6 +113,37 @@
     });
   }
 
+  // QQ plot and autocorrelation per role (report section 9).
+  function diagnosticPlots() {
+    (data.diagnostics || []).forEach(function (d, i) {
+      var el = document.getElementById("plot-qq-" + i);
+      if (el) {
+        var lo = Math.min(d.qq.theory[0], d.qq.sample[0]);
+        var hi = Math.max(d.qq.theory[d.qq.theory.length - 1], d.qq.sample[d.qq.sample.length - 1]);
+        var diag = d.qq.theory.slice();
+        plot(el, "Normal QQ — " + d.role + " data", "normal quantile", "standardised residual", [
+          { label: "residuals", stroke: MEAS[0], paths: function () { return null; },
+            points: { show: true, size: 3, space: 0, fill: MEAS[0] } },
+          { label: "normal", stroke: "#777", dash: [6, 4] }], [d.qq.theory, d.qq.sample, diag],
+          function (o) { o.scales.y = { range: [lo, hi] }; });
+      }
+      el = document.getElementById("plot-acf-" + i);
+      if (el) {
+        var band = 1.96 / Math.sqrt(Math.max(1, d.n));
+        var s = [], cols = [d.acf.lag];
+        for (var a = 0; a < 3; a++) {
+          s.push({ label: "r " + AX[a], stroke: MEAS[a], width: 1.5, points: { show: true, size: 4 } });
+          cols.push(d.acf.r[a]);
+        }
+        s.push({ label: "+1.96/√n", stroke: "#777", dash: [6, 4] });
+        s.push({ label: "−1.96/√n", stroke: "#777", dash: [6, 4] });
+        cols.push(d.acf.lag.map(function () { return band; }));
+        cols.push(d.acf.lag.map(function () { return -band; }));
+        plot(el, "Residual autocorrelation — " + d.role + " data", "lag (samples)", "r(k)", s, cols);
+      }
+    });
+  }
+
   function overview() {
     var el = document.getElementById("plot-overview");
     var rec = data.recordings[data.overview];
@@ -152,5 +183,6 @@
   searchPlots();
   data.recordings.forEach(function (rec, i) { forcePlots(rec, i); wrenchPlots(rec, i); residualPlots(rec, i); });
   histograms();
+  diagnosticPlots();
   document.body.setAttribute("data-plots-done", "1");
 })();

@@ -93,6 +93,16 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
                                {"path", r.path}, {"sha256", r.sha256}, {"notes", r.notes},
                                {"registration", r.registration},
                                {"segments", segs}, {"samples", r.t_s.size()}});
+    {
+      const auto& q = r.quality;
+      json ev = json::array();
+      for (const auto& e : q.events)
+        ev.push_back({{"t_s", e.t_s}, {"kind", e.kind}, {"stream", e.stream}, {"detail", e.detail}});
+      j["recordings"].back()["quality"] = {{"dropped_force_samples", q.dropped_force_samples},
+                                           {"buried_samples", q.buried_samples},
+                                           {"stale_rows", q.stale_rows},
+                                           {"events", ev}};
+    }
     if (r.has_torque() || r.has_spindle() || !r.energy.empty()) {
       BURRBENCH_CHECK(!r.has_torque() || (r.torque_measured_Nmm.size() == r.t_s.size() &&
                                           r.torque_predicted_Nmm.size() == r.t_s.size()),
@@ -299,7 +309,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
   for (const auto& rj : o.array("recordings")) {
     JsonView r(rj, file, fmt::format("recordings[{}]", i++),
           {"id", "sample", "role", "path", "sha256", "notes", "registration", "segments", "samples",
-           "torque", "spindle", "spindle_offset_source", "energy"});
+           "torque", "spindle", "spindle_offset_source", "energy", "quality"});
     RecordingSeries rs;
     rs.id = r.str("id");
     rs.sample_id = r.str("sample");
@@ -332,6 +342,27 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
       rs.spindle_offset_source = r.str("spindle_offset_source");
       if (rs.spindle_offset_source != "fit" && rs.spindle_offset_source != "tare" && rs.spindle_offset_source != "none")
         throw InputError(file, r.field("spindle_offset_source"), "\"fit\", \"tare\" or \"none\"", rs.spindle_offset_source);
+    }
+    if (r.has("quality")) {  // 1.2
+      JsonView q(r.get("quality"), file, r.field("quality"), {"dropped_force_samples", "buried_samples", "stale_rows", "events"});
+      auto count = [&](JsonView& v, const std::string& k) {
+        const double x = v.finite(k);
+        if (x < 0 || x != std::floor(x) || x > 1e15) throw InputError(file, v.field(k), "a count (integer ≥ 0)");
+        return std::size_t(x);
+      };
+      rs.quality.dropped_force_samples = count(q, "dropped_force_samples");
+      rs.quality.buried_samples = count(q, "buried_samples");
+      const auto& st = q.get("stale_rows");
+      if (!st.is_object()) throw InputError(file, q.field("stale_rows"), "an object: stream → count");
+      for (const auto& [name, v] : st.items()) {
+        if (!v.is_number_unsigned()) throw InputError(file, q.field("stale_rows." + name), "a count (integer ≥ 0)");
+        rs.quality.stale_rows[name] = v.get<std::size_t>();
+      }
+      std::size_t e = 0;
+      for (const auto& ej : q.array("events")) {
+        JsonView ev(ej, file, q.field(fmt::format("events[{}]", e++)), {"t_s", "kind", "stream", "detail"});
+        rs.quality.events.push_back({ev.finite("t_s"), ev.str("kind"), ev.str("stream"), ev.str("detail")});
+      }
     }
     if (r.has("energy")) {  // 1.2
       std::size_t e = 0;

@@ -13,12 +13,18 @@
 
 namespace burrbench::analysis {
 
+std::string model_risk_from(const std::string& influence, const std::string& consequence) {
+  auto rank = [](const std::string& l) { return l == "high" ? 2 : l == "medium" ? 1 : 0; };
+  const int r = rank(influence) + rank(consequence);
+  return r <= 1 ? "low" : r == 2 ? "medium" : "high";
+}
+
 Criteria read_criteria(const std::filesystem::path& path) {
   const ReadingFile reading(path.string());  // names it if memory runs out
   const std::string file = path.string();
   const toml::table t = data_schema::parse_toml_file(path);
   const data_schema::TomlView root(t, file, "", "docs/report.md");
-  root.allow({"format", "format_version", "criterion"});
+  root.allow({"format", "format_version", "criterion", "context"});
   data_schema::check_format(file, "format", root.str("format"), "burrbench.criteria");
   data_schema::check_version(file, "format_version", root.str("format_version"), 1);
   const auto tables = root.tables("criterion");
@@ -26,6 +32,25 @@ Criteria read_criteria(const std::filesystem::path& path) {
 
   const auto& names = metric_names();
   Criteria c;
+  if (const auto ctx = root.opt_table("context")) {  // 1.1
+    ctx->allow({"question_of_interest", "context_of_use", "model_influence", "decision_consequence", "model_risk"});
+    auto level = [&](std::string_view key, bool required) {
+      const auto v = required ? std::optional<std::string>(ctx->str(key)) : ctx->opt_str(key);
+      if (v && *v != "low" && *v != "medium" && *v != "high") ctx->fail(key, "\"low\", \"medium\" or \"high\"", *v);
+      return v.value_or("");
+    };
+    ContextOfUse u;
+    u.question_of_interest = ctx->str("question_of_interest");
+    u.context_of_use = ctx->str("context_of_use");
+    u.model_influence = level("model_influence", true);
+    u.decision_consequence = level("decision_consequence", true);
+    u.model_risk = level("model_risk", false);
+    if (u.model_risk.empty()) {
+      u.model_risk = model_risk_from(u.model_influence, u.decision_consequence);
+      u.risk_derived = true;
+    }
+    c.context = u;
+  }
   for (const auto& tab : tables) {
     tab.allow({"name", "metric", "axis", "segment", "data", "recording", "min", "max"});
     Criterion cr;

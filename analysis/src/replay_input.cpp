@@ -215,6 +215,10 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     rs.path = r.file.string();
     rs.sha256 = sha256_file(r.file);
     rs.registration = r.registration.text();
+    rs.notes = r.notes;
+    rs.quality.dropped_force_samples = r.dropped_force_samples;
+    rs.quality.stale_rows = r.stale_rows;
+    for (const auto& e : r.events) rs.quality.events.push_back({e.t_s, e.kind, e.stream, e.detail});
     for (const auto& seg : ref->segments)
       if (seg.use) rs.segments.push_back({seg.label.empty() ? "segment" : seg.label, seg.start_s, seg.end_s});
     rs.t_s = r.t_s;
@@ -231,6 +235,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
       const auto& c = res.samples[k].contact;
       rs.predicted_N[k] = r.sensor_force_from_burr_force(c.force_N);
       rs.used[k] = r.use[k] && !(exclude_buried && c.buried);
+      rs.quality.buried_samples += c.buried != 0;
       if (c.class_mask == 0) {
         free_sum += r.force_sensor_N[k];
         ++free_n;

@@ -15,6 +15,7 @@
 
 #include "bone_image.hpp"
 #include "report_html.hpp"
+#include "report_residuals.hpp"
 #include "report_wrench.hpp"
 #include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/data_schema/atomic_file.hpp"
@@ -128,6 +129,70 @@ json histogram(const AnalysisInput& in, const std::string& role) {
   return {{"role", role}, {"centres", centres}, {"counts", counts}};
 }
 
+// What each session logged about itself and what the replay found: dropped and stale
+// rows, buried samples, and the events (gaps, reconnects, faults) with their times.
+std::string data_quality_table(const AnalysisInput& in) {
+  std::string h =
+      "<h3>Data quality</h3><p class=\"muted\">Per recording: force samples dropped by the alignment "
+      "(stale or non-increasing timestamps), stale rows per device stream (the device repeated a value; "
+      "never used), samples where the burr was buried (excluded or down-weighted by the fit's policy) "
+      "and the session's events.</p><table id=\"quality-table\"><tr><th>recording</th><th>force samples "
+      "dropped</th><th>stale rows</th><th>buried samples</th><th>events</th></tr>";
+  std::string details;
+  for (const auto& r : in.recordings) {
+    if (r.id.ends_with("@validate")) continue;  // the same session as its calibrate part
+    const auto& q = r.quality;
+    std::string stale;
+    for (const auto& [stream, n] : q.stale_rows)
+      if (n > 0) stale += esc(stream) + fmt::format(": {}<br>", n);
+    std::map<std::string, std::size_t> kinds;
+    for (const auto& e : q.events) ++kinds[e.kind];
+    std::string ev;
+    for (const auto& [kind, n] : kinds) ev += fmt::format("{} × {}<br>", esc(kind), n);
+    const std::size_t gaps = kinds.count("gap") ? kinds.at("gap") : 0;
+    h += "<tr>" + td(esc(r.id)) + td(std::to_string(q.dropped_force_samples), true) +
+         td(stale.empty() ? "none" : stale) +
+         td(fmt::format("{} ({}%)", q.buried_samples,
+                        num(r.t_s.empty() ? 0.0 : 100.0 * double(q.buried_samples) / double(r.t_s.size()), 3)),
+            true) +
+         (gaps > 0 ? "<td class=\"flag\">" + ev + "</td>" : td(ev.empty() ? "none" : ev)) + "</tr>";
+    if (q.events.empty()) continue;
+    details += "<details><summary>" + esc(r.id) + fmt::format(": {} events</summary>", q.events.size()) +
+               "<table><tr><th>t (s)</th><th>kind</th><th>stream</th><th>detail</th></tr>";
+    std::size_t shown = 0;
+    for (const auto& e : q.events) {
+      if (++shown > 200) {
+        details += fmt::format("<tr><td colspan=\"4\">… {} more (the recording file has all)</td></tr>",
+                               q.events.size() - 200);
+        break;
+      }
+      details += "<tr>" + td(num(e.t_s, 6), true) + td(esc(e.kind)) + td(esc(e.stream)) + td(esc(e.detail)) + "</tr>";
+    }
+    details += "</table></details>";
+  }
+  return h + "</table>" + details;
+}
+
+// The rows whose Durbin–Watson statistic flags autocorrelated residuals, in words.
+std::string durbin_watson_note(const std::vector<MetricRow>& rows) {
+  std::string list;
+  std::size_t n = 0;
+  for (const auto& r : rows)
+    if (r.segment == "all" && std::abs(r.m.durbin_watson - 2) > kDurbinWatsonTolerance) {
+      if (n++ < 12)
+        list += "<li>" + esc(r.recording_id.empty() ? "all " + r.role : r.recording_id) + ", " + esc(r.axis) +
+                fmt::format(": DW = {} (lag-1 r = {})</li>", num(r.m.durbin_watson, 3), num(r.m.resid_lag1_autocorr, 3));
+    }
+  if (n == 0)
+    return fmt::format("<p class=\"muted\" id=\"dw-note\">Durbin–Watson within 2 ± {} everywhere: no sign of "
+                       "autocorrelated residuals.</p>", kDurbinWatsonTolerance);
+  return fmt::format("<div id=\"dw-note\"><p><span class=\"verdict fail\">AUTOCORRELATED RESIDUALS</span> "
+                     "Durbin–Watson outside 2 ± {} ({} rows, whole recordings): the residuals are not white, so "
+                     "independent-noise intervals would be too narrow and the model misses some structure "
+                     "in time (lag, dynamics).</p><ul>{}</ul></div>",
+                     kDurbinWatsonTolerance, n, list + (n > 12 ? "<li>…</li>" : ""));
+}
+
 std::string metric_table_html(const std::vector<MetricRow>& rows, bool pooled) {
   std::string h =
       "<div class=\"scroll\"><table><tr><th>data</th><th>segment</th><th>axis</th><th>n</th>"
@@ -143,7 +208,11 @@ std::string metric_table_html(const std::vector<MetricRow>& rows, bool pooled) {
          td(num(m.theil_u2), true) + td(num(m.sg_magnitude), true) + td(num(m.sg_phase), true) +
          td(num(m.sg_combined), true) + td(num(m.peak_measured_N), true) +
          td(num(m.peak_error_N), true) + td(num(m.peak_error_rel), true) +
-         td(num(m.resid_lag1_autocorr), true) + td(num(m.durbin_watson), true) + "</tr>";
+         td(num(m.resid_lag1_autocorr), true) +
+         (std::abs(m.durbin_watson - 2) > kDurbinWatsonTolerance
+              ? "<td class=\"num flag\" title=\"autocorrelated residuals\">⚑ " + num(m.durbin_watson) + "</td>"
+              : td(num(m.durbin_watson), true)) +
+         "</tr>";
   }
   return h + "</table></div>";
 }
@@ -520,7 +589,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
        "<a href=\"#calib\">Calibration</a><a href=\"#params\">Parameters</a><a href=\"#force\">Force</a><a href=\"#wrench\">Moments</a>"
        "<a href=\"#resid\">Residuals</a><a href=\"#metrics\">Metrics</a><a href=\"#cv\">Cross-validation</a>"
        "<a href=\"#bone\">Removed bone</a><a href=\"#accept\">Acceptance</a><a href=\"#limits\">Limitations</a>"
-       "<a href=\"#repro\">Reproducibility</a></nav>";
+       "<a href=\"#repro\">Reproducibility</a><a href=\"#signoff\">Sign-off</a></nav>";
 
   // At a glance: the verdict, pooled |F| metrics per role and one held-out recording.
   std::size_t overview = 0;
@@ -539,8 +608,19 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   b += "</table>";
   if (!in.recordings.empty()) b += "<div class=\"plot\" id=\"plot-overview\"></div>";
 
-  b += "<h2 id=\"cou\">1. Context of use</h2><p>" +
-       esc(in.context_of_use.empty() ? "(not stated)" : in.context_of_use) + "</p>";
+  b += "<h2 id=\"cou\">1. Context of use</h2>";
+  if (sum.has_criteria && sum.criteria.context) {
+    const auto& c = *sum.criteria.context;
+    b += "<table id=\"cou-table\"><tr><th>question of interest</th>" + td(esc(c.question_of_interest)) +
+         "</tr><tr><th>context of use</th>" + td(esc(c.context_of_use)) + "</tr><tr><th>model influence</th>" +
+         td(esc(c.model_influence)) + "</tr><tr><th>decision consequence</th>" + td(esc(c.decision_consequence)) +
+         "</tr><tr><th>model risk</th>" +
+         td("<b>" + esc(c.model_risk) + "</b>" +
+            (c.risk_derived ? " (from influence and consequence, ASME V&amp;V 40 risk map)" : "")) +
+         "</tr></table><p class=\"muted\">From the criteria's [context] table (" + esc(in.criteria_path) +
+         "): fixed with the criteria.</p>";
+  }
+  b += "<p>" + esc(in.context_of_use.empty() ? "(not stated)" : in.context_of_use) + "</p>";
   if (!in.experiment_description.empty()) b += "<p>" + esc(in.experiment_description) + "</p>";
 
   json model_info = {{"software", software_version()}};
@@ -570,7 +650,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
          td("<code>" + esc(r.path) + "</code>") +
          td("<span class=\"hash\">" + esc(r.sha256) + "</span>") + td(esc(r.notes)) + "</tr>";
   }
-  b += "</table>";
+  b += "</table>" + data_quality_table(in);
 
   b += "<h2 id=\"calib\">5. Calibration method and settings</h2>";
   b += in.calibration.empty() ? std::string("<p class=\"muted\">(none recorded)</p>") : kv_table(in.calibration);
@@ -594,7 +674,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     b += fmt::format("<h3>{}</h3><div class=\"plotrow\"><div class=\"plot\" id=\"plot-resid-t-{}\"></div>"
                      "<div class=\"plot\" id=\"plot-resid-p-{}\"></div></div>",
                      esc(in.recordings[i].id), i, i);
-  json hists = json::array();
+  json hists = json::array(), diagnostics = json::array();
   for (const char* role : {"calibrate", "validate"}) {
     json h = histogram(in, role);
     if (!h.is_null()) {
@@ -602,12 +682,25 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
       hists.push_back(std::move(h));
     }
   }
+  for (const char* role : {"calibrate", "validate"}) {
+    json d = residual_diagnostics(in, role);
+    if (d.is_null()) continue;
+    if (diagnostics.empty())
+      b += "<h3>Normality and independence</h3><p class=\"muted\">QQ plot: standardised residuals "
+           "(every used sample and axis) against the normal quantiles; on the diagonal when the noise is "
+           "Gaussian, heavy tails bend away at the ends. Autocorrelation: r(k) per axis over pairs of used "
+           "samples k apart within a recording; white residuals stay near 0 beyond lag 0 (±1.96/√n dashed). "
+           "The fit's intervals assume white residuals unless widened for r(1) (section 6).</p>";
+    b += fmt::format("<div class=\"plotrow\"><div class=\"plot\" id=\"plot-qq-{0}\"></div>"
+                     "<div class=\"plot\" id=\"plot-acf-{0}\"></div></div>", diagnostics.size());
+    diagnostics.push_back(std::move(d));
+  }
 
   b += "<h2 id=\"metrics\">10. Validation metrics</h2><p class=\"muted\">NRMSE is normalised by the "
        "measured range (max − min) of the same series; R² = 1 − SSE/SST; Theil U2 = √(Σe²/Σm²); "
        "SG = Sprague–Geers; definitions in docs/report.md. Only used samples count.</p>"
        "<h3>Per recording</h3>" + metric_table_html(rows, false) + "<h3>Pooled by role</h3>" +
-       metric_table_html(rows, true);
+       metric_table_html(rows, true) + durbin_watson_note(rows);
 
   b += "<h2 id=\"cv\">11. Cross-validation</h2>" + cross_validation_section(rows, has_fit ? &fit : nullptr);
 
@@ -653,7 +746,17 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
                                                      {"criteria sha256", in.criteria_sha256},
                                                      {"analysis input created", in.provenance.created_utc}});
 
-  json data = {{"recordings", json::array()}, {"histograms", hists}, {"overview", overview}};
+  // Sign-off: left blank for the people who answer for the release (print, sign, date).
+  b += "<h2 id=\"signoff\">16. Sign-off</h2><p class=\"muted\">This report, generated " +
+       esc(make_provenance({}).created_utc) +
+       " from the inputs listed in section 15 (SHA-256), is reviewed and accepted by:</p>"
+       "<table class=\"signoff\" id=\"signoff-table\"><tr><th>role</th><th>name</th><th>signature</th><th>date</th></tr>"
+       "<tr><td>prepared by</td><td></td><td></td><td></td></tr>"
+       "<tr><td>reviewed by</td><td></td><td></td><td></td></tr>"
+       "<tr><td>approved for release by</td><td></td><td></td><td></td></tr></table>";
+
+  json data = {{"recordings", json::array()}, {"histograms", hists}, {"overview", overview},
+               {"diagnostics", diagnostics}};
   if (has_fit) {
     json costs = json::array();
     if (fit.contains("multistart") && fit.at("multistart").is_array())

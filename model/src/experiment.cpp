@@ -132,6 +132,13 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     throw InputError(file, "streams/" + f_stream.name, "at least one fresh sample");
   a.dropped_force_samples = f_stream.samples() - f_keep.size();
   a.t0_ns = f_stream.t_ns[f_keep.front()];
+  a.notes = rec.meta.notes;
+  for (const auto& e : rec.events) a.events.push_back({seconds(e.t_ns, a.t0_ns), e.kind, e.stream, e.detail});
+  for (const auto& st : rec.streams) {
+    std::size_t n = 0;
+    for (auto v : st.stale) n += v != 0;
+    a.stale_rows[st.name] = n;
+  }
   for (std::size_t i : f_keep) {
     a.t_s.push_back(seconds(f_stream.t_ns[i], a.t0_ns));
     a.force_sensor_N.emplace_back(force.values[3 * i], force.values[3 * i + 1],

@@ -1,6 +1,6 @@
 """Loads a report in headless Chromium and prints what a reader would see, as JSON.
 
-Usage: /usr/bin/python3 browser_check.py REPORT.html WORKDIR
+Usage: /usr/bin/python3 browser_check.py REPORT.html WORKDIR [--print]
 Prints {"console_errors": [...], "dom": "...", "plots_done": bool, "screenshot": path,
 "nonblank_plot_fraction": float, "alerts": [...]}; used by the analysis tests.
 """
@@ -62,9 +62,56 @@ def decode_png(path):
     return width, height, bpp, rows
 
 
+def printed_last_column(report, workdir, last="verdict", before="fixed", dpi=100):
+    """Prints the report to PDF (Chromium's print-to-PDF, the page's print styles), finds
+    the parameter table's header row (the word `last` with `before` left of it on the same
+    line, from pdftotext's word boxes) and looks at that spot of the page rendered to PNG
+    by pdftoppm: dark pixels there mean the last column was printed, not cut off.
+    Returns {"pdf", "pages", "found", "inside_page", "dark_pixels"}."""
+    pdf = os.path.join(workdir, "report.pdf")
+    chromium(["--print-to-pdf=" + pdf, "--no-pdf-header-footer", "file://" + os.path.abspath(report)], workdir,
+             timeout=180)
+    out = {"pdf": pdf, "pages": 0, "found": False, "inside_page": False, "dark_pixels": 0}
+    if not os.path.exists(pdf):
+        return out
+    box = subprocess.run(["pdftotext", "-bbox", pdf, "-"], capture_output=True, text=True, timeout=120).stdout
+    import re
+    pages = re.split(r"<page ", box)[1:]
+    out["pages"] = len(pages)
+    for number, page in enumerate(pages, start=1):
+        pw, ph = (float(v) for v in re.search(r'width="([0-9.]+)" height="([0-9.]+)"', page).groups())
+        words = [(float(a), float(b), float(c), float(d), t) for a, b, c, d, t in re.findall(
+            r'<word xMin="([0-9.]+)" yMin="([0-9.]+)" xMax="([0-9.]+)" yMax="([0-9.]+)">([^<]*)</word>', page)]
+        for (x0, y0, x1, y1, t) in words:
+            if t != last:
+                continue
+            # A header cell may wrap: "before" within a line or so above or below.
+            if not any(w[4] == before and abs(w[1] - y0) < 15 and w[2] < x0 for w in words):
+                continue
+            out["found"] = True
+            out["inside_page"] = x1 <= pw and y1 <= ph
+            stem = os.path.join(workdir, "page")
+            subprocess.run(["pdftoppm", "-png", "-r", str(dpi), "-f", str(number), "-l", str(number), "-singlefile",
+                            pdf, stem], check=True, timeout=120)
+            w, h, bpp, rows = decode_png(stem + ".png")
+            k = dpi / 72.0
+            dark = 0
+            for y in range(int(y0 * k), min(h, int(y1 * k) + 1)):
+                row = rows[y]
+                for x in range(int(x0 * k), min(w, int(x1 * k) + 1)):
+                    if max(row[x * bpp], row[x * bpp + 1], row[x * bpp + 2]) < 110:
+                        dark += 1
+            out["dark_pixels"] = dark
+            return out
+    return out
+
+
 def main():
     report, workdir = os.path.abspath(sys.argv[1]), sys.argv[2]
     os.makedirs(workdir, exist_ok=True)
+    if len(sys.argv) > 3 and sys.argv[3] == "--print":
+        print(json.dumps(printed_last_column(report, workdir)))
+        return
     url = "file://" + report
     dom = chromium(["--dump-dom", url], workdir)
     # Console messages: "[...:CONSOLE(line)] "text", source: ..." on stderr.

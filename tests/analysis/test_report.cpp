@@ -88,9 +88,10 @@ TEST(Report, SelfContainedEscapedAndRendersInChromium) {
   EXPECT_TRUE(j["console_errors"].empty()) << j["console_errors"].dump(1);
   const std::string dom = j["dom"];
   EXPECT_NE(dom.find("data-plots-done=\"1\""), std::string::npos) << "report.js did not finish";
-  // Overview + 2 recordings × (force, residual vs time, residual vs prediction) + 2 histograms.
-  EXPECT_EQ(count(dom, "data-rendered=\"1\""), 9u);
-  EXPECT_EQ(count(dom, "<canvas"), 9u);
+  // Overview + 2 recordings × (force, residual vs time, residual vs prediction) + 2 histograms
+  // + per role a QQ plot and an autocorrelation plot.
+  EXPECT_EQ(count(dom, "data-rendered=\"1\""), 13u);
+  EXPECT_EQ(count(dom, "<canvas"), 13u);
   EXPECT_FALSE(std::regex_search(dom, std::regex("<body[^>]*data-pwned")));
   EXPECT_EQ(dom.find("<title>PWNED</title>"), std::string::npos);
   EXPECT_NE(dom.find("ACCEPTANCE CRITERIA") == std::string::npos ? dom.find("No acceptance criteria") : 0,

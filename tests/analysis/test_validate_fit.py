@@ -98,3 +98,46 @@ def test_calibrate_refuses_broken_criteria_before_fitting(fitted, tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert_refused(p.returncode, p.stderr, bad, "metric")
     assert not (tmp_path / "cal").exists()
+
+
+def test_the_dossier_draws_every_section_and_plot_and_prints_every_column(fitted, tmp_path):
+    """The browser test of the whole dossier: every section's heading, a drawn canvas for
+    every plot, no console error; the structured context of use, the data-quality table,
+    the residual diagnostics and the sign-off; and, printed to PDF and rendered to PNG,
+    the parameter table's last column."""
+    import re
+    import sys
+    p = gate(fitted, tmp_path / "gate", fitted / "cal" / "fit.json", fitted / "criteria.toml")
+    assert p.returncode == 0, p.stdout + p.stderr
+    report = tmp_path / "gate" / "report.html"
+    html = report.read_text()
+    headings = re.findall(r'<h2 id="[a-z]+">(\d+)\. ', html)
+    assert headings == [str(i) for i in range(1, 17)], headings
+    # V&V 40 context from the criteria's [context]: influence high × consequence low → medium.
+    cou = html[html.index('id="cou-table"'):html.index('id="model"')]
+    assert "question of interest" in cou and "<b>medium</b> (from influence and consequence" in cou
+    quality = html[html.index('id="quality-table"'):html.index('id="calib"')]
+    for rid in ("plunge", "sweep", "polish"):
+        assert f"<td>{rid}</td>" in quality
+    assert 'id="dw-note"' in html and 'id="signoff-table"' in html
+    check = str(SRC / "tests" / "analysis" / "browser_check.py")
+    seen = json.loads(subprocess.run(["/usr/bin/python3", check, str(report), str(tmp_path / "chromium")],
+                                     capture_output=True, text=True, timeout=300, check=True).stdout)
+    assert seen["console_errors"] == []
+    plots = re.findall(r'<div class="plot" id="(plot-[a-z0-9-]+)"', html)
+    assert {"plot-qq-0", "plot-acf-0", "plot-qq-1", "plot-acf-1", "plot-waterfall"} <= set(plots)
+    for pid in plots:
+        assert re.search(rf'id="{pid}" data-rendered="1"', seen["dom"]), pid
+    assert seen["dom"].count("<canvas") >= len(plots)
+    printed = json.loads(subprocess.run(["/usr/bin/python3", check, str(report), str(tmp_path / "print"), "--print"],
+                                        capture_output=True, text=True, timeout=400, check=True).stdout)
+    assert printed["found"] and printed["inside_page"], printed
+    assert printed["dark_pixels"] > 20, printed  # the word "verdict" is drawn on the page
+
+
+def test_a_broken_context_of_use_is_refused(fitted, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text((fitted / "criteria.toml").read_text().replace('model_influence = "high"', 'model_influence = "huge"'))
+    p = gate(fitted, tmp_path / "gate", fitted / "cal" / "fit.json", bad)
+    assert_refused(p.returncode, p.stderr, bad, "context.model_influence", "low")
+    assert not (tmp_path / "gate").exists()

@@ -96,8 +96,9 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
                                     capture_output=True, text=True, timeout=200, check=True).stdout)
     assert res["console_errors"] == []
     # overview + 3 recordings × 3 plots + 2 histograms (calibrate, validate), and the
-    # synth recordings' moments and spindle load: 3 recordings × (moment, load, energy)
-    assert res["dom"].count('data-rendered="1"') == 21
+    # synth recordings' moments and spindle load: 3 recordings × (moment, load, energy), and
+    # per role the QQ and autocorrelation plots
+    assert res["dom"].count('data-rendered="1"') == 25
     for kind in ("torque", "spindle", "energy"):
         assert f'id="plot-{kind}-2" data-rendered="1"' in res["dom"], kind
     assert res["coloured_fraction"] > 0.003

@@ -6,6 +6,7 @@
 // DIR/wrench.csv. Forces and moments are in the SENSOR frame, as the sensor reports them.
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,19 @@ struct SegmentSpan {
   double start_s = 0, end_s = 0;  // seconds from the recording's first sample
 };
 
+// 1.2: what the session logged about itself (model::AlignedRecording) and what the
+// replay found: the report's data-quality table.
+struct DataQuality {
+  struct Event {
+    double t_s = 0;  // from the first force sample
+    std::string kind, stream, detail;
+  };
+  std::size_t dropped_force_samples = 0;  // stale or non-increasing timestamps
+  std::size_t buried_samples = 0;         // the burr was buried (excluded or down-weighted)
+  std::map<std::string, std::size_t> stale_rows;  // per stream
+  std::vector<Event> events;              // gap, reconnect, fault, tare, …
+};
+
 struct RecordingSeries {
   std::string id, sample_id;
   std::string role;               // "calibrate" | "validate"
@@ -59,6 +73,7 @@ struct RecordingSeries {
   // "tare" (the mean load of samples with no predicted contact) or "none" (neither: too
   // few samples without contact, so the offset is 0 and the measured energy not usable).
   std::string spindle_offset_source;
+  DataQuality quality;  // 1.2
   // 1.2: per bone class touched, α·removed and the replay's friction work (empty before).
   std::vector<ClassEnergy> energy;
   bool has_torque() const { return !torque_measured_Nmm.empty(); }

@@ -20,8 +20,23 @@ struct Criterion {
   std::optional<double> min, max;  // at least one
 };
 
+// The structured context of use (ASME V&V 40), from the criteria's optional [context]
+// table: what the model is asked, for what, how much the decision leans on it and what a
+// wrong decision costs. Levels are "low" | "medium" | "high".
+struct ContextOfUse {
+  std::string question_of_interest, context_of_use;
+  std::string model_influence, decision_consequence;
+  std::string model_risk;  // given, or derived from influence and consequence
+  bool risk_derived = false;
+};
+
+// V&V 40's risk map, in its simplest form: the two levels' ranks (0, 1, 2) summed, 0–1 →
+// low, 2 → medium, 3–4 → high.
+std::string model_risk_from(const std::string& influence, const std::string& consequence);
+
 struct Criteria {
   std::vector<Criterion> criteria;
+  std::optional<ContextOfUse> context;  // format 1.1
 };
 
 struct CriterionResult {

@@ -77,6 +77,16 @@ struct AlignedRecording {
   // The same split by role (a segment's `role`, default the recording's): use = either.
   std::vector<std::uint8_t> use_calibrate, use_validate;
   std::size_t dropped_force_samples = 0;   // stale or non-increasing timestamps
+  // What the session logged about itself, for the report's data-quality table: the
+  // recording's notes, its events (gap, reconnect, fault, …; times in s from t0, before
+  // the first force sample negative) and the stale rows of each stream.
+  std::string notes;
+  struct SessionEvent {
+    double t_s = 0;
+    std::string kind, stream, detail;
+  };
+  std::vector<SessionEvent> events;
+  std::map<std::string, std::size_t> stale_rows;
 
   Series<glm::dvec3> stage_rig_mm;  // stage-reported position (fresh samples only)
   Series<double> spindle_rpm;       // signed: negative = reverse spin
