@@ -15,7 +15,7 @@
 
 #include "bone_image.hpp"
 #include "report_html.hpp"
-#include "report_residuals.hpp"
+#include "burrbench/analysis/residual_diagnostics.hpp"
 #include "report_wrench.hpp"
 #include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/data_schema/atomic_file.hpp"

@@ -1,11 +1,14 @@
 // Metrics against hand-computed values (docs/report.md has the formulas).
 #include <cmath>
 #include <numbers>
+#include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "analysis/analysis_fixture.hpp"
 #include "burrbench/analysis/metrics.hpp"
+#include "burrbench/analysis/residual_diagnostics.hpp"
 #include "burrbench/data_schema/error.hpp"
 
 using burrbench::analysis::compute_axis_metrics;
@@ -124,4 +127,56 @@ TEST(Metrics, UndefinedCasesAreNaNNotNumbers) {
   EXPECT_TRUE(std::isnan(e.rmse_N));
   const std::vector<double> two = {1, 2};
   EXPECT_THROW(compute_axis_metrics(kNoTime, two, p), burrbench::InvariantError);
+}
+
+// The QQ plot's quantiles and the autocorrelation plot, against closed forms.
+TEST(ResidualDiagnostics, NormalQuantileMatchesTables) {
+  using burrbench::analysis::normal_quantile;
+  EXPECT_NEAR(normal_quantile(0.5), 0.0, 1e-14);
+  EXPECT_NEAR(normal_quantile(0.975), 1.959963984540054, 1e-12);
+  EXPECT_NEAR(normal_quantile(0.025), -1.959963984540054, 1e-12);
+  EXPECT_NEAR(normal_quantile(0.8413447460685429), 1.0, 1e-12);
+  EXPECT_NEAR(normal_quantile(1e-10), -6.361340902404056, 1e-9);
+}
+
+TEST(ResidualDiagnostics, AutocorrelationOfAnAr1ResidualAndQqOfGaussianNoise) {
+  auto in = burrbench::testing::small_input();
+  in.recordings.resize(1);
+  auto& r = in.recordings[0];
+  // Residuals e_i = 0.8·e_{i−1} + w_i on x (AR(1), r(k) = 0.8^k), white on y, 0 on z.
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> w(0.0, 0.05);
+  const std::size_t n = 40000;
+  r.t_s.clear();
+  r.measured_N.clear();
+  r.predicted_N.clear();
+  r.used.assign(n, 1);
+  double ex = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    ex = 0.8 * ex + w(rng);
+    r.t_s.push_back(0.001 * double(i));
+    r.predicted_N.emplace_back(1.0, 2.0, 3.0);
+    r.measured_N.push_back(r.predicted_N.back() + glm::dvec3(ex, w(rng), 0.0));
+  }
+  const auto d = burrbench::analysis::residual_diagnostics(in, r.role);
+  ASSERT_TRUE(d.is_object());
+  const auto& acf = d["acf"]["r"];
+  EXPECT_NEAR(acf[0][0].get<double>(), 1.0, 1e-12);
+  EXPECT_NEAR(acf[0][1].get<double>(), 0.8, 0.02);
+  EXPECT_NEAR(acf[0][3].get<double>(), 0.512, 0.03);
+  EXPECT_NEAR(acf[1][1].get<double>(), 0.0, 0.02);
+  EXPECT_EQ(acf[2][1].get<double>(), 0.0);  // no variance: 0, not NaN
+  // Pooled over the axes the residuals are not one normal (z is all 0), but the QQ
+  // points are sorted, standardised and at most 2000 plus the largest.
+  const auto& th = d["qq"]["theory"];
+  const auto& sa = d["qq"]["sample"];
+  ASSERT_EQ(th.size(), sa.size());
+  EXPECT_LE(th.size(), 2001u);
+  for (std::size_t i = 1; i < th.size(); ++i) {
+    EXPECT_LT(th[i - 1].get<double>(), th[i].get<double>());
+    EXPECT_LE(sa[i - 1].get<double>(), sa[i].get<double>());
+  }
+  EXPECT_EQ(d["n"].get<std::size_t>(), n);
+  // Another role has no used sample: null.
+  EXPECT_TRUE(burrbench::analysis::residual_diagnostics(in, "no such role").is_null());
 }

@@ -1,4 +1,4 @@
-#include "report_residuals.hpp"
+#include "burrbench/analysis/residual_diagnostics.hpp"
 
 #include <algorithm>
 #include <array>
