@@ -35,10 +35,10 @@ void run(const Options& o) {
   data_schema::OutputFolder folder(parent, "--out", o.overwrite);
   // DIR's files are inputs: a report written into DIR itself must not replace them.
   std::vector<fs::path> inputs;
-  for (const char* f : {"analysis.json", "predictions.csv", "fit.json", "params.toml", "criteria.toml"})
+  for (const char* f : {"analysis.json", "predictions.csv", "wrench.csv", "band.csv", "fit.json", "params.toml", "criteria.toml"})
     inputs.push_back(fs::path(o.dir) / f);
-  folder.refuse_inputs({out.filename().string(), "analysis.json", "predictions.csv", "fit.json", "residuals.csv",
-                        "metrics.json"},
+  folder.refuse_inputs({out.filename().string(), "analysis.json", "predictions.csv", "wrench.csv", "band.csv",
+                        "fit.json", "residuals.csv", "metrics.json"},
                        inputs);
   TerminalProgress progress("report");
   const auto s = analysis::write_report(o.dir, folder.staging() / out.filename(), {o.assets, o.context, &progress});

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -57,7 +58,11 @@ void run(const Args& a) {
   const auto criteria = analysis::read_criteria(a.criteria);
   const auto params = data_schema::read_params(a.params);
   const auto manifest = data_schema::read_manifest(a.experiment);
-  if (!a.fit.empty()) check_params_from_fit(params, a.params, data_schema::read_fit(a.fit), a.fit);
+  std::optional<data_schema::FitResult> fit;
+  if (!a.fit.empty()) {
+    fit = data_schema::read_fit(a.fit);
+    check_params_from_fit(params, a.params, *fit, a.fit);
+  }
   // Written whole at the end, or not at all (a failed or interrupted replay leaves nothing).
   data_schema::OutputFolder folder(a.out, "--out", a.overwrite);
   // The criteria and parameters are copied beside the report, unless they already are
@@ -68,7 +73,8 @@ void run(const Args& a) {
     std::vector<fs::path> inputs{manifest.file};
     for (const auto& s : manifest.samples) inputs.push_back(s.path);
     for (const auto& r : manifest.recordings) inputs.push_back(r.path);
-    std::vector<std::string> names{"analysis.json", "predictions.csv", "report.html", "residuals.csv", "metrics.json"};
+    std::vector<std::string> names{"analysis.json", "predictions.csv", "wrench.csv", "band.csv", "report.html",
+                                   "residuals.csv", "metrics.json"};
     if (!criteria_there) {
       names.push_back("criteria.toml");
       inputs.push_back(a.criteria);
@@ -86,7 +92,7 @@ void run(const Args& a) {
 
   TerminalProgress progress("validate");
   auto in = analysis::replay_experiment(a.experiment, params, nullptr,
-                                        {!a.no_tare, a.context, &progress, a.params});
+                                        {!a.no_tare, a.context, &progress, a.params, fit ? &*fit : nullptr});
   // A criterion that selects data this experiment lacks is bad input, named by its file.
   (void)analysis::evaluate_criteria(criteria, analysis::compute_metric_rows(in), a.criteria);
   if (!a.no_verification) {

@@ -35,7 +35,23 @@
       s.push({ label: "predicted " + AX[a], stroke: PRED[a], width: 1, dash: [6, 3] });
       cols.push(rec.p[a]);
     }
-    plot(el, "Force, sensor frame — " + rec.id, "t (s)", "F (N)", s, cols);
+    var bands = [];
+    if (rec.band) {
+      // The 95 % band of each predicted axis: two thin series and the fill between them.
+      for (a = 0; a < 3; a++) {
+        var hi = [], lo = [];
+        for (var k = 0; k < rec.t.length; k++) {
+          hi.push(rec.p[a][k] + rec.band[a][k]);
+          lo.push(rec.p[a][k] - rec.band[a][k]);
+        }
+        s.push({ label: "95 % band " + AX[a] + " +", stroke: PRED[a] + "66", width: 0.5 });
+        s.push({ label: "95 % band " + AX[a] + " −", stroke: PRED[a] + "66", width: 0.5 });
+        cols.push(hi, lo);
+        bands.push({ series: [cols.length - 2, cols.length - 1], fill: PRED[a] + "33" });
+      }
+    }
+    plot(el, "Force, sensor frame — " + rec.id, "t (s)", "F (N)", s, cols,
+         bands.length ? function (o) { o.bands = bands; } : null);
   }
 
   function residualPlots(rec, i) {

@@ -32,6 +32,8 @@ constexpr const char* kWrenchHeader =
     "recording_id,t_s,torque_meas_x_Nmm,torque_meas_y_Nmm,torque_meas_z_Nmm,torque_pred_x_Nmm,"
     "torque_pred_y_Nmm,torque_pred_z_Nmm,spindle_meas_Nmm,spindle_pred_Nmm,spindle_offset_Nmm,spin_rad_s";
 
+constexpr const char* kBandHeader = "recording_id,t_s,band95_x_N,band95_y_N,band95_z_N";
+
 // One finite number of a CSV field, else InputError naming file, line and column.
 double csv_number(const std::string& field, const std::string& file, const std::string& where, std::size_t column) {
   double v = 0;
@@ -103,6 +105,10 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
                                            {"stale_rows", q.stale_rows},
                                            {"events", ev}};
     }
+    if (!r.band95_N.empty()) {
+      BURRBENCH_CHECK(r.band95_N.size() == r.t_s.size(), "band length differs for recording " + r.id);
+      j["recordings"].back()["band"] = true;
+    }
     if (r.has_torque() || r.has_spindle() || !r.energy.empty()) {
       BURRBENCH_CHECK(!r.has_torque() || (r.torque_measured_Nmm.size() == r.t_s.size() &&
                                           r.torque_predicted_Nmm.size() == r.t_s.size()),
@@ -139,6 +145,16 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
     }
   }
   f.commit();
+  if (std::any_of(in.recordings.begin(), in.recordings.end(), [](const RecordingSeries& r) { return !r.band95_N.empty(); })) {
+    data_schema::AtomicFile bf(dir / "band.csv");
+    bf << kBandHeader << "\n";
+    for (const auto& r : in.recordings) {
+      const std::string id = csv_quote(r.id);
+      for (std::size_t i = 0; i < r.band95_N.size(); ++i)
+        bf << fmt::format("{},{},{},{},{}\n", id, r.t_s[i], r.band95_N[i].x, r.band95_N[i].y, r.band95_N[i].z);
+    }
+    bf.commit();
+  }
   const bool any_wrench = std::any_of(in.recordings.begin(), in.recordings.end(),
                                       [](const RecordingSeries& r) { return r.has_torque() || r.has_spindle(); });
   if (!any_wrench) return;
@@ -224,6 +240,41 @@ void read_wrench_csv(const fs::path& path, std::vector<RecordingSeries>& recs,
       throw InputError(cfile, "recording " + id, fmt::format("{} rows", recs[r].t_s.size()), std::to_string(rows[r]));
 }
 
+// DIR/band.csv (1.2) into the recordings analysis.json marks with a band.
+void read_band_csv(const fs::path& path, std::vector<RecordingSeries>& recs, const std::vector<bool>& has_band) {
+  const std::string cfile = path.string();
+  std::map<std::string, std::size_t> by_id;
+  for (std::size_t r = 0; r < recs.size(); ++r)
+    if (has_band[r]) by_id.emplace(recs[r].id, r);
+  if (by_id.empty()) return;
+  std::ifstream cf(path);
+  if (!cf) throw InputError(cfile, "file", "a readable band CSV (analysis.json marks recordings with a band)", "cannot open");
+  std::string line;
+  if (!std::getline(cf, line) || line != kBandHeader) throw InputError(cfile, "header", std::string("\"") + kBandHeader + "\"");
+  std::size_t line_no = 1;
+  while (std::getline(cf, line)) {
+    ++line_no;
+    if (line.empty()) continue;
+    const auto fields = csv_split(line);
+    const std::string where = fmt::format("line {}", line_no);
+    if (fields.size() != 5) throw InputError(cfile, where, "5 fields", std::to_string(fields.size()));
+    const auto it = by_id.find(fields[0]);
+    if (it == by_id.end()) throw InputError(cfile, where + " recording_id", "an id analysis.json marks with a band", fields[0]);
+    auto& rs = recs[it->second];
+    const std::size_t k = rs.band95_N.size();
+    if (k >= rs.t_s.size()) throw InputError(cfile, where, fmt::format("{} rows for recording {}", rs.t_s.size(), rs.id));
+    if (csv_number(fields[1], cfile, where, 1) != rs.t_s[k])
+      throw InputError(cfile, where + " t_s", "the time of the same row in predictions.csv", fields[1]);
+    glm::dvec3 b(csv_number(fields[2], cfile, where, 2), csv_number(fields[3], cfile, where, 3),
+                 csv_number(fields[4], cfile, where, 4));
+    if (b.x < 0 || b.y < 0 || b.z < 0) throw InputError(cfile, where, "half-widths ≥ 0");
+    rs.band95_N.push_back(b);
+  }
+  for (const auto& [id, r] : by_id)
+    if (recs[r].band95_N.size() != recs[r].t_s.size())
+      throw InputError(cfile, "recording " + id, fmt::format("{} rows", recs[r].t_s.size()), std::to_string(recs[r].band95_N.size()));
+}
+
 }  // namespace
 
 AnalysisInput read_analysis_input(const fs::path& dir) {
@@ -305,11 +356,12 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
   std::map<std::string, std::size_t> by_id;
   std::vector<std::size_t> expected_rows;
   std::vector<std::pair<bool, bool>> channels;  // per recording: moments, spindle load (1.2)
+  std::vector<bool> has_band;                   // per recording: band.csv rows (1.2)
   i = 0;
   for (const auto& rj : o.array("recordings")) {
     JsonView r(rj, file, fmt::format("recordings[{}]", i++),
           {"id", "sample", "role", "path", "sha256", "notes", "registration", "segments", "samples",
-           "torque", "spindle", "spindle_offset_source", "energy", "quality"});
+           "torque", "spindle", "spindle_offset_source", "energy", "quality", "band"});
     RecordingSeries rs;
     rs.id = r.str("id");
     rs.sample_id = r.str("sample");
@@ -338,6 +390,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
       return r.get(k).get<bool>();
     };
     channels.emplace_back(flag("torque"), flag("spindle"));
+    has_band.push_back(flag("band"));
     if (channels.back().second) {
       rs.spindle_offset_source = r.str("spindle_offset_source");
       if (rs.spindle_offset_source != "fit" && rs.spindle_offset_source != "tare" && rs.spindle_offset_source != "none")
@@ -421,6 +474,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
                        fmt::format("{} rows", expected_rows[r]),
                        std::to_string(in.recordings[r].t_s.size()));
   read_wrench_csv(dir / "wrench.csv", in.recordings, channels);
+  read_band_csv(dir / "band.csv", in.recordings, has_band);
   return in;
 }
 

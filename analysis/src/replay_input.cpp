@@ -12,6 +12,7 @@
 #include "burrbench/model/model_params.hpp"
 #include "burrbench/model/registration.hpp"
 #include "burrbench/model/replay.hpp"
+#include "burrbench/model/sensitivity.hpp"
 #include "burrbench/model/volume.hpp"
 
 namespace burrbench::analysis {
@@ -132,6 +133,42 @@ void fill_wrench(const model::AlignedRecording& r, const model::ReplayResult& re
   }
 }
 
+// The fitted constants that have a covariance, as sensitivity directions, with their
+// covariance in ln θ (fit.json's is in natural units: C_ln = C / (θ_a θ_b)).
+struct BandDirections {
+  std::vector<model::Direction> dirs;
+  std::vector<double> cov_ln;  // dirs.size()² row-major
+};
+
+BandDirections band_directions(const ds::FitResult* fit, const ds::ParameterSet& params, const model::ModelParams& mp) {
+  BandDirections out;
+  if (!fit || fit->covariance.size() == 0) return out;
+  std::vector<std::size_t> at;
+  std::vector<double> value;
+  for (const auto& [label, c] : params.classes)
+    for (const auto kind : {model::Direction::Kind::kLogAlpha, model::Direction::Kind::kLogC1, model::Direction::Kind::kLogMu}) {
+      const char* k = kind == model::Direction::Kind::kLogAlpha ? "alpha" : kind == model::Direction::Kind::kLogC1 ? "c1" : "mu";
+      const auto& names = fit->covariance.names;
+      const auto it = std::find(names.begin(), names.end(), c.name + "." + k);
+      const auto& cc = mp.by_label[label];
+      const double v = kind == model::Direction::Kind::kLogAlpha ? cc.alpha_N_per_mm2
+                       : kind == model::Direction::Kind::kLogC1  ? cc.c1_N_per_mm2
+                                                                 : cc.mu;
+      if (it == names.end() || !std::isfinite(v) || !(v > 0) || out.dirs.size() >= model::kMaxDirections) continue;
+      model::Direction d;
+      d.kind = kind;
+      d.label = label;
+      out.dirs.push_back(d);
+      at.push_back(std::size_t(it - names.begin()));
+      value.push_back(v);
+    }
+  const std::size_t m = at.size();
+  out.cov_ln.resize(m * m);
+  for (std::size_t a = 0; a < m; ++a)
+    for (std::size_t b = 0; b < m; ++b) out.cov_ln[a * m + b] = fit->covariance.at(at[a], at[b]) / (value[a] * value[b]);
+  return out;
+}
+
 }  // namespace
 
 AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet& params,
@@ -201,8 +238,16 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     const double depth_mm = nuisance(fit, r.id, "depth_offset", 0.0);
     const auto pose = fitted_pose(fit, r.id);
     const model::Trajectory tr = r.trajectory(lag_s, depth_mm, pose ? &*pose : nullptr);
-    // restore = false: the eroded state is what the removed-bone picture shows.
-    const model::ReplayResult res = model::replay(vol, r.radius_mm, mp, tr, ropt, false, opt.progress);
+    // restore = false: the eroded state is what the removed-bone picture shows. With a
+    // fit, the replay also differentiates the force in the fitted constants (the band).
+    const BandDirections band = band_directions(opt.band_fit ? opt.band_fit : fit, params, mp);
+    model::Sensitivities sens;
+    model::ReplayOptions ro = ropt;
+    if (!band.dirs.empty()) {
+      ro.directions = &band.dirs;
+      ro.sensitivities = &sens;
+    }
+    const model::ReplayResult res = model::replay(vol, r.radius_mm, mp, tr, ro, false, opt.progress);
     auto& rem = removed[r.sample_id];
     const auto& p0 = pristine.at(r.sample_id);
     for (std::size_t i = 0; i < rem.size(); ++i)
@@ -245,6 +290,20 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     const bool fitted_bias = fit && std::isfinite(nuisance(fit, r.id, "bias_x", NAN));
     if (!fitted_bias && opt.tare && free_n >= kMinTareSamples) bias = free_sum / double(free_n);
     for (auto& p : rs.predicted_N) p += bias;  // the bias is added to the prediction
+    if (!band.dirs.empty()) {
+      // 95 % band of the prediction from the constants' uncertainty alone (delta method):
+      // per axis 1.96·√(gᵀ C g), g = ∂F_sensor/∂ln θ.
+      const std::size_t m = band.dirs.size();
+      rs.band95_N.resize(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        std::vector<glm::dvec3> g(m);
+        for (std::size_t a = 0; a < m; ++a) g[a] = r.sensor_force_from_burr_force(sens.dforce_N[a][k]);
+        glm::dvec3 var(0);
+        for (std::size_t a = 0; a < m; ++a)
+          for (std::size_t b = 0; b < m; ++b) var += g[a] * g[b] * band.cov_ln[a * m + b];
+        rs.band95_N[k] = 1.959963984540054 * glm::sqrt(glm::max(var, glm::dvec3(0)));
+      }
+    }
     fill_wrench(r, res, tr, fit, opt.tare, rs);
     for (const auto& [label, c] : params.classes)
       if (res.removed_mm3[std::size_t(label)] > 0 || res.friction_energy_mJ[std::size_t(label)] > 0)

@@ -97,6 +97,12 @@ json decimated(const RecordingSeries& r) {
     }
   }
   json rec = {{"id", r.id}, {"role", r.role}, {"t", t}, {"m", m}, {"p", p}, {"stride", k}};
+  if (!r.band95_N.empty()) {
+    json bnd = json::array({json::array(), json::array(), json::array()});
+    for (std::size_t i = 0; i < n; i += k)
+      for (int a = 0; a < 3; ++a) bnd[a].push_back(r.band95_N[i][a]);
+    rec["band"] = bnd;
+  }
   add_wrench_plot_data(r, k, rec);
   return rec;
 }
@@ -662,6 +668,9 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   b += "<h2 id=\"params\">6. Parameters</h2>" + parameter_section(in, has_fit ? &fit : nullptr);
 
   b += "<h2 id=\"force\">7. Measured vs predicted force</h2><p class=\"muted\">Sensor frame. "
+       "With a fit, the shaded band around each predicted axis is its 95 % band from the fitted constants' "
+       "covariance alone (delta method through the forward sensitivities: 1.96·√(gᵀCg), g = ∂F/∂ln θ); "
+       "the sensor noise and the nuisances are not in it. "
        "Drag to zoom (x, or a box), double-click to reset; click a legend entry to hide a series. "
        "Plots show every k-th sample when a recording is long; predictions.csv has all.</p>";
   for (std::size_t i = 0; i < in.recordings.size(); ++i)
@@ -796,7 +805,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     // Only from an analysis directory: a report that replayed a fit wrote its own fresh
     // predictions.csv above, which an older file must not replace.
     if (has_analysis)
-      for (const char* name : {"predictions.csv", "wrench.csv"})
+      for (const char* name : {"predictions.csv", "wrench.csv", "band.csv"})
         if (fs::exists(dir / name)) data_schema::copy_file_atomic(dir / name, out_dir / name);
     if (fit_result) {
       // The copy beside the report carries the metrics (FitResult::metrics is analysis's

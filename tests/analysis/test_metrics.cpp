@@ -141,7 +141,7 @@ TEST(ResidualDiagnostics, NormalQuantileMatchesTables) {
 
 TEST(ResidualDiagnostics, AutocorrelationOfAnAr1ResidualAndQqOfGaussianNoise) {
   auto in = burrbench::testing::small_input();
-  in.recordings.resize(1);
+  in.recordings.pop_back();  // R1 alone
   auto& r = in.recordings[0];
   // Residuals e_i = 0.8·e_{i−1} + w_i on x (AR(1), r(k) = 0.8^k), white on y, 0 on z.
   std::mt19937_64 rng(3);

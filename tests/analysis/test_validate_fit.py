@@ -141,3 +141,63 @@ def test_a_broken_context_of_use_is_refused(fitted, tmp_path):
     p = gate(fitted, tmp_path / "gate", fitted / "cal" / "fit.json", bad)
     assert_refused(p.returncode, p.stderr, bad, "context.model_influence", "low")
     assert not (tmp_path / "gate").exists()
+
+
+def test_the_prediction_band_matches_central_differences_of_whole_replays(fitted, tmp_path):
+    """validate --fit draws a 95 % band around the predicted force from the fit's
+    covariance: 1.96·√(gᵀCg) with g = ∂F/∂ln θ from the forward sensitivities. Checked
+    against g from central differences of `burrbench replay` runs with each fitted
+    constant moved by ±h in ln θ."""
+    import csv
+    import math
+    import tomllib
+
+    import h5py
+    import numpy as np
+    out = tmp_path / "gate"
+    p = gate(fitted, out, fitted / "cal" / "fit.json", fitted / "criteria.toml")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert json.loads((out / "analysis.json").read_text())["recordings"][2]["band"] is True
+    band = {}
+    with open(out / "band.csv") as f:
+        for row in csv.DictReader(f):
+            band.setdefault(row["recording_id"], []).append([float(row[f"band95_{a}_N"]) for a in "xyz"])
+    fit = json.loads((fitted / "cal" / "fit.json").read_text())
+    names, cov = fit["covariance"]["names"], fit["covariance"]["matrix"]
+    params = tomllib.loads((fitted / "cal" / "params.toml").read_text())["classes"]
+    keys = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}
+    free = [n for n in names if n.split(".")[0] in params and n.split(".")[1] in keys]
+    assert free, names
+
+    def write_params(path, moved=None, h=0.0):
+        lines = ['format = "burrbench.params"', 'format_version = "1.0"']
+        for cls, c in params.items():
+            lines += [f"[classes.{cls}]", f"id = {c['id']}"]
+            for k, key in keys.items():
+                v = c[key] * (math.exp(h) if moved == f"{cls}.{k}" else 1.0)
+                lines.append(f"{key} = {v!r}")
+        path.write_text("\n".join(lines) + "\n")
+
+    def replay(name, moved=None, h=0.0):
+        write_params(tmp_path / f"{name}.toml", moved, h)
+        run_ok("replay", fitted / "experiment.toml", "--params", tmp_path / f"{name}.toml", "--out", tmp_path / f"{name}.h5")
+        with h5py.File(tmp_path / f"{name}.h5") as f:
+            return np.array(f["recordings/polish/force_sensor_pred_N"][()])
+
+    h = 1e-3
+    g = [(replay(f"p{i}", n, h) - replay(f"m{i}", n, -h)) / (2 * h) for i, n in enumerate(free)]
+    idx = [names.index(n) for n in free]
+    value = [params[n.split(".")[0]][keys[n.split(".")[1]]] for n in free]
+    m = len(names)
+    c_ln = np.array([[cov[idx[a] * m + idx[b]] / (value[a] * value[b]) for b in range(len(free))] for a in range(len(free))])
+    want = 1.959963984540054 * np.sqrt(np.maximum(np.einsum("aki,ab,bki->ki", np.array(g), c_ln, np.array(g)), 0))
+    got = np.array(band["polish"])
+    assert got.shape == want.shape
+    big = want > 0.05 * want.max()
+    assert big.sum() > 100
+    rel = np.abs(got[big] - want[big]) / want[big]
+    print(f"band vs central differences: {big.sum()} values, relative difference median {np.median(rel):.2e}, "
+          f"95th percentile {np.percentile(rel, 95):.2e}; widest band {want.max():.4g} N")
+    assert np.median(rel) < 0.01 and np.percentile(rel, 95) < 0.05, (np.median(rel), np.percentile(rel, 95))
+    html = (out / "report.html").read_text()
+    assert "95 % band" in html[html.index('id="force"'):html.index('id="wrench"')]

@@ -74,6 +74,10 @@ struct RecordingSeries {
   // few samples without contact, so the offset is 0 and the measured energy not usable).
   std::string spindle_offset_source;
   DataQuality quality;  // 1.2
+  // 1.2, band.csv: half-width of the 95 % band of the predicted force (sensor frame, N)
+  // from the fitted constants' covariance (delta method through the sensitivities);
+  // empty without a fit.
+  std::vector<glm::dvec3> band95_N;
   // 1.2: per bone class touched, α·removed and the replay's friction work (empty before).
   std::vector<ClassEnergy> energy;
   bool has_torque() const { return !torque_measured_Nmm.empty(); }

@@ -20,6 +20,9 @@ struct ReplayInputOptions {
   std::string context_of_use;
   Progress* progress = nullptr;
   std::string params_file = "parameter set";  // named in errors about the parameter set
+  // The fit whose covariance gives the prediction band (validate --fit); without it, the
+  // `fit` argument's (a calibrate directory), else no band.
+  const data_schema::FitResult* band_fit = nullptr;
 };
 
 AnalysisInput replay_experiment(const std::filesystem::path& manifest,
