@@ -51,28 +51,20 @@ void run(const Args& a) {
   opt.step_s = a.step_us * 1e-6;
   opt.erosion = !a.no_erosion;
 
-  // Every recording is replayed from its sample as scanned (recordings of one sample are
-  // taken to drill separate spots); the undo log restores the volume in between.
-  std::map<std::string, model::Volume> volumes;
-  std::vector<model::RecordingPrediction> preds;
+  const auto preds = model::predict_experiment(e, mp, opt, [](const model::AlignedRecording& r) {
+    return std::make_unique<TerminalProgress>("replay " + r.id);
+  });
   std::size_t samples = 0, buried = 0;
   std::array<double, model::kMaxClasses> removed{};
-  for (const auto& r : e.recordings) {
-    auto it = volumes.find(r.sample_id);
-    if (it == volumes.end())
-      it =
-          volumes.emplace(r.sample_id, model::Volume::from_sample(e.samples.at(r.sample_id))).first;
-    TerminalProgress progress("replay " + r.id);
-    preds.push_back(model::predict(r, it->second, mp, opt, &progress));
-    const auto& p = preds.back();
+  for (std::size_t i = 0; i < preds.size(); ++i) {
+    const auto& p = preds[i];
     std::size_t b = 0;
     for (auto x : p.buried) b += x;
     samples += p.t_s.size();
     buried += b;
     for (int k = 0; k < model::kMaxClasses; ++k)
       removed[std::size_t(k)] += p.removed_mm3[std::size_t(k)];
-    // (model::replay already closed the progress line with its own summary)
-    std::cout << fmt::format("  {}: {}\n", r.id, r.registration.text());
+    std::cout << fmt::format("  {}: {}\n", e.recordings[i].id, e.recordings[i].registration.text());
   }
   model::write_prediction(a.out, preds, prov);
   if (!a.csv.empty()) model::write_prediction_csv(a.csv, preds);

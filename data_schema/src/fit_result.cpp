@@ -101,8 +101,7 @@ void validate(const FitResult& f, const std::string& file) {
       throw InputError(file, fmt::format("cross_validation[{}].metrics", i), "a JSON object");
 }
 
-void write_fit(const std::filesystem::path& path, const FitResult& f) {
-  validate(f, path.string());
+nlohmann::json fit_to_json(const FitResult& f) {
   json params = json::array();
   for (const auto& p : f.parameters) {
     json j{{"class_id", p.class_id}, {"class_name", p.class_name}, {"name", p.name},
@@ -153,8 +152,13 @@ void write_fit(const std::filesystem::path& path, const FitResult& f) {
       {"settings", f.settings},
       {"provenance", provenance_json(detail::stamped(f.provenance))},
       {"experiment", {{"path", f.experiment_path}, {"sha256", f.experiment_sha256}}}};
+  return root;
+}
+
+void write_fit(const std::filesystem::path& path, const FitResult& f) {
+  validate(f, path.string());
   // max_digits10 round trip: nlohmann prints doubles with 17 significant digits.
-  write_file_atomic(path, root.dump(2, ' ', false, json::error_handler_t::replace) + "\n");
+  write_file_atomic(path, fit_to_json(f).dump(2, ' ', false, json::error_handler_t::replace) + "\n");
 }
 
 FitResult read_fit(const std::filesystem::path& path) {

@@ -3,12 +3,27 @@
 #include <fmt/format.h>
 
 #include <fstream>
+#include <map>
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
 
 namespace burrbench::model {
+
+std::vector<RecordingPrediction> predict_experiment(
+    const Experiment& e, const ModelParams& params, const ReplayOptions& options,
+    const std::function<std::unique_ptr<Progress>(const AlignedRecording&)>& progress_for) {
+  std::map<std::string, Volume> volumes;
+  std::vector<RecordingPrediction> out;
+  for (const auto& r : e.recordings) {
+    auto it = volumes.find(r.sample_id);
+    if (it == volumes.end()) it = volumes.emplace(r.sample_id, Volume::from_sample(e.samples.at(r.sample_id))).first;
+    const auto progress = progress_for ? progress_for(r) : nullptr;
+    out.push_back(predict(r, it->second, params, options, progress.get()));
+  }
+  return out;
+}
 
 RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const ModelParams& params,
                             const ReplayOptions& options, Progress* progress) {

@@ -45,3 +45,15 @@ def test_demo_recovers_truth_and_writes_report(tmp_path):
 
     html = (out / "validate" / "report.html").read_text()
     assert "http://" not in html and "https://" not in html
+
+    # The Python notebook (examples/python/demo.ipynb) runs on the demo's outputs: it loads
+    # the fit, plots measured against predicted force and replays with a changed μ.
+    nb = subprocess.run(["/usr/bin/python3", "-m", "nbconvert", "--to", "notebook", "--execute", "--output",
+                         str(tmp_path / "demo.ipynb"), os.path.join(SOURCE, "examples", "python", "demo.ipynb")],
+                        env={**os.environ, "BURRBENCH_DEMO": str(out), "PYTHONPATH": os.path.join(BUILD, "python")},
+                        capture_output=True, text=True, timeout=600)
+    assert nb.returncode == 0, nb.stderr[-3000:]
+    done = json.loads((tmp_path / "demo.ipynb").read_text())
+    outputs = [o for c in done["cells"] if c["cell_type"] == "code" for o in c["outputs"]]
+    assert not [o for o in outputs if o.get("output_type") == "error"]
+    assert any("image/png" in o.get("data", {}) for o in outputs)  # the force plot was drawn

@@ -116,6 +116,8 @@ struct FitResult {
 };
 
 void validate(const FitResult& f, const std::string& file_for_messages);
+// The file's JSON (what write_fit writes, NaN as null); not validated.
+nlohmann::json fit_to_json(const FitResult& f);
 void write_fit(const std::filesystem::path& path, const FitResult& f);
 FitResult read_fit(const std::filesystem::path& path);  // validates
 

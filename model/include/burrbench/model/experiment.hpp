@@ -14,8 +14,10 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <glm/glm.hpp>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -160,6 +162,15 @@ double spindle_torque_Nmm(const glm::dvec3& moment_on_burr_vol_Nmm, const glm::d
 // Replays one aligned recording from the given (start-state) volume, which is restored.
 RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const ModelParams& params,
                             const ReplayOptions& options = {}, Progress* progress = nullptr);
+
+// Every recording of the experiment, each replayed from its sample as scanned (recordings
+// of one sample are taken to drill separate spots; the undo log restores the volume in
+// between), in manifest order: what `burrbench replay` writes and the Python module's
+// replay() returns. `progress_for` gives each recording's progress reporter (may be
+// empty or return null).
+std::vector<RecordingPrediction> predict_experiment(
+    const Experiment& e, const ModelParams& params, const ReplayOptions& options = {},
+    const std::function<std::unique_ptr<Progress>(const AlignedRecording&)>& progress_for = {});
 
 // Writes the data_schema prediction file (format "burrbench.prediction").
 void write_prediction(const std::filesystem::path& path, const std::vector<RecordingPrediction>& p,

@@ -1,0 +1,177 @@
+"""`import burrbench` (python/, issue 15): the module built by the project's CMake for
+/usr/bin/python3, imported from the build tree. Its replay equals the CLI's prediction
+file bit for bit, its readers give back what the C++ side wrote, its errors carry the
+CLI's one-line message, and it releases the GIL while the model runs."""
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from synthetic import BURRBENCH, SRC, make_synthetic, run_ok
+
+sys.path.insert(0, str(Path(os.environ["BURRBENCH_BUILD_DIR"]) / "python"))
+import burrbench  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def exp(tmp_path_factory):
+    d = make_synthetic(tmp_path_factory.mktemp("python"))
+    run_ok("replay", d / "experiment.toml", "--params", d / "params_true.toml", "--out", d / "pred.h5")
+    run_ok("calibrate", d / "experiment.toml", "--out", d / "cal", "--no-cross-validation", "--no-discretization-check",
+           "--no-profiles")
+    run_ok("validate", d / "experiment.toml", "--params", d / "params_true.toml", "--criteria",
+           SRC / "examples" / "criteria" / "release.toml", "--out", d / "gate", "--no-verification")
+    return d
+
+
+def test_replay_equals_the_cli_prediction_bit_for_bit(exp):
+    pred = burrbench.replay(exp / "experiment.toml", exp / "params_true.toml")
+    with h5py.File(exp / "pred.h5") as f:
+        recs = f["recordings"]
+        assert sorted(pred) == sorted(recs)
+        for rid, rec in pred.items():
+            compared = 0
+            for name, ds in recs[rid].items():
+                if name in rec and len(ds.shape) > 0 and ds.shape[0] > 0:
+                    assert np.array_equal(rec[name], ds[()]), (rid, name)
+                    compared += 1
+            assert compared >= 12, (rid, compared)
+            assert np.array_equal(rec["removed_mm3"], recs[rid].attrs["removed_mm3"])
+            assert rec["steps"] == recs[rid].attrs["steps"]
+            assert rec.units["force_sensor_pred_N"] == "N" and rec.frames["force_sensor_pred_N"] == "sensor"
+            assert rec.frames["centre_vol_mm"] == "volume" and rec.units["centre_vol_mm"] == "mm"
+    # The same constants as a dict give the same numbers.
+    params = burrbench.read_params(exp / "params_true.toml")["classes"]
+    again = burrbench.replay(exp / "experiment.toml", {k: {q: v[q] for q in ("id", "alpha_N_per_mm2", "c1_N_per_mm2", "mu")}
+                                                       for k, v in params.items()})
+    assert np.array_equal(again["polish"]["force_sensor_pred_N"], pred["polish"]["force_sensor_pred_N"])
+
+
+def test_every_reader_gives_back_what_the_cpp_side_wrote(exp):
+    rec = burrbench.read_recording(exp / "polish.h5")
+    with h5py.File(exp / "polish.h5") as f:
+        force = f["streams/ft_sensor/channels/force_N"][()]
+        notes = f["meta"].attrs["notes"]
+    ch = rec["streams"]["ft_sensor"]["channels"]
+    assert np.array_equal(ch["force_N"], force) and ch.units["force_N"] == "N"
+    assert isinstance(rec["meta"].attrs["notes"], str) and rec["meta"].attrs["notes"] == notes.decode()
+    assert rec.attrs["format"] == "burrbench.recording"
+    sample = burrbench.read_sample(exp / "sample.h5")
+    assert sample.attrs["format"] == "burrbench.sample" and sample.attrs["voxel_size_mm"] == pytest.approx(0.1)
+    pred = burrbench.read_prediction(exp / "pred.h5")
+    assert pred["recordings"]["polish"].units["force_sensor_pred_N"] == "N"
+    fit = burrbench.read_fit(exp / "cal" / "fit.json")
+    assert fit == json.loads((exp / "cal" / "fit.json").read_text())
+    assert {p["name"] for p in fit["parameters"]} == {"alpha", "c1", "mu"}
+    params = burrbench.read_params(exp / "cal" / "params.toml")
+    compact = [p for p in fit["parameters"] if p["class_name"] == "compact"]
+    for p in compact:
+        key = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}[p["name"]]
+        assert params["classes"]["compact"][key] == p["held"]
+    manifest = burrbench.read_experiment(exp / "experiment.toml")
+    assert [r["id"] for r in manifest["recordings"]] == ["plunge", "sweep", "polish"]
+    criteria = burrbench.read_criteria(exp / "gate" / "criteria.toml")
+    assert criteria["context"]["model_influence"] == "high" and len(criteria["criterion"]) == 4
+    metrics = burrbench.read_metrics(exp / "gate" / "metrics.json")
+    assert metrics == json.loads((exp / "gate" / "metrics.json").read_text()) and metrics["pass"] is True
+    if _has_pandas():  # optional (python3-pandas)
+        df = pred["recordings"]["polish"].to_pandas()
+        assert np.array_equal(df["t_s"].to_numpy(), pred["recordings"]["polish"]["t_s"])
+        assert np.array_equal(df["force_sensor_pred_N_z"].to_numpy(), pred["recordings"]["polish"]["force_sensor_pred_N"][:, 2])
+
+
+def _has_pandas():
+    try:
+        import pandas  # noqa: F401
+        return True
+    except ImportError:
+        return False
+
+
+def test_an_input_error_raises_with_the_cli_message(exp, tmp_path):
+    bad = tmp_path / "params.toml"
+    bad.write_text((exp / "params_true.toml").read_text().replace("mu = ", "mu = -", 1))
+    p = subprocess.run([BURRBENCH, "replay", exp / "experiment.toml", "--params", bad, "--out", tmp_path / "p.h5"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2
+    line = p.stderr.strip()
+    assert line.startswith("burrbench: ")
+    with pytest.raises(burrbench.InputError) as e:
+        burrbench.replay(exp / "experiment.toml", bad)
+    assert str(e.value) == line[len("burrbench: "):]
+    assert isinstance(e.value, ValueError)
+    with pytest.raises(burrbench.InputError, match="fit.json"):
+        burrbench.read_fit(tmp_path / "fit.json")  # missing: named
+    with pytest.raises(burrbench.InputError, match="derivatives"):
+        burrbench.calibrate(exp / "experiment.toml", derivatives="guess")
+
+
+def test_volume_and_contact_agree_with_the_sample_and_its_partials(exp):
+    s = burrbench.read_sample(exp / "sample.h5")
+    v1 = burrbench.Volume.from_sample(exp / "sample.h5")
+    labels, chi = s["labels"], s["fraction"]
+    v2 = burrbench.Volume.from_arrays(labels, chi, s.attrs["voxel_size_mm"], s.attrs["origin_mm"])
+    assert v1.shape_zyx == v2.shape_zyx == labels.shape
+    params = exp / "params_true.toml"
+    top = s.attrs["origin_mm"][2] + s.attrs["voxel_size_mm"] * (labels.shape[0] - 1)
+    p = [4.0, 4.0, top - 0.3]  # 0.3 mm into the top face (compact layer)
+    c1 = burrbench.contact(v1, params, p, [0, 0, 3141.6], 1.0)
+    c2 = burrbench.contact(v2, params, p, [0, 0, 3141.6], 1.0)
+    assert np.array_equal(c1["force_N"], c2["force_N"]) and c1["bone_volume_mm3"] > 0
+    classes = burrbench.read_params(params)["classes"]
+    fe = sum(c["c1_N_per_mm2"] * c1["dF_dC1"][c["id"]] for c in classes.values())
+    fmu = sum(c["mu"] * c1["dFmu_dmu"][c["id"]] for c in classes.values())
+    assert np.allclose(fe, c1["elastic_N"], rtol=1e-12, atol=1e-12)
+    assert np.allclose(fmu, c1["friction_N"], rtol=1e-12, atol=1e-12)
+
+
+def test_the_gil_is_released_while_replaying(exp):
+    # A finer step makes each replay long enough to time (about a second).
+    args = (exp / "experiment.toml", exp / "params_true.toml", 25.0)
+    burrbench.replay(*args)  # warm the page cache
+    t0 = time.perf_counter()
+    burrbench.replay(*args)
+    burrbench.replay(*args)
+    sequential = time.perf_counter() - t0
+    threads = [threading.Thread(target=burrbench.replay, args=args) for _ in range(2)]
+    t0 = time.perf_counter()
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    parallel = time.perf_counter() - t0
+    print(f"two replays: sequential {sequential:.2f} s, two threads {parallel:.2f} s")
+    assert sequential > 0.5
+    assert parallel < 0.8 * sequential, (sequential, parallel)
+
+
+def test_calibrate_from_python_with_progress(exp):
+    lines = []
+    out = burrbench.calibrate(exp / "experiment.toml", progress=lambda f, line: lines.append((f, line)),
+                              starts=2, profiles=False, cross_validate=False, discretization_check=False)
+    assert lines and all(f is None or 0 <= f <= 1 for f, _ in lines)
+    assert any("global search" in line for _, line in lines)
+    fit = out["fit"]
+    assert fit["format"] == "burrbench.fit"
+    truth = burrbench.read_params(exp / "params_true.toml")["classes"]["compact"]
+    got = out["params"]["compact"]
+    assert got["c1_N_per_mm2"] == pytest.approx(truth["c1_N_per_mm2"], rel=0.02)
+    assert got["mu"] == pytest.approx(truth["mu"], rel=0.05)
+    assert "compact" in out["summary"]
+
+
+def test_the_example_script_runs(exp, tmp_path):
+    env = {**os.environ, "PYTHONPATH": str(Path(os.environ["BURRBENCH_BUILD_DIR"]) / "python")}
+    p = subprocess.run(["/usr/bin/python3", SRC / "examples" / "python" / "quickstart.py", exp / "experiment.toml",
+                        exp / "params_true.toml", "--plot", tmp_path / "force.png"],
+                       capture_output=True, text=True, timeout=300, env=env)
+    assert p.returncode == 0, p.stderr
+    assert "polish:" in p.stdout and "with mu x1.2" in p.stdout
+    assert (tmp_path / "force.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
