@@ -6,7 +6,9 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/analysis/analysis_input.hpp"
 #include "burrbench/analysis/criteria.hpp"
+#include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/calibration/calibrate.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
@@ -49,7 +51,8 @@ void run(const Args& a) {
   for (const auto& r : manifest.recordings) inputs.push_back(r.path);
   // Written whole at the end, or not at all (a failed or interrupted fit leaves nothing).
   data_schema::OutputFolder folder(a.out, "--out", a.overwrite);
-  folder.refuse_inputs({"fit.json", "params.toml"}, inputs);
+  folder.refuse_inputs({"fit.json", "params.toml", "analysis.json", "predictions.csv", "wrench.csv", "band.csv"},
+                       inputs);
   TerminalProgress progress("calibrate");
   o.progress = &progress;
   auto res = calibration::calibrate(a.experiment, o);
@@ -62,11 +65,28 @@ void run(const Args& a) {
   }
   data_schema::write_fit(folder.staging() / "fit.json", res.fit);
   data_schema::write_params(folder.staging() / "params.toml", res.params);
+  {
+    // The analysis input at the optimum (fitted constants and nuisances, the prediction
+    // band): `burrbench report DIR` renders it without replaying, so the report needs
+    // neither the sample nor the recordings.
+    auto in = analysis::replay_experiment(a.experiment, res.params, &res.fit, {true, "", nullptr, "params.toml"});
+    for (const char* name : {"fit.json", "params.toml"}) {
+      const std::string sha = sha256_file(folder.staging() / name);
+      in.provenance.inputs.push_back({(folder.target() / name).string(), sha});
+      if (std::string(name) == "params.toml") {
+        in.params_path = fs::absolute(folder.target() / name).string();
+        in.params_sha256 = sha;
+      }
+    }
+    analysis::write_analysis_input(folder.staging(), in);
+  }
   folder.commit();
   const fs::path fit = folder.target() / "fit.json", params = folder.target() / "params.toml";
   progress.finish(fmt::format("{} iterations, {} replays, {:.1f} s", res.fit.solver.iterations,
                               res.fit.solver.replays, res.fit.solver.wall_s));
-  std::cout << res.summary << fmt::format("wrote {} and {}\n", fit.string(), params.string());
+  std::cout << res.summary
+            << fmt::format("wrote {} and {} (and the analysis input for `burrbench report {}`)\n", fit.string(),
+                           params.string(), folder.target().string());
 }
 
 void setup(CLI::App& root) {

@@ -78,11 +78,18 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
                                {"alpha_N_per_mm2", p.alpha_N_per_mm2},
                                {"c1_N_per_mm2", p.c1_N_per_mm2}, {"mu", p.mu}});
   j["samples"] = json::array();
-  for (const auto& s : in.samples)
+  for (const auto& s : in.samples) {
     j["samples"].push_back({{"id", s.id}, {"path", s.path}, {"sha256", s.sha256},
                             {"voxel_mm", s.voxel_mm}, {"nx", s.nx}, {"ny", s.ny},
                             {"removed_depth_mm", s.removed_depth_mm},
                             {"removed_volume_mm3", s.removed_volume_mm3}});
+    if (!s.removed_class.empty()) {
+      json classes = json::object();
+      for (const auto& [label, name] : s.classes) classes[std::to_string(label)] = name;
+      j["samples"].back()["removed_class"] = s.removed_class;
+      j["samples"].back()["classes"] = classes;
+    }
+  }
   j["recordings"] = json::array();
   for (const auto& r : in.recordings) {
     BURRBENCH_CHECK(r.t_s.size() == r.measured_N.size() && r.t_s.size() == r.predicted_N.size() &&
@@ -332,8 +339,8 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
   for (const auto& sj : o.array("samples")) {
     JsonView s(sj, file, fmt::format("samples[{}]", i++),
           {"id", "path", "sha256", "voxel_mm", "nx", "ny", "removed_depth_mm",
-           "removed_volume_mm3"});
-    SampleInfo si{s.str("id"), s.str("path"), s.str("sha256"), s.finite("voxel_mm"), 0, 0, {}, 0};
+           "removed_volume_mm3", "removed_class", "classes"});
+    SampleInfo si{s.str("id"), s.str("path"), s.str("sha256"), s.finite("voxel_mm"), 0, 0, {}, 0, {}, {}};
     const double nx = s.finite("nx"), ny = s.finite("ny");
     if (nx < 0 || ny < 0 || nx * ny > double(kMaxMapCells) || nx != std::floor(nx) ||
         ny != std::floor(ny))
@@ -351,6 +358,26 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
       si.removed_depth_mm.push_back(v.get<float>());
     }
     si.removed_volume_mm3 = s.finite("removed_volume_mm3");
+    if (s.has("removed_class")) {  // 1.2
+      const auto& rc = s.array("removed_class");
+      if (rc.size() != si.nx * si.ny)
+        throw InputError(file, s.field("removed_class"), fmt::format("nx·ny = {} labels", si.nx * si.ny),
+                         std::to_string(rc.size()));
+      for (const auto& v : rc) {
+        if (!v.is_number_unsigned() || v.get<unsigned>() > 255) throw InputError(file, s.field("removed_class"), "labels 0..255");
+        si.removed_class.push_back(std::uint8_t(v.get<unsigned>()));
+      }
+      const auto& cl = s.get("classes");
+      if (!cl.is_object()) throw InputError(file, s.field("classes"), "an object: label → class name");
+      for (const auto& [k, v] : cl.items()) {
+        if (!v.is_string()) throw InputError(file, s.field("classes." + k), "a class name");
+        try {
+          si.classes[std::stoi(k)] = v.get<std::string>();
+        } catch (const std::exception&) {
+          throw InputError(file, s.field("classes"), "labels as keys", k);
+        }
+      }
+    }
     in.samples.push_back(std::move(si));
   }
   std::map<std::string, std::size_t> by_id;

@@ -1,6 +1,7 @@
 #include "burrbench/analysis/replay_input.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -358,6 +359,25 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
           total += v;
         }
     si.removed_volume_mm3 = total * std::pow(s.voxel_mm, 3);
+    // The class of most removed bone per column (its share of each label summed along z).
+    std::vector<std::array<float, model::kMaxClasses>> per_class(si.nx * si.ny);
+    for (auto& c : per_class) c.fill(0.0f);
+    for (std::size_t z = 0; z < s.dims[2]; ++z)
+      for (std::size_t y = 0; y < si.ny; ++y)
+        for (std::size_t x = 0; x < si.nx; ++x) {
+          const std::size_t i = s.index(x, y, z);
+          if (s.labels[i] < model::kMaxClasses) per_class[x + si.nx * y][s.labels[i]] += rem[i];
+        }
+    si.removed_class.assign(si.nx * si.ny, 0);
+    for (std::size_t c = 0; c < per_class.size(); ++c) {
+      float best = 0;
+      for (int k = 1; k < model::kMaxClasses; ++k)
+        if (per_class[c][std::size_t(k)] > best) {
+          best = per_class[c][std::size_t(k)];
+          si.removed_class[c] = std::uint8_t(k);
+        }
+    }
+    for (const auto& [label, name] : s.classes) si.classes[int(label)] = name;
     in.samples.push_back(std::move(si));
   }
 

@@ -563,6 +563,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     throw InputError((dir / "analysis.json").string(), "DIR",
                      "an analysis directory with analysis.json (validate) or fit.json (calibrate)", "neither found");
   }
+  if (in.context_of_use.empty()) in.context_of_use = opt.context_of_use;  // calibrate states none
   const auto rows = compute_metric_rows(in);
 
   ReportSummary sum;
@@ -725,6 +726,11 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
                                    std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
     b += "<h3>" + esc(s.id) + "</h3><img class=\"bone\" alt=\"removed bone depth map\" src=\"data:image/png;base64," +
          base64(png) + "\">";
+    const auto classes = render_removed_class_png(s);
+    if (!classes.empty())
+      b += "<p class=\"muted\">Bone class removed: per column, the class of most removed bone.</p>"
+           "<img class=\"bone\" alt=\"removed bone class map\" src=\"data:image/png;base64," +
+           base64(classes) + "\">";
   }
 
   b += "<h2 id=\"accept\">13. Acceptance criteria</h2>" + criteria_section(sum);
@@ -805,7 +811,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     // Only from an analysis directory: a report that replayed a fit wrote its own fresh
     // predictions.csv above, which an older file must not replace.
     if (has_analysis)
-      for (const char* name : {"predictions.csv", "wrench.csv", "band.csv"})
+      for (const char* name : {"analysis.json", "predictions.csv", "wrench.csv", "band.csv"})
         if (fs::exists(dir / name)) data_schema::copy_file_atomic(dir / name, out_dir / name);
     if (fit_result) {
       // The copy beside the report carries the metrics (FitResult::metrics is analysis's

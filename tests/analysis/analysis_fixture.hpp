@@ -37,10 +37,12 @@ inline analysis::AnalysisInput small_input(double error_scale = 1.0) {
   in.calibration = {{"method", "none"}};
   in.limitations = {"fixture"};
   in.parameters = {{1, "compact", 20.0, 10.0, 0.3}};
-  SampleInfo s{"S1", "/tmp/s1.h5", std::string(64, 'b'), 0.1, 10, 8, {}, 0.0};
+  SampleInfo s{"S1", "/tmp/s1.h5", std::string(64, 'b'), 0.1, 10, 8, {}, 0.0, {}, {{1, "compact"}, {2, "trabecular"}}};
   for (std::size_t y = 0; y < 8; ++y)
-    for (std::size_t x = 0; x < 10; ++x)
+    for (std::size_t x = 0; x < 10; ++x) {
       s.removed_depth_mm.push_back(float(std::max(0.0, 0.5 - 0.1 * std::hypot(x - 5.0, y - 4.0))));
+      s.removed_class.push_back(s.removed_depth_mm.back() > 0 ? (x < 5 ? 1 : 2) : 0);
+    }
   in.samples.push_back(s);
   for (int k = 0; k < 2; ++k) {
     RecordingSeries r;

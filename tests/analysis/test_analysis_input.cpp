@@ -48,6 +48,8 @@ TEST(AnalysisInput, RoundTripIsExact) {
     EXPECT_EQ(a.segments.size(), b.segments.size());
   }
   EXPECT_EQ(back.samples[0].removed_depth_mm, in.samples[0].removed_depth_mm);
+  EXPECT_EQ(back.samples[0].removed_class, in.samples[0].removed_class);
+  EXPECT_EQ(back.samples[0].classes, in.samples[0].classes);
   EXPECT_EQ(back.parameters[0].c1_N_per_mm2, 10.0);
   EXPECT_EQ(back.seed, 7u);
 }

@@ -215,15 +215,23 @@ def test_report_without_out_writes_inside_the_directory_not_the_current_folder(e
 
 
 def test_report_of_a_calibrate_directory(exp, tmp_path):
-    """`burrbench report` on calibrate's output (fit.json + params.toml only) replays the
-    experiment with the fitted constants and nuisances and reports the fit's intervals,
-    identifiability and correlations."""
+    """`burrbench report` on calibrate's output renders the analysis input calibrate wrote
+    at the optimum (fitted constants and nuisances): it needs neither the sample nor the
+    recordings, and reports the fit's intervals, identifiability and correlations."""
     cal = tmp_path / "cal"
     r = run("calibrate", "--experiment", str(exp / "experiment.toml"), "--out", str(cal),
             "--no-cross-validation", "--max-iterations", "10")
     assert r.returncode == 0, r.stdout + r.stderr
+    assert json.load(open(cal / "analysis.json"))["mode"] == "calibrate"
     out = tmp_path / "rep" / "report.html"
-    r = run("report", str(cal), "--out", str(out))
+    moved = [exp / f for f in ("sample.h5", "plunge.h5", "sweep.h5", "polish.h5")]
+    try:
+        for f in moved:
+            f.rename(f.with_suffix(".away"))
+        r = run("report", str(cal), "--out", str(out))
+    finally:
+        for f in moved:
+            f.with_suffix(".away").rename(f)
     assert r.returncode == 0, r.stdout + r.stderr
     for f in ("fit.json", "analysis.json", "predictions.csv", "residuals.csv", "metrics.json"):
         assert (out.parent / f).exists(), f

@@ -92,6 +92,10 @@ struct SampleInfo {
   std::size_t nx = 0, ny = 0;
   std::vector<float> removed_depth_mm;
   double removed_volume_mm3 = 0;
+  // 1.2: per (x, y) column the class label of most removed bone (0 = none), and the
+  // sample's class names by label (the removed-bone map's class colours).
+  std::vector<std::uint8_t> removed_class;
+  std::map<int, std::string> classes;
 };
 
 struct ParameterRow {  // the constants a replay used (validate) — fit.json has intervals
