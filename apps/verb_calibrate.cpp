@@ -8,7 +8,6 @@
 
 #include "burrbench/analysis/analysis_input.hpp"
 #include "burrbench/analysis/criteria.hpp"
-#include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/calibration/calibrate.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
@@ -16,6 +15,8 @@
 #include "burrbench/data_schema/output_folder.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
+#include "analysis_replay.hpp"
+#include "library_versions.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -69,7 +70,7 @@ void run(const Args& a) {
     // The analysis input at the optimum (fitted constants and nuisances, the prediction
     // band): `burrbench report DIR` renders it without replaying, so the report needs
     // neither the sample nor the recordings.
-    auto in = analysis::replay_experiment(a.experiment, res.params, &res.fit, {true, "", nullptr, "params.toml"});
+    auto in = apps::replay_experiment(a.experiment, res.params, &res.fit, {true, "", nullptr, "params.toml"});
     for (const char* name : {"fit.json", "params.toml"}) {
       const std::string sha = sha256_file(folder.staging() / name);
       in.provenance.inputs.push_back({(folder.target() / name).string(), sha});

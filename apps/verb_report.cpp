@@ -11,6 +11,10 @@
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/output_folder.hpp"
 #include "burrbench/data_schema/progress.hpp"
+#include "analysis_replay.hpp"
+#include "burrbench/analysis/analysis_input.hpp"
+#include "burrbench/data_schema/atomic_file.hpp"
+#include "library_versions.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -40,8 +44,17 @@ void run(const Options& o) {
   folder.refuse_inputs({out.filename().string(), "analysis.json", "predictions.csv", "wrench.csv", "band.csv",
                         "fit.json", "residuals.csv", "metrics.json"},
                        inputs);
-  TerminalProgress progress("report");
-  const auto s = analysis::write_report(o.dir, folder.staging() / out.filename(), {o.assets, o.context, &progress});
+  fs::path dir = o.dir;
+  if (!fs::exists(dir / "analysis.json") && fs::exists(dir / "fit.json")) {
+    // An older calibrate directory: replay its fit into an analysis input beside the
+    // report (the report itself only reads files), then render that.
+    auto in = apps::replay_calibrate_directory(dir, o.context);
+    analysis::write_analysis_input(folder.staging(), in);
+    data_schema::copy_file_atomic(dir / "fit.json", folder.staging() / "fit.json");
+    dir = folder.staging();
+  }
+  const auto s = analysis::write_report(dir, folder.staging() / out.filename(),
+                                        {o.assets, o.context, nullptr, apps::library_versions()});
   folder.commit();
   std::cout << "report: " << (folder.target() / out.filename()).string() << " (" << s.recordings << " recordings, "
             << s.samples << " samples)\n";

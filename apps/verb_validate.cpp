@@ -13,13 +13,14 @@
 #include "burrbench/data_schema/manifest.hpp"
 #include "burrbench/data_schema/output_folder.hpp"
 #include "burrbench/analysis/criteria.hpp"
-#include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/analysis/report.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/model/verification.hpp"
+#include "analysis_replay.hpp"
+#include "library_versions.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -91,7 +92,7 @@ void run(const Args& a) {
   }
 
   TerminalProgress progress("validate");
-  auto in = analysis::replay_experiment(a.experiment, params, nullptr,
+  auto in = apps::replay_experiment(a.experiment, params, nullptr,
                                         {!a.no_tare, a.context, &progress, a.params, fit ? &*fit : nullptr});
   // A criterion that selects data this experiment lacks is bad input, named by its file.
   (void)analysis::evaluate_criteria(criteria, analysis::compute_metric_rows(in), a.criteria);
@@ -118,7 +119,7 @@ void run(const Args& a) {
   data_schema::copy_file_atomic(a.criteria, dir / "criteria.toml");
   if (!params_there) data_schema::copy_file_atomic(a.params, dir / "params.toml");
   if (!a.fit.empty()) data_schema::copy_file_atomic(a.fit, dir / "fit.json");
-  const auto s = analysis::write_report(dir, dir / "report.html", {a.assets, a.context, nullptr});
+  const auto s = analysis::write_report(dir, dir / "report.html", {a.assets, a.context, nullptr, apps::library_versions()});
   if (criteria_there) fs::remove(dir / "criteria.toml");  // read by the report; the folder has it
   folder.commit();
   progress.finish(fmt::format("{} recordings, {} samples", s.recordings, s.samples));

@@ -8,16 +8,12 @@
 #include <optional>
 #include <sstream>
 
-#include <ceres/version.h>
 #include <fmt/format.h>
-#include <modbus/modbus-version.h>
-#include <opencv2/core/utility.hpp>
 
 #include "bone_image.hpp"
 #include "report_html.hpp"
 #include "burrbench/analysis/residual_diagnostics.hpp"
 #include "report_wrench.hpp"
-#include "burrbench/analysis/replay_input.hpp"
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
@@ -25,7 +21,6 @@
 #include "burrbench/data_schema/json_input.hpp"
 #include "burrbench/data_schema/version.hpp"
 
-extern "C" int H5get_libversion(unsigned* majnum, unsigned* minnum, unsigned* relnum);
 
 namespace burrbench::analysis {
 namespace fs = std::filesystem;
@@ -65,21 +60,16 @@ std::string kv_table(const json& j) {
   return h + "</table>";
 }
 
-std::string versions_table(const fs::path& assets) {
+std::string versions_table(const fs::path& assets, const std::vector<std::pair<std::string, std::string>>& given) {
   std::string uplot = "unknown";
   try {
     std::ifstream f(assets / "node_modules/uplot/package.json");
     uplot = json::parse(f).value("version", uplot);
   } catch (const json::exception&) {
   }
-  unsigned a = 0, b = 0, c = 0;
-  H5get_libversion(&a, &b, &c);
-  json v = {{"burrbench", software_version()},
-            {"Ceres Solver", CERES_VERSION_STRING},
-            {"libmodbus", LIBMODBUS_VERSION_STRING},
-            {"OpenCV", cv::getVersionString()},
-            {"HDF5", fmt::format("{}.{}.{}", a, b, c)},
-            {"uPlot (inlined)", uplot}};
+  json v = {{"burrbench", software_version()}};
+  for (const auto& [name, version] : given) v[name] = version;
+  v["uPlot (inlined)"] = uplot;
   return kv_table(v);
 }
 
@@ -522,47 +512,19 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
       strip_url_schemes(read_text(assets / "node_modules/uplot/dist/uPlot.iife.min.js", "uPlot (npm ci)")) +
       "\n" + read_text(assets / "report.js", "report.js");
 
-  const bool has_analysis = fs::exists(dir / "analysis.json");
-  AnalysisInput in;
-  if (has_analysis) in = read_analysis_input(dir);
+  // The report only reads files: it never runs the model (an older calibrate directory
+  // without analysis.json is replayed by `burrbench report` first, apps/verb_report.cpp).
+  if (!fs::exists(dir / "analysis.json"))
+    throw InputError((dir / "analysis.json").string(), "DIR",
+                     "an analysis directory with analysis.json (written by validate or calibrate)", "none found");
+  AnalysisInput in = read_analysis_input(dir);
   // A validate run replayed fixed constants: a fit.json lying in its folder is its own only
   // when validate --fit put it there (analysis.json names it by hash).
   const bool has_fit = fs::exists(dir / "fit.json") &&
-                       (!has_analysis || in.mode == "calibrate" ||
+                       (in.mode == "calibrate" ||
                         (!in.fit_sha256.empty() && sha256_file(dir / "fit.json") == in.fit_sha256));
   std::optional<data_schema::FitResult> fit_result;
   if (has_fit) fit_result = data_schema::read_fit(dir / "fit.json");  // validates
-  if (!has_analysis && fit_result) {
-    // A calibrate output directory: replay the experiment with the fitted constants and
-    // nuisances, and keep that analysis input beside the report.
-    const auto& f = *fit_result;
-    if (f.experiment_path.empty() || !fs::exists(f.experiment_path))
-      throw InputError((dir / "fit.json").string(), "experiment_path", "an existing experiment manifest",
-                       f.experiment_path);
-    if (sha256_file(f.experiment_path) != f.experiment_sha256)
-      throw InputError(f.experiment_path, "sha256", "the manifest the fit was made from (" +
-                                                        f.experiment_sha256 + ")", "changed since");
-    // params.toml is what calibrate hands on (start values stand in for constants the
-    // data could not identify); the fit's estimates only when it is absent.
-    const auto params = fs::exists(dir / "params.toml")
-                            ? data_schema::read_params(dir / "params.toml")
-                            : data_schema::parameter_set_from(f, (dir / "fit.json").string());
-    in = replay_experiment(f.experiment_path, params, &f,
-                           {true, opt.context_of_use, opt.progress,
-                            (dir / (fs::exists(dir / "params.toml") ? "params.toml" : "fit.json")).string()});
-    if (fs::exists(dir / "params.toml")) {
-      in.params_path = fs::absolute(dir / "params.toml").string();
-      in.params_sha256 = sha256_file(dir / "params.toml");
-    }
-    // The calibrate directory's own files are inputs of this report too.
-    for (const char* name : {"fit.json", "params.toml"})
-      if (fs::exists(dir / name)) in.provenance.inputs.push_back({(dir / name).string(), sha256_file(dir / name)});
-    fs::create_directories(out_dir);
-    write_analysis_input(out_dir, in);
-  } else if (!has_analysis) {
-    throw InputError((dir / "analysis.json").string(), "DIR",
-                     "an analysis directory with analysis.json (validate) or fit.json (calibrate)", "neither found");
-  }
   if (in.context_of_use.empty()) in.context_of_use = opt.context_of_use;  // calibrate states none
   const auto rows = compute_metric_rows(in);
 
@@ -747,7 +709,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
             ? "\n" + esc(fit.at("provenance").value("command_line", std::string("(calibrate: not recorded)")))
             : std::string()) +
        "</pre>";
-  b += "<h3>Versions</h3>" + versions_table(assets);
+  b += "<h3>Versions</h3>" + versions_table(assets, opt.versions);
   b += "<h3>Inputs</h3><table><tr><th>file</th><th>SHA-256</th></tr>";
   for (const auto& f : in.provenance.inputs)
     b += "<tr>" + td("<code>" + esc(f.path) + "</code>") + td("<span class=\"hash\">" + esc(f.sha256) + "</span>") + "</tr>";
@@ -808,11 +770,8 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
 
   // Beside the report: the series, residuals, metrics and the fit.
   if (!fs::equivalent(dir, out_dir, ec)) {
-    // Only from an analysis directory: a report that replayed a fit wrote its own fresh
-    // predictions.csv above, which an older file must not replace.
-    if (has_analysis)
-      for (const char* name : {"analysis.json", "predictions.csv", "wrench.csv", "band.csv"})
-        if (fs::exists(dir / name)) data_schema::copy_file_atomic(dir / name, out_dir / name);
+    for (const char* name : {"analysis.json", "predictions.csv", "wrench.csv", "band.csv"})
+      if (fs::exists(dir / name)) data_schema::copy_file_atomic(dir / name, out_dir / name);
     if (fit_result) {
       // The copy beside the report carries the metrics (FitResult::metrics is analysis's
       // to fill); the calibrate directory's own fit.json is an input and stays as it is.

@@ -244,3 +244,17 @@ def test_report_of_a_calibrate_directory(exp, tmp_path):
     # all at the synthetic noise floor σ = 0.02 N
     for rec in ("plunge", "sweep", "polish"):
         assert 0.015 < rows[(rec, "x")]["rmse_N"] < 0.03, rows[(rec, "x")]
+    # An older calibrate directory (fit.json and params.toml only): the report verb replays
+    # the fit first (analysis/ never runs the model) and reports the same numbers.
+    old = tmp_path / "old"
+    old.mkdir()
+    for f in ("fit.json", "params.toml"):
+        shutil.copy(cal / f, old / f)
+    out2 = tmp_path / "rep2" / "report.html"
+    r = run("report", str(old), "--out", str(out2))
+    assert r.returncode == 0, r.stdout + r.stderr
+    m2 = json.load(open(out2.parent / "metrics.json"))
+    rows2 = {(x["recording"], x["axis"]): x for x in m2["rows"] if x["segment"] == "all"}
+    for rec in ("plunge", "sweep", "polish"):
+        assert rows2[(rec, "x")]["rmse_N"] == pytest.approx(rows[(rec, "x")]["rmse_N"], rel=1e-9)
+    assert "Parameter correlation matrix" in open(out2, encoding="utf-8").read()

@@ -7,6 +7,8 @@
 // and a copy of fit.json.
 #include <filesystem>
 #include <optional>
+#include <utility>
+#include <vector>
 #include <string>
 #include <vector>
 
@@ -19,8 +21,11 @@ struct ReportOptions {
   // Folder with template.html, report.js, report.css and node_modules/uplot (npm ci).
   // Empty → default_assets_dir().
   std::filesystem::path assets_dir;
-  std::string context_of_use;       // used when the report replays a calibrate directory
-  Progress* progress = nullptr;     // ditto
+  std::string context_of_use;       // used when the analysis input states none (calibrate)
+  Progress* progress = nullptr;     // unused: the report only reads files (kept for callers)
+  // The reproducibility section's versions besides burrbench and uPlot (library name →
+  // version), given by the caller that links them (apps/: Ceres, libmodbus, OpenCV, HDF5).
+  std::vector<std::pair<std::string, std::string>> versions;
 };
 
 struct ReportSummary {

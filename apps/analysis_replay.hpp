@@ -1,7 +1,10 @@
 #pragma once
-// Fills an analysis input by replaying an experiment with FIXED parameters (no fitting):
-// what `validate` does, and what `report` does for a calibrate output directory that has
-// only fit.json (the fit's nuisances — bias, lag, depth offset — are applied then).
+// Fills an analysis input (analysis/'s format) by replaying an experiment through the
+// model with FIXED parameters (no fitting): what `validate` does, what `calibrate` writes
+// at its optimum and what `report` does for an older calibrate directory that has only
+// fit.json (the fit's nuisances — bias, lag, depth offset, pose — are applied then).
+// It lives in apps/ because it joins model/ and analysis/: analysis/ itself only reads
+// files and links data_schema alone.
 #include <filesystem>
 #include <string>
 
@@ -10,7 +13,8 @@
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
 
-namespace burrbench::analysis {
+namespace burrbench::apps {
+using analysis::AnalysisInput;
 
 struct ReplayInputOptions {
   // For recordings without a fitted bias (validate; held-out recordings of a fit): subtract from the measured force its mean over the samples where the
@@ -29,4 +33,9 @@ AnalysisInput replay_experiment(const std::filesystem::path& manifest,
                                 const data_schema::ParameterSet& params,
                                 const data_schema::FitResult* fit, const ReplayInputOptions& opt);
 
-}  // namespace burrbench::analysis
+// An older calibrate directory (fit.json, usually params.toml, no analysis.json): its
+// experiment (whose SHA-256 must still match) replayed with params.toml, or the fit's
+// estimates, and the fitted nuisances; the directory's files count among the inputs.
+AnalysisInput replay_calibrate_directory(const std::filesystem::path& dir, const std::string& context_of_use);
+
+}  // namespace burrbench::apps

@@ -1,4 +1,4 @@
-#include "burrbench/analysis/replay_input.hpp"
+#include "analysis_replay.hpp"
 
 #include <algorithm>
 #include <array>
@@ -16,7 +16,8 @@
 #include "burrbench/model/sensitivity.hpp"
 #include "burrbench/model/volume.hpp"
 
-namespace burrbench::analysis {
+namespace burrbench::apps {
+using namespace analysis;
 namespace fs = std::filesystem;
 namespace ds = data_schema;
 
@@ -388,4 +389,28 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   return in;
 }
 
-}  // namespace burrbench::analysis
+AnalysisInput replay_calibrate_directory(const fs::path& dir, const std::string& context_of_use) {
+  const auto f = ds::read_fit(dir / "fit.json");  // validates
+  if (f.experiment_path.empty() || !fs::exists(f.experiment_path))
+    throw InputError((dir / "fit.json").string(), "experiment_path", "an existing experiment manifest", f.experiment_path);
+  if (sha256_file(f.experiment_path) != f.experiment_sha256)
+    throw InputError(f.experiment_path, "sha256", "the manifest the fit was made from (" + f.experiment_sha256 + ")",
+                     "changed since");
+  // params.toml is what calibrate hands on (the values the fit held); the fit's estimates
+  // only when it is absent.
+  const bool has_params = fs::exists(dir / "params.toml");
+  const auto params = has_params ? ds::read_params(dir / "params.toml")
+                                 : ds::parameter_set_from(f, (dir / "fit.json").string());
+  AnalysisInput in = replay_experiment(f.experiment_path, params, &f,
+                                       {true, context_of_use, nullptr,
+                                        (dir / (has_params ? "params.toml" : "fit.json")).string()});
+  if (has_params) {
+    in.params_path = fs::absolute(dir / "params.toml").string();
+    in.params_sha256 = sha256_file(dir / "params.toml");
+  }
+  for (const char* name : {"fit.json", "params.toml"})
+    if (fs::exists(dir / name)) in.provenance.inputs.push_back({(dir / name).string(), sha256_file(dir / name)});
+  return in;
+}
+
+}  // namespace burrbench::apps
