@@ -90,8 +90,9 @@ void fill_wrench(const model::AlignedRecording& r, const model::ReplayResult& re
     rs.spindle_predicted_Nmm.resize(n);
     rs.spindle_offset_Nmm.resize(n);
     rs.spin_rad_s.resize(n);
-    std::vector<double> krpm(n);
-    double mean_krpm = 0;
+    // The drive's viscous term acts on the speed's deviation from the recording's mean
+    // (model::AlignedRecording::spindle_krpm_deviation, as in the fit).
+    const std::vector<double> krpm = r.spindle_krpm_deviation();
     // The tare: the drive's load without contact while spinning, fitted as idle + slope·krpm
     // by least squares (a mean when the speed never changes), so samples with the spindle
     // stopped or at another speed do not bias it.
@@ -100,10 +101,6 @@ void fill_wrench(const model::AlignedRecording& r, const model::ReplayResult& re
       rs.spindle_measured_Nmm[k] = r.spindle_torque_Nmm.at(r.t_s[k]);
       rs.spindle_predicted_Nmm[k] = model::spindle_torque_Nmm(res.samples[k].contact.moment_Nmm, tr.omega_vol_rad_s[k]);
       rs.spin_rad_s[k] = glm::length(tr.omega_vol_rad_s[k]);
-      // The viscous term acts on the speed's deviation from the recording's mean, as in
-      // the fit (calibration/replay_model.cpp), so the fitted idle offset means the same.
-      krpm[k] = std::abs(r.spindle_rpm.at(r.t_s[k])) / 1000;
-      mean_krpm += krpm[k] / double(n);
       if (no_contact(k) && rs.spin_rad_s[k] > 0) {
         const double y = rs.spindle_measured_Nmm[k];
         s1 += 1;
@@ -128,7 +125,7 @@ void fill_wrench(const model::AlignedRecording& r, const model::ReplayResult& re
       }
     }
     for (std::size_t k = 0; k < n; ++k) {
-      rs.spindle_offset_Nmm[k] = std::isfinite(idle) ? idle + viscous * (krpm[k] - mean_krpm)
+      rs.spindle_offset_Nmm[k] = std::isfinite(idle) ? idle + viscous * krpm[k]
                                                      : can_tare ? tare_a + tare_b * krpm[k] : 0.0;
       rs.spindle_predicted_Nmm[k] += rs.spindle_offset_Nmm[k];
     }

@@ -48,6 +48,27 @@ double csv_number(const std::string& field, const std::string& file, const std::
   return v;
 }
 
+// Every non-empty data row of a CSV with this exact header and `width` fields, as
+// (fields, "line N") — the one loop behind the predictions, wrench and band files.
+template <class Row>
+void for_each_csv_row(const fs::path& path, const char* header, std::size_t width, const std::string& what,
+                      Row&& row) {
+  const std::string cfile = path.string();
+  std::ifstream cf(path);
+  if (!cf) throw InputError(cfile, "file", "a readable " + what, "cannot open");
+  std::string line;
+  if (!std::getline(cf, line) || line != header) throw InputError(cfile, "header", std::string("\"") + header + "\"");
+  std::size_t line_no = 1;
+  while (std::getline(cf, line)) {
+    ++line_no;
+    if (line.empty()) continue;
+    const auto fields = csv_split(line);
+    const std::string where = fmt::format("line {}", line_no);
+    if (fields.size() != width) throw InputError(cfile, where, fmt::format("{} fields", width), std::to_string(fields.size()));
+    row(fields, where);
+  }
+}
+
 std::string role_checked(const std::string& role, const std::string& file, const std::string& f) {
   if (role != "calibrate" && role != "validate")
     throw InputError(file, f, "\"calibrate\" or \"validate\"", role);
@@ -198,19 +219,9 @@ void read_wrench_csv(const fs::path& path, std::vector<RecordingSeries>& recs,
       any = true;
     }
   if (!any) return;
-  std::ifstream cf(path);
-  if (!cf) throw InputError(cfile, "file", "a readable wrench CSV (analysis.json lists moments or a spindle load)", "cannot open");
-  std::string line;
-  if (!std::getline(cf, line) || line != kWrenchHeader)
-    throw InputError(cfile, "header", std::string("\"") + kWrenchHeader + "\"");
   std::vector<std::size_t> rows(recs.size(), 0);
-  std::size_t line_no = 1;
-  while (std::getline(cf, line)) {
-    ++line_no;
-    if (line.empty()) continue;
-    const auto fields = csv_split(line);
-    const std::string where = fmt::format("line {}", line_no);
-    if (fields.size() != 12) throw InputError(cfile, where, "12 fields", std::to_string(fields.size()));
+  for_each_csv_row(path, kWrenchHeader, 12, "wrench CSV (analysis.json lists moments or a spindle load)",
+                   [&](const std::vector<std::string>& fields, const std::string& where) {
     const auto it = by_id.find(fields[0]);
     if (it == by_id.end())
       throw InputError(cfile, where + " recording_id", "an id analysis.json lists with moments or a spindle load", fields[0]);
@@ -241,7 +252,7 @@ void read_wrench_csv(const fs::path& path, std::vector<RecordingSeries>& recs,
     } else {
       for (std::size_t c = 8; c < 12; ++c) num(c, false);
     }
-  }
+  });
   for (const auto& [id, r] : by_id)
     if (rows[r] != recs[r].t_s.size())
       throw InputError(cfile, "recording " + id, fmt::format("{} rows", recs[r].t_s.size()), std::to_string(rows[r]));
@@ -254,17 +265,8 @@ void read_band_csv(const fs::path& path, std::vector<RecordingSeries>& recs, con
   for (std::size_t r = 0; r < recs.size(); ++r)
     if (has_band[r]) by_id.emplace(recs[r].id, r);
   if (by_id.empty()) return;
-  std::ifstream cf(path);
-  if (!cf) throw InputError(cfile, "file", "a readable band CSV (analysis.json marks recordings with a band)", "cannot open");
-  std::string line;
-  if (!std::getline(cf, line) || line != kBandHeader) throw InputError(cfile, "header", std::string("\"") + kBandHeader + "\"");
-  std::size_t line_no = 1;
-  while (std::getline(cf, line)) {
-    ++line_no;
-    if (line.empty()) continue;
-    const auto fields = csv_split(line);
-    const std::string where = fmt::format("line {}", line_no);
-    if (fields.size() != 5) throw InputError(cfile, where, "5 fields", std::to_string(fields.size()));
+  for_each_csv_row(path, kBandHeader, 5, "band CSV (analysis.json marks recordings with a band)",
+                   [&](const std::vector<std::string>& fields, const std::string& where) {
     const auto it = by_id.find(fields[0]);
     if (it == by_id.end()) throw InputError(cfile, where + " recording_id", "an id analysis.json marks with a band", fields[0]);
     auto& rs = recs[it->second];
@@ -276,7 +278,7 @@ void read_band_csv(const fs::path& path, std::vector<RecordingSeries>& recs, con
                  csv_number(fields[4], cfile, where, 4));
     if (b.x < 0 || b.y < 0 || b.z < 0) throw InputError(cfile, where, "half-widths ≥ 0");
     rs.band95_N.push_back(b);
-  }
+  });
   for (const auto& [id, r] : by_id)
     if (recs[r].band95_N.size() != recs[r].t_s.size())
       throw InputError(cfile, "recording " + id, fmt::format("{} rows", recs[r].t_s.size()), std::to_string(recs[r].band95_N.size()));
@@ -467,18 +469,8 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
 
   const fs::path csv_path = dir / "predictions.csv";
   const std::string cfile = csv_path.string();
-  std::ifstream cf(csv_path);
-  if (!cf) throw InputError(cfile, "file", "a readable predictions CSV", "cannot open");
-  std::string line;
-  if (!std::getline(cf, line) || line != kCsvHeader)
-    throw InputError(cfile, "header", std::string("\"") + kCsvHeader + "\"");
-  std::size_t line_no = 1;
-  while (std::getline(cf, line)) {
-    ++line_no;
-    if (line.empty()) continue;
-    const auto fields = csv_split(line);
-    const std::string where = fmt::format("line {}", line_no);
-    if (fields.size() != 9) throw InputError(cfile, where, "9 fields", std::to_string(fields.size()));
+  for_each_csv_row(csv_path, kCsvHeader, 9, "predictions CSV",
+                   [&](const std::vector<std::string>& fields, const std::string& where) {
     const auto it = by_id.find(fields[0]);
     if (it == by_id.end())
       throw InputError(cfile, where + " recording_id", "an id listed in analysis.json", fields[0]);
@@ -494,7 +486,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
     rs.measured_N.emplace_back(v[1], v[2], v[3]);
     rs.predicted_N.emplace_back(v[4], v[5], v[6]);
     rs.used.push_back(fields[8] == "1");
-  }
+  });
   for (std::size_t r = 0; r < in.recordings.size(); ++r)
     if (in.recordings[r].t_s.size() != expected_rows[r])
       throw InputError(cfile, "recording " + in.recordings[r].id,

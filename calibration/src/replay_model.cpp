@@ -104,13 +104,8 @@ void ReplayRecordingModel::set_channels(const Channels& c, const std::string& fi
     // The viscous term acts on the speed's deviation from the recording's mean, so that
     // the idle offset (the load at the mean speed) stays determined when the speed never
     // changes, and the two are not correlated when it does.
-    double mean = 0;
-    for (double t : rec_.t_s) {
-      spindle_Nmm_.push_back(rec_.spindle_torque_Nmm.at(t));
-      krpm_.push_back(std::abs(rec_.spindle_rpm.at(t)) / 1000);
-      mean += krpm_.back() / double(rec_.t_s.size());
-    }
-    for (double& k : krpm_) k -= mean;
+    for (double t : rec_.t_s) spindle_Nmm_.push_back(rec_.spindle_torque_Nmm.at(t));
+    krpm_ = rec_.spindle_krpm_deviation();
   }
 }
 

@@ -68,6 +68,18 @@ std::vector<glm::dvec3> AlignedRecording::dcentre_dlag_ms(double lag) const {
   return d;
 }
 
+std::vector<double> AlignedRecording::spindle_krpm_deviation() const {
+  std::vector<double> k;
+  k.reserve(t_s.size());
+  double mean = 0;
+  for (double t : t_s) {
+    k.push_back(std::abs(spindle_rpm.at(t)) / 1000);
+    mean += k.back() / double(t_s.size());
+  }
+  for (double& v : k) v -= mean;
+  return k;
+}
+
 glm::dvec3 AlignedRecording::sensor_force_from_burr_force(const glm::dvec3& f_burr_vol) const {
   const glm::dvec3 f_rig = glm::transpose(rig_to_vol.R) * f_burr_vol;
   return sensor_sign * (glm::transpose(sensor_to_rig) * f_rig);

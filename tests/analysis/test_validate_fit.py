@@ -119,7 +119,21 @@ def test_the_dossier_draws_every_section_and_plot_and_prints_every_column(fitted
     quality = html[html.index('id="quality-table"'):html.index('id="calib"')]
     for rid in ("plunge", "sweep", "polish"):
         assert f"<td>{rid}</td>" in quality
-    assert 'id="dw-note"' in html and 'id="signoff-table"' in html
+    assert 'id="signoff-table"' in html
+    # The Durbin–Watson note says what metrics.json's whole-recording rows say.
+    rows = json.loads((tmp_path / "gate" / "metrics.json").read_text())["rows"]
+    flagged = [r for r in rows if r["segment"] == "all" and r["durbin_watson"] is not None
+               and abs(r["durbin_watson"] - 2) > 0.5]
+    note = html[html.index('id="dw-note"'):html.index('id="cv"')]
+    assert ("AUTOCORRELATED RESIDUALS" in note) == bool(flagged)
+    assert note.count("<li>") == min(len(flagged), 12) + (len(flagged) > 12)
+    # The class map marks exactly the columns the depth map shows removed, with labels of
+    # the sample's classes.
+    analysis = json.loads((tmp_path / "gate" / "analysis.json").read_text())
+    for smp in analysis["samples"]:
+        depth, cls = smp["removed_depth_mm"], smp["removed_class"]
+        assert [d > 0 for d in depth] == [c > 0 for c in cls]
+        assert {c for c in cls if c} <= {int(k) for k in smp["classes"]}
     check = str(SRC / "tests" / "analysis" / "browser_check.py")
     seen = json.loads(subprocess.run(["/usr/bin/python3", check, str(report), str(tmp_path / "chromium")],
                                      capture_output=True, text=True, timeout=300, check=True).stdout)

@@ -46,6 +46,19 @@ def test_demo_recovers_truth_and_writes_report(tmp_path):
     html = (out / "validate" / "report.html").read_text()
     assert "http://" not in html and "https://" not in html
 
+    # The report's data-quality table counts what the acquired files hold (stale rows per
+    # stream, events by kind), read here with h5py.
+    import h5py
+    analysis = json.loads((out / "validate" / "analysis.json").read_text())
+    for rec in analysis["recordings"]:
+        q = rec["quality"]
+        with h5py.File(out / "acquired" / f"{rec['id']}.h5") as f:
+            stale = {name: int(f[f"streams/{name}/stale"][()].sum()) for name in f["streams"]}
+            kinds = [k.decode() for k in f["events/kind"][()]]
+        assert q["stale_rows"] == stale, (rec["id"], q["stale_rows"], stale)
+        assert len(q["events"]) == len(kinds) and [e["kind"] for e in q["events"]] == kinds
+    assert any(e["kind"] == "gap" for r in analysis["recordings"] for e in r["quality"]["events"])
+
     # The Python notebook (examples/python/demo.ipynb) runs on the demo's outputs: it loads
     # the fit, plots measured against predicted force and replays with a changed μ.
     nb = subprocess.run(["/usr/bin/python3", "-m", "nbconvert", "--to", "notebook", "--execute", "--output",

@@ -81,18 +81,10 @@ def test_every_reader_gives_back_what_the_cpp_side_wrote(exp):
     assert criteria["context"]["model_influence"] == "high" and len(criteria["criterion"]) == 4
     metrics = burrbench.read_metrics(exp / "gate" / "metrics.json")
     assert metrics == json.loads((exp / "gate" / "metrics.json").read_text()) and metrics["pass"] is True
-    if _has_pandas():  # optional (python3-pandas)
-        df = pred["recordings"]["polish"].to_pandas()
-        assert np.array_equal(df["t_s"].to_numpy(), pred["recordings"]["polish"]["t_s"])
-        assert np.array_equal(df["force_sensor_pred_N_z"].to_numpy(), pred["recordings"]["polish"]["force_sensor_pred_N"][:, 2])
-
-
-def _has_pandas():
-    try:
-        import pandas  # noqa: F401
-        return True
-    except ImportError:
-        return False
+    # A table: python3-pandas is installed by scripts/install-deps (imported only here).
+    df = pred["recordings"]["polish"].to_pandas()
+    assert np.array_equal(df["t_s"].to_numpy(), pred["recordings"]["polish"]["t_s"])
+    assert np.array_equal(df["force_sensor_pred_N_z"].to_numpy(), pred["recordings"]["polish"]["force_sensor_pred_N"][:, 2])
 
 
 def test_an_input_error_raises_with_the_cli_message(exp, tmp_path):

@@ -120,6 +120,10 @@ struct AlignedRecording {
   // forward sensitivities (Series::slope of the stage path; ω's dependence on the lag
   // through the rpm is not included). ∂centre/∂depth_offset is −shaft_axis_vol.
   std::vector<glm::dvec3> dcentre_dlag_ms(double lag_s) const;
+  // |spindle speed| at each force sample minus its mean over the recording, in 1000 rpm:
+  // what the drive's viscous load term acts on (so the idle offset is the load at the
+  // mean speed) — the fit's nuisance and the report's offset use this one definition.
+  std::vector<double> spindle_krpm_deviation() const;
 
   // What the sensor should read for a force on the burr in the volume frame.
   glm::dvec3 sensor_force_from_burr_force(const glm::dvec3& force_on_burr_vol_N) const;
