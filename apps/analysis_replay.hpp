@@ -12,6 +12,7 @@
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
+#include "burrbench/model/experiment.hpp"
 
 namespace burrbench::apps {
 using analysis::AnalysisInput;
@@ -27,6 +28,9 @@ struct ReplayInputOptions {
   // The fit whose covariance gives the prediction band (validate --fit); without it, the
   // `fit` argument's (a calibrate directory), else no band.
   const data_schema::FitResult* band_fit = nullptr;
+  // Filled with the prediction the analysis input came from (the verbs write it as
+  // prediction.h5), when given.
+  model::ExperimentPrediction* prediction = nullptr;
 };
 
 AnalysisInput replay_experiment(const std::filesystem::path& manifest,

@@ -52,8 +52,8 @@ void run(const Args& a) {
   for (const auto& r : manifest.recordings) inputs.push_back(r.path);
   // Written whole at the end, or not at all (a failed or interrupted fit leaves nothing).
   data_schema::OutputFolder folder(a.out, "--out", a.overwrite);
-  folder.refuse_inputs({"fit.json", "params.toml", "analysis.json", "predictions.csv", "wrench.csv", "band.csv"},
-                       inputs);
+  folder.refuse_inputs(
+      {"fit.json", "params.toml", "analysis.json", "predictions.csv", "wrench.csv", "band.csv", "prediction.h5"}, inputs);
   TerminalProgress progress("calibrate");
   o.progress = &progress;
   auto res = calibration::calibrate(a.experiment, o);
@@ -70,7 +70,9 @@ void run(const Args& a) {
     // The analysis input at the optimum (fitted constants and nuisances, the prediction
     // band): `burrbench report DIR` renders it without replaying, so the report needs
     // neither the sample nor the recordings.
-    auto in = apps::replay_experiment(a.experiment, res.params, &res.fit, {true, "", nullptr, "params.toml"});
+    model::ExperimentPrediction prediction;
+    auto in = apps::replay_experiment(a.experiment, res.params, &res.fit,
+                                      {true, "", nullptr, "params.toml", nullptr, &prediction});
     for (const char* name : {"fit.json", "params.toml"}) {
       const std::string sha = sha256_file(folder.staging() / name);
       in.provenance.inputs.push_back({(folder.target() / name).string(), sha});
@@ -79,6 +81,7 @@ void run(const Args& a) {
         in.params_sha256 = sha;
       }
     }
+    model::write_prediction(folder.staging() / "prediction.h5", prediction, in.provenance);
     analysis::write_analysis_input(folder.staging(), in);
   }
   folder.commit();
@@ -86,7 +89,7 @@ void run(const Args& a) {
   progress.finish(fmt::format("{} iterations, {} replays, {:.1f} s", res.fit.solver.iterations,
                               res.fit.solver.replays, res.fit.solver.wall_s));
   std::cout << res.summary
-            << fmt::format("wrote {} and {} (and the analysis input for `burrbench report {}`)\n", fit.string(),
+            << fmt::format("wrote {} and {} (with prediction.h5 at the optimum and the analysis input for `burrbench report {}`)\n", fit.string(),
                            params.string(), folder.target().string());
 }
 

@@ -47,13 +47,15 @@ void run(const Args& a) {
     apps::refuse_existing(a.csv, "--csv", a.overwrite);
   }
   const Provenance prov = make_provenance(inputs);
-  model::ReplayOptions opt;
-  opt.step_s = a.step_us * 1e-6;
-  opt.erosion = !a.no_erosion;
+  model::PredictOptions opt;  // a plain replay: the manifest's lag, nothing added
+  opt.replay.step_s = a.step_us * 1e-6;
+  opt.replay.erosion = !a.no_erosion;
+  opt.exclude_buried = e.manifest.fit.buried == data_schema::BuriedPolicy::kExclude;
 
-  const auto preds = model::predict_experiment(e, mp, opt, [](const model::AlignedRecording& r) {
+  const auto prediction = model::predict_experiment(e, mp, opt, [](const model::AlignedRecording& r) {
     return std::make_unique<TerminalProgress>("replay " + r.id);
   });
+  const auto& preds = prediction.recordings;
   std::size_t samples = 0, buried = 0;
   std::array<double, model::kMaxClasses> removed{};
   for (std::size_t i = 0; i < preds.size(); ++i) {
@@ -66,7 +68,7 @@ void run(const Args& a) {
       removed[std::size_t(k)] += p.removed_mm3[std::size_t(k)];
     std::cout << fmt::format("  {}: {}\n", e.recordings[i].id, e.recordings[i].registration.text());
   }
-  model::write_prediction(a.out, preds, prov);
+  model::write_prediction(a.out, prediction, prov);
   if (!a.csv.empty()) model::write_prediction_csv(a.csv, preds);
   std::string rem;
   for (int k = 1; k < model::kMaxClasses; ++k) {

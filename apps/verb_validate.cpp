@@ -75,7 +75,7 @@ void run(const Args& a) {
     for (const auto& s : manifest.samples) inputs.push_back(s.path);
     for (const auto& r : manifest.recordings) inputs.push_back(r.path);
     std::vector<std::string> names{"analysis.json", "predictions.csv", "wrench.csv", "band.csv", "report.html",
-                                   "residuals.csv", "metrics.json"};
+                                   "residuals.csv", "metrics.json", "prediction.h5"};
     if (!criteria_there) {
       names.push_back("criteria.toml");
       inputs.push_back(a.criteria);
@@ -92,8 +92,9 @@ void run(const Args& a) {
   }
 
   TerminalProgress progress("validate");
+  model::ExperimentPrediction prediction;
   auto in = apps::replay_experiment(a.experiment, params, nullptr,
-                                        {!a.no_tare, a.context, &progress, a.params, fit ? &*fit : nullptr});
+                                    {!a.no_tare, a.context, &progress, a.params, fit ? &*fit : nullptr, &prediction});
   // A criterion that selects data this experiment lacks is bad input, named by its file.
   (void)analysis::evaluate_criteria(criteria, analysis::compute_metric_rows(in), a.criteria);
   if (!a.no_verification) {
@@ -115,6 +116,7 @@ void run(const Args& a) {
     in.calibration["fit"] = in.fit_path;
   }
   const fs::path dir = folder.staging();
+  model::write_prediction(dir / "prediction.h5", prediction, in.provenance);
   analysis::write_analysis_input(dir, in);
   data_schema::copy_file_atomic(a.criteria, dir / "criteria.toml");
   if (!params_there) data_schema::copy_file_atomic(a.params, dir / "params.toml");

@@ -35,14 +35,14 @@ namespace detail {
 
 nlohmann::json Metrics::json() const {
   nlohmann::json j;
-  j["rmse_N"] = std::isfinite(rmse_N) ? nlohmann::json(rmse_N) : nlohmann::json(nullptr);
-  j["r2"] = std::isfinite(r2) ? nlohmann::json(r2) : nlohmann::json(nullptr);
+  j["rmse_xyz_N"] = std::isfinite(rmse_xyz_N) ? nlohmann::json(rmse_xyz_N) : nlohmann::json(nullptr);
+  j["r2_xyz"] = std::isfinite(r2_xyz) ? nlohmann::json(r2_xyz) : nlohmann::json(nullptr);
   j["samples"] = samples;
   return j;
 }
 
 // RMSE (N, over the three axes) and R² (1 − SS_res/SS_tot, SS_tot about each axis's mean,
-// pooled over the axes) of the bias-corrected prediction over samples with weight > 0
+// summed over the axes: the `_xyz` metrics) of the bias-corrected prediction over samples with weight > 0
 // (buried ones excluded).
 Metrics metrics(const Objective& obj, const Evaluation& ev, const std::vector<double>& x,
                 const SampleWeights& w) {
@@ -69,8 +69,8 @@ Metrics metrics(const Objective& obj, const Evaluation& ev, const std::vector<do
   if (n < 2) return m;
   const glm::dvec3 var = sum2 - sum * sum / n;
   const double tot = var.x + var.y + var.z;
-  m.rmse_N = std::sqrt(ss / (3 * n));
-  m.r2 = tot > 0 ? 1 - ss / tot : NAN;
+  m.rmse_xyz_N = std::sqrt(ss / (3 * n));
+  m.r2_xyz = tot > 0 ? 1 - ss / tot : NAN;
   return m;
 }
 

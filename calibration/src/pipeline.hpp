@@ -20,8 +20,11 @@ namespace burrbench::calibration::detail {
 
 namespace ds = data_schema;
 
+// The fit's summary over the three force axes together (docs/report.md "Metrics": the
+// `_xyz` names): RMSE over every axis of every sample and R² = 1 − ΣSSE/ΣSST with each
+// axis's SST about its own mean. The report's per-axis rows reproduce both.
 struct Metrics {
-  double rmse_N = NAN, r2 = NAN;
+  double rmse_xyz_N = NAN, r2_xyz = NAN;
   std::uint64_t samples = 0;
   nlohmann::json json() const;
 };

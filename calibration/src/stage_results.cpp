@@ -280,19 +280,19 @@ CalibrationOutput results(Run& run) {
     if (!n.fixed)
       s += fmt::format("  {:<12} {:<12} = {:.4g} ± {:.2g} {}\n", n.recording_id, n.name, n.estimate,
                        n.std_error, n.unit);
-  s += fmt::format("fit: RMSE {:.4g} N, R² {:.4f}, rms(residual/σ) {:.3f}\n", run.calibration_metrics.rmse_N,
-                   run.calibration_metrics.r2, out.residuals_summary.rms_normalised);
+  s += fmt::format("fit (x, y, z together): RMSE {:.4g} N, R² {:.4f}, rms(residual/σ) {:.3f}\n",
+                   run.calibration_metrics.rmse_xyz_N, run.calibration_metrics.r2_xyz, out.residuals_summary.rms_normalised);
   s += fmt::format("noise model: residual lag-1 autocorrelation {:.3f}; intervals {}\n", run.ev.residual_lag1,
                    !run.opt.noise_inflation ? "assume white residuals (--white-noise)"
                    : run.inflation > 1.0001 ? fmt::format("widened x{:.4g} for it (AR(1) factor {:.4g} on the variance)",
                                                           std::sqrt(run.inflation), run.inflation)
                                             : "not widened (residuals uncorrelated)");
   if (run.validation_metrics.samples > 0)
-    s += fmt::format("validation spans: RMSE {:.4g} N, R² {:.4f} over {} samples\n",
-                     run.validation_metrics.rmse_N, run.validation_metrics.r2, run.validation_metrics.samples);
+    s += fmt::format("validation spans (x, y, z together): RMSE {:.4g} N, R² {:.4f} over {} samples\n",
+                     run.validation_metrics.rmse_xyz_N, run.validation_metrics.r2_xyz, run.validation_metrics.samples);
   for (const auto& cv : out.cross_validation)
-    s += fmt::format("  without {}: held-out RMSE {} N, R² {}\n", cv.held_out,
-                     cv.metrics["held_out"]["rmse_N"].dump(), cv.metrics["held_out"]["r2"].dump());
+    s += fmt::format("  without {}: held-out RMSE {} N, R² {} (x, y, z together)\n", cv.held_out,
+                     cv.metrics["held_out"]["rmse_xyz_N"].dump(), cv.metrics["held_out"]["r2_xyz"].dump());
   for (const auto& w : run.warnings) s += "warning: " + w + "\n";
   res.summary = s;
   res.fit = std::move(out);

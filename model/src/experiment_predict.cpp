@@ -2,6 +2,9 @@
 // data_schema (format "burrbench.prediction", docs/formats.md) and an optional CSV.
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <fstream>
 #include <map>
 
@@ -11,24 +14,155 @@
 
 namespace burrbench::model {
 
-std::vector<RecordingPrediction> predict_experiment(
-    const Experiment& e, const ModelParams& params, const ReplayOptions& options,
-    const std::function<std::unique_ptr<Progress>(const AlignedRecording&)>& progress_for) {
-  std::map<std::string, Volume> volumes;
-  std::vector<RecordingPrediction> out;
-  for (const auto& r : e.recordings) {
-    auto it = volumes.find(r.sample_id);
-    if (it == volumes.end()) it = volumes.emplace(r.sample_id, Volume::from_sample(e.samples.at(r.sample_id))).first;
-    const auto progress = progress_for ? progress_for(r) : nullptr;
-    out.push_back(predict(r, it->second, params, options, progress.get()));
+namespace {
+
+constexpr std::size_t kMinTareSamples = 10;
+
+// The removed bone of one sample, from its scanned state and the largest removal any
+// recording made per voxel, projected along z.
+data_schema::RemovedBone removed_bone(const std::string& id, const data_schema::SampleVolume& s,
+                                      const std::vector<float>& removed) {
+  data_schema::RemovedBone out;
+  out.sample_id = id;
+  out.voxel_mm = s.voxel_mm;
+  out.nx = s.dims[0];
+  out.ny = s.dims[1];
+  out.removed_depth_mm.assign(out.nx * out.ny, 0.0f);
+  std::vector<std::array<float, kMaxClasses>> per_class(out.nx * out.ny);
+  for (auto& c : per_class) c.fill(0.0f);
+  double total = 0;
+  for (std::size_t z = 0; z < s.dims[2]; ++z)
+    for (std::size_t y = 0; y < out.ny; ++y)
+      for (std::size_t x = 0; x < out.nx; ++x) {
+        const std::size_t i = s.index(x, y, z), col = x + out.nx * y;
+        const float v = removed[i];
+        out.removed_depth_mm[col] += float(v * s.voxel_mm);
+        total += v;
+        if (s.labels[i] < kMaxClasses) per_class[col][s.labels[i]] += v;
+      }
+  out.removed_volume_mm3 = total * std::pow(s.voxel_mm, 3);
+  // The class of most removed bone per column (its share of each label summed along z).
+  out.removed_class.assign(out.nx * out.ny, 0);
+  for (std::size_t c = 0; c < per_class.size(); ++c) {
+    float best = 0;
+    for (int k = 1; k < kMaxClasses; ++k)
+      if (per_class[c][std::size_t(k)] > best) {
+        best = per_class[c][std::size_t(k)];
+        out.removed_class[c] = std::uint8_t(k);
+      }
   }
   return out;
 }
 
+// The sensor's moment and the spindle's load beside the force (MODEL.md "Moments"), with
+// the fitted moment bias and spindle idle/viscous terms, or the tare, added.
+void add_wrench_offsets(const AlignedRecording& r, const ReplayResult& res, const Trajectory& tr,
+                        const FittedNuisances& fit, bool tare, RecordingPrediction& p) {
+  const std::size_t n = res.samples.size();
+  auto no_contact = [&](std::size_t k) { return res.samples[k].contact.class_mask == 0; };
+  if (r.torque_sensor_Nmm.size() == n) {
+    glm::dvec3 free_sum(0);
+    std::size_t free_n = 0;
+    for (std::size_t k = 0; k < n; ++k)
+      if (no_contact(k)) {
+        free_sum += r.torque_sensor_Nmm[k] - p.torque_sensor_pred_Nmm[k];
+        ++free_n;
+      }
+    if (fit.torque_bias_Nmm) {
+      p.torque_bias_Nmm = *fit.torque_bias_Nmm;
+      p.torque_bias_source = "fit";
+    } else if (tare && free_n >= kMinTareSamples) {
+      p.torque_bias_Nmm = free_sum / double(free_n);
+      p.torque_bias_source = "tare";
+    }
+    for (auto& t : p.torque_sensor_pred_Nmm) t += p.torque_bias_Nmm;
+  }
+  if (p.spindle_torque_meas_Nmm.empty()) return;
+  // The drive's viscous term acts on the speed's deviation from the recording's mean
+  // (AlignedRecording::spindle_krpm_deviation, as in the fit). The tare: the load without
+  // contact while spinning, fitted as idle + slope·Δkrpm by least squares (a mean when the
+  // speed never changes), so samples with the spindle stopped do not bias it.
+  const std::vector<double> krpm = r.spindle_krpm_deviation();
+  double s1 = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t k = 0; k < n; ++k)
+    if (no_contact(k) && glm::length(tr.omega_vol_rad_s[k]) > 0) {
+      const double y = p.spindle_torque_meas_Nmm[k];
+      s1 += 1;
+      sx += krpm[k];
+      sy += y;
+      sxx += krpm[k] * krpm[k];
+      sxy += krpm[k] * y;
+    }
+  double idle = 0, slope = 0;
+  if (fit.spindle_idle_Nmm) {
+    idle = *fit.spindle_idle_Nmm;
+    slope = fit.spindle_viscous_Nmm_per_krpm;
+    p.spindle_offset_source = "fit";
+  } else if (tare && s1 >= double(kMinTareSamples)) {
+    const double det = s1 * sxx - sx * sx;
+    if (det / (s1 * s1) > 1e-6) {  // the speed varies by more than ~1 rpm
+      slope = (s1 * sxy - sx * sy) / det;
+      idle = (sy - slope * sx) / s1;
+    } else {
+      idle = sy / s1;
+    }
+    p.spindle_offset_source = "tare";
+  } else {
+    return;
+  }
+  p.spindle_offset_Nmm.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    p.spindle_offset_Nmm[k] = idle + slope * krpm[k];
+    p.spindle_torque_pred_Nmm[k] += p.spindle_offset_Nmm[k];
+  }
+}
+
+}  // namespace
+
+ExperimentPrediction predict_experiment(
+    const Experiment& e, const ModelParams& params, const PredictOptions& options,
+    const std::function<std::unique_ptr<Progress>(const AlignedRecording&)>& progress_for) {
+  std::map<std::string, Volume> volumes;  // as scanned
+  std::map<std::string, std::vector<float>> removed;
+  ExperimentPrediction out;
+  if (options.removed_bone)
+    for (const auto& [id, s] : e.samples) removed[id].assign(s.voxel_count(), 0.0f);
+  for (const auto& r : e.recordings) {
+    auto it = volumes.find(r.sample_id);
+    if (it == volumes.end()) it = volumes.emplace(r.sample_id, Volume::from_sample(e.samples.at(r.sample_id))).first;
+    const auto own_progress = progress_for ? progress_for(r) : nullptr;
+    Progress* const progress = own_progress ? own_progress.get() : options.progress;
+    if (options.removed_bone) {
+      Volume vol = it->second;  // left eroded: its difference to the scan is the removed bone
+      out.recordings.push_back(predict(r, vol, params, options, progress, false));
+      auto& rem = removed[r.sample_id];
+      for (std::size_t i = 0; i < rem.size(); ++i) rem[i] = std::max(rem[i], float(it->second.chi(i) - vol.chi(i)));
+    } else {
+      out.recordings.push_back(predict(r, it->second, params, options, progress, true));
+    }
+    if (const auto* ref = e.manifest.recording(r.id)) out.recordings.back().role = data_schema::to_string(ref->role);
+  }
+  if (options.removed_bone)
+    for (const auto& sref : e.manifest.samples)
+      if (removed.count(sref.id))
+        out.removed.push_back(removed_bone(sref.id, e.samples.at(sref.id), removed.at(sref.id)));
+  return out;
+}
+
 RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const ModelParams& params,
-                            const ReplayOptions& options, Progress* progress) {
-  const Trajectory tr = r.trajectory();
-  const ReplayResult res = replay(volume, r.radius_mm, params, tr, options, true, progress);
+                            const PredictOptions& options, Progress* progress, bool restore) {
+  const FittedNuisances fit = options.fit ? fitted_nuisances(*options.fit, r.id) : FittedNuisances{};
+  const double lag_ms = fit.lag_ms.value_or(r.lag_s * 1000.0);
+  const double depth_mm = fit.depth_offset_mm.value_or(0.0);
+  const Trajectory tr = r.trajectory(lag_ms / 1000.0, depth_mm, fit.pose ? &*fit.pose : nullptr);
+  ReplayOptions ro = options.replay;
+  Sensitivities sens;
+  const bool band = options.band && !options.band->directions.empty();
+  if (band) {
+    ro.directions = &options.band->directions;
+    ro.sensitivities = &sens;
+  }
+  const ReplayResult res = replay(volume, r.radius_mm, params, tr, ro, restore, progress);
   RecordingPrediction p;
   p.recording_id = r.id;
   p.registration_method = r.registration.method;
@@ -42,21 +176,29 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
   p.force_sensor_meas_N = r.force_sensor_N;
   p.use = r.use;
   p.removed_mm3 = res.removed_mm3;
+  p.friction_energy_mJ = res.friction_energy_mJ;
   p.steps = static_cast<std::int64_t>(res.steps);
   p.wall_s = res.wall_s;
+  p.lag_ms = lag_ms;
+  p.depth_offset_mm = depth_mm;
   const std::size_t n = res.samples.size();
+  BURRBENCH_CHECK(n == r.t_s.size(), "replay returned a different sample count");
   p.force_burr_vol_N.resize(n);
   p.force_sensor_pred_N.resize(n);
   p.normal_vol.resize(n);
   p.depth_b_mm.resize(n);
   p.class_mask.resize(n);
   p.buried.resize(n);
+  p.used_calibrate.resize(n);
+  p.used_validate.resize(n);
   p.moment_burr_vol_Nmm.resize(n);
   p.torque_sensor_pred_Nmm.resize(n);
   p.spindle_torque_pred_Nmm.resize(n);
   p.torque_sensor_meas_Nmm = r.torque_sensor_Nmm;
   if (!r.spindle_torque_Nmm.t_s.empty())
     for (double t : tr.t_s) p.spindle_torque_meas_Nmm.push_back(r.spindle_torque_Nmm.at(t));
+  glm::dvec3 free_sum(0);
+  std::size_t free_n = 0;
   for (std::size_t k = 0; k < n; ++k) {
     const ContactResult& c = res.samples[k].contact;
     p.force_burr_vol_N[k] = c.force_N;
@@ -65,10 +207,42 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
     p.depth_b_mm[k] = c.depth_b_mm;
     p.class_mask[k] = c.class_mask;
     p.buried[k] = c.buried ? 1 : 0;
+    const bool counts = !(options.exclude_buried && c.buried);
+    p.used_calibrate[k] = r.use_calibrate[k] && counts;
+    p.used_validate[k] = r.use_validate[k] && counts;
     p.moment_burr_vol_Nmm[k] = c.moment_Nmm;
     p.torque_sensor_pred_Nmm[k] = r.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[k]);
     p.spindle_torque_pred_Nmm[k] = spindle_torque_Nmm(c.moment_Nmm, tr.omega_vol_rad_s[k]);
+    if (c.class_mask == 0) {
+      free_sum += r.force_sensor_N[k];
+      ++free_n;
+    }
   }
+  // The sensor's bias is a nuisance, not a model constant: it is added to the prediction.
+  if (fit.force_bias_N) {
+    p.force_bias_N = *fit.force_bias_N;
+    p.force_bias_source = "fit";
+  } else if (options.tare && free_n >= kMinTareSamples) {
+    p.force_bias_N = free_sum / double(free_n);
+    p.force_bias_source = "tare";
+  }
+  for (auto& f : p.force_sensor_pred_N) f += p.force_bias_N;
+  if (band) {
+    // 95 % band of the prediction from the constants' uncertainty alone (delta method):
+    // per axis 1.96·√(gᵀ C g), g = ∂F_sensor/∂ln θ.
+    const auto& C = options.band->cov_ln;
+    const std::size_t m = options.band->directions.size();
+    p.band95_N.resize(n);
+    std::vector<glm::dvec3> g(m);
+    for (std::size_t k = 0; k < n; ++k) {
+      for (std::size_t a = 0; a < m; ++a) g[a] = r.sensor_force_from_burr_force(sens.dforce_N[a][k]);
+      glm::dvec3 var(0);
+      for (std::size_t a = 0; a < m; ++a)
+        for (std::size_t b = 0; b < m; ++b) var += g[a] * g[b] * C[a * m + b];
+      p.band95_N[k] = 1.959963984540054 * glm::sqrt(glm::max(var, glm::dvec3(0)));
+    }
+  }
+  add_wrench_offsets(r, res, tr, fit, options.tare, p);
   return p;
 }
 
@@ -76,10 +250,11 @@ static_assert(std::size_t(kMaxClasses) == data_schema::kPredictionClasses,
               "the prediction file records removed volume for every model class label");
 
 void write_prediction(const std::filesystem::path& path,
-                      const std::vector<RecordingPrediction>& preds, const Provenance& prov) {
+                      const ExperimentPrediction& preds, const Provenance& prov) {
   data_schema::Prediction file;
   file.provenance = prov;
-  file.recordings.assign(preds.begin(), preds.end());  // the records without wall_s
+  file.recordings.assign(preds.recordings.begin(), preds.recordings.end());  // the records without wall_s
+  file.removed = preds.removed;
   data_schema::write_prediction(path, file);
 }
 

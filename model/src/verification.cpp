@@ -138,7 +138,9 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
       ReplayOptions ro;
       ro.step_s = dt * lv.step;
       const auto t0 = std::chrono::steady_clock::now();
-      const RecordingPrediction p = predict(r, vol, params, ro);
+      PredictOptions po;
+      po.replay = ro;
+      const RecordingPrediction p = predict(r, vol, params, po);
       LevelReplay L;
       L.level = lv.name;
       L.voxel_mm = s.voxel_mm;

@@ -46,8 +46,16 @@ py::dict prediction_dict(const model::RecordingPrediction& p) {
   d["spindle_torque_pred_Nmm"] = array(p.spindle_torque_pred_Nmm);
   d["spindle_torque_meas_Nmm"] = array(p.spindle_torque_meas_Nmm);
   d["removed_mm3"] = array(std::vector<double>(p.removed_mm3.begin(), p.removed_mm3.end()));
+  d["friction_energy_mJ"] = array(std::vector<double>(p.friction_energy_mJ.begin(), p.friction_energy_mJ.end()));
   d["steps"] = p.steps;
   d["registration_method"] = p.registration_method;
+  d["role"] = p.role;
+  d["used_calibrate"] = array(p.used_calibrate);
+  d["used_validate"] = array(p.used_validate);
+  d["lag_ms"] = p.lag_ms;
+  d["depth_offset_mm"] = p.depth_offset_mm;
+  d["force_bias_N"] = vec3_array(std::vector<glm::dvec3>{p.force_bias_N});
+  d["force_bias_source"] = p.force_bias_source;
   return d;
 }
 
@@ -169,10 +177,11 @@ void bind_model(py::module_& m) {
           const model::Experiment e = model::load_experiment(experiment);
           const model::ModelParams mp = model::ModelParams::from(ps);
           model::check_covers(ps, e.samples, params_name);
-          model::ReplayOptions opt;
-          opt.step_s = step_us * 1e-6;
-          opt.erosion = erosion;
-          preds = model::predict_experiment(e, mp, opt);
+          model::PredictOptions opt;  // as `burrbench replay`: the manifest's lag, nothing added
+          opt.replay.step_s = step_us * 1e-6;
+          opt.replay.erosion = erosion;
+          opt.exclude_buried = e.manifest.fit.buried == data_schema::BuriedPolicy::kExclude;
+          preds = model::predict_experiment(e, mp, opt).recordings;
         }
         py::dict out;
         for (const auto& p : preds) out[py::str(p.recording_id)] = prediction_dict(p);

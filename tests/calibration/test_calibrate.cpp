@@ -21,6 +21,7 @@ namespace fs = std::filesystem;
 namespace ds = burrbench::data_schema;
 using burrbench::calibration::testing::make_reference_experiment;
 using burrbench::calibration::testing::pooled_calibrate_rmse_N;
+using burrbench::calibration::testing::pooled_calibrate_r2_xyz;
 using burrbench::calibration::testing::ReferenceSpec;
 
 namespace {
@@ -107,19 +108,21 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   EXPECT_GT(fit.residuals_summary.samples_used, 1000u);
   EXPECT_NEAR(fit.residuals_summary.sigma_N, s.noise_N, 0.2 * s.noise_N);  // estimated σ
   EXPECT_FALSE(fit.cross_validation.empty());
-  for (const auto& cv : fit.cross_validation) EXPECT_TRUE(cv.metrics["held_out"]["rmse_N"].is_number());
+  for (const auto& cv : fit.cross_validation) EXPECT_TRUE(cv.metrics["held_out"]["rmse_xyz_N"].is_number());
   // params.toml: the estimates, readable by a simulator release.
   const auto ps = ds::read_params(dir / "out" / "params.toml");
   EXPECT_DOUBLE_EQ(ps.classes.at(1).c1_N_per_mm2, param(fit, 1, "c1").estimate);
   EXPECT_DOUBLE_EQ(ps.classes.at(2).mu, param(fit, 2, "mu").estimate);
-  // `report` of the calibrate directory replays what the fit held: its pooled RMSE (the
-  // three axes' rows of "calibrate / all") reproduces fit.json's to 1e-6 relative.
+  // `report` of the calibrate directory shows what the fit held: its per-axis rows of
+  // "calibrate / all" reproduce fit.json's RMSE and R² over x, y, z to 1e-6 relative.
   const fs::path rep = dir / "rep" / "report.html";
   fs::create_directories(rep.parent_path());
   const std::string cmd = fmt::format("'{}' report '{}' --out '{}' > /dev/null 2>&1", cli(),
                                       (dir / "out").string(), rep.string());
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  EXPECT_NEAR(pooled_calibrate_rmse_N(rep.parent_path() / "metrics.json") / fit.metrics["calibration"]["rmse_N"].get<double>(),
+  EXPECT_NEAR(pooled_calibrate_rmse_N(rep.parent_path() / "metrics.json") / fit.metrics["calibration"]["rmse_xyz_N"].get<double>(),
+              1.0, 1e-6);
+  EXPECT_NEAR((1 - pooled_calibrate_r2_xyz(rep.parent_path() / "metrics.json")) / (1 - fit.metrics["calibration"]["r2_xyz"].get<double>()),
               1.0, 1e-6);
   // The report draws the waterfall and every profile in a real browser (headless Chromium).
   const std::string src = BURRBENCH_SOURCE_DIR;

@@ -87,7 +87,7 @@ void run_case(const std::string& name, const LayeredSpec& s) {
   // The polish validates with the recording's own fitted lag and bias.
   ASSERT_TRUE(fit.metrics.contains("validation")) << fit.metrics.dump();
   EXPECT_GT(fit.metrics["validation"]["samples"].get<int>(), 1000);
-  EXPECT_LT(fit.metrics["validation"]["rmse_N"].get<double>(), 2.5 * s.noise_N);
+  EXPECT_LT(fit.metrics["validation"]["rmse_xyz_N"].get<double>(), 2.5 * s.noise_N);
   EXPECT_EQ(fit.multistart.size(), fit.solver.multistart) << "every end point is kept";
   // params.toml holds what the fit held, flagged where not identifiable; never a start value.
   const auto ps = ds::read_params(dir / "out" / "params.toml");

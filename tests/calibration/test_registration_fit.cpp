@@ -141,7 +141,7 @@ TEST(RegistrationFit, FiducialErrorIsFittedAndPropagated) {
   // and it shows the registration of each recording and no longer calls it exact.
   ASSERT_EQ(run(fmt::format("report '{}' --out '{}'", (dir / "out").string(), (dir / "rep" / "report.html").string()),
                 log, dir / "rep.log"), 0) << log;
-  EXPECT_NEAR(bt::pooled_calibrate_rmse_N(dir / "rep" / "metrics.json") / fit.metrics["calibration"]["rmse_N"].get<double>(), 1.0,
+  EXPECT_NEAR(bt::pooled_calibrate_rmse_N(dir / "rep" / "metrics.json") / fit.metrics["calibration"]["rmse_xyz_N"].get<double>(), 1.0,
               1e-6);
   std::ifstream hf(dir / "rep" / "report.html");
   const std::string html((std::istreambuf_iterator<char>(hf)), std::istreambuf_iterator<char>());

@@ -53,6 +53,31 @@ bb::Prediction make_prediction(const std::filesystem::path& input) {
   fid.tre_path_rms_mm = 0.0031;
   fid.tre_path_max_mm = 0.0042;
   p.recordings[1].registration_method = "vol_from_rig";
+  // 2.3: what a fit's prediction applied, its band and role flags, and the removed bone.
+  fid.role = "calibrate";
+  fid.used_calibrate = fid.use;
+  fid.used_validate.assign(fid.samples(), 0);
+  fid.used_validate[39] = 1;
+  fid.force_bias_N = {0.1, -0.2, 1.0 / 3.0};
+  fid.force_bias_source = "fit";
+  fid.torque_bias_Nmm = {1e-3, 0, -7.5};
+  fid.torque_bias_source = "tare";
+  fid.spindle_offset_Nmm.assign(fid.samples(), 2.0 / 3.0);
+  fid.spindle_torque_pred_Nmm.assign(fid.samples(), 1.5);
+  fid.spindle_offset_source = "fit";
+  fid.lag_ms = 4.0 + 1.0 / 7.0;
+  fid.depth_offset_mm = -0.012;
+  for (std::size_t k = 0; k < fid.samples(); ++k) fid.band95_N.push_back({0.01 * double(k), 0.02, 1e-9});
+  fid.friction_energy_mJ = {0, 12.5, 1.0 / 3.0, 0, 0, 0, 0, 0};
+  bb::RemovedBone rb;
+  rb.sample_id = "femur-ß";
+  rb.voxel_mm = 0.05;
+  rb.nx = 3;
+  rb.ny = 2;
+  rb.removed_depth_mm = {0, 0.05f, 0.1f, 0, 1.0f / 3.0f, 0};
+  rb.removed_class = {0, 1, 1, 0, 2, 0};
+  rb.removed_volume_mm3 = 0.0012;
+  p.removed = {rb};
   p.provenance =
       input.empty() ? burrbench::make_provenance({}) : burrbench::make_provenance({input});
   p.provenance.command_line = "burrbench replay --out 'p.h5'";
@@ -195,6 +220,37 @@ TEST(FormatsPrediction, RoundTripIsExact) {
                    &bb::PredictedRecording::tre_path_rms_mm, &bb::PredictedRecording::tre_path_max_mm})
       EXPECT_TRUE(rb.*m == ra.*m || (std::isnan(rb.*m) && std::isnan(ra.*m))) << rb.*m;
   }
+  {  // 2.3
+    const auto &ra = a.recordings[0], &rb = b.recordings[0];
+    EXPECT_EQ(rb.role, "calibrate");
+    EXPECT_EQ(rb.used_calibrate, ra.used_calibrate);
+    EXPECT_EQ(rb.used_validate, ra.used_validate);
+    EXPECT_EQ(rb.force_bias_N, ra.force_bias_N);
+    EXPECT_EQ(rb.torque_bias_Nmm, ra.torque_bias_Nmm);
+    EXPECT_EQ(rb.force_bias_source, "fit");
+    EXPECT_EQ(rb.torque_bias_source, "tare");
+    EXPECT_EQ(rb.spindle_offset_source, "fit");
+    EXPECT_TRUE(same_bits(rb.spindle_offset_Nmm, ra.spindle_offset_Nmm));
+    EXPECT_TRUE(same_bits(rb.band95_N, ra.band95_N));
+    EXPECT_EQ(rb.lag_ms, ra.lag_ms);
+    EXPECT_EQ(rb.depth_offset_mm, ra.depth_offset_mm);
+    EXPECT_EQ(std::memcmp(rb.friction_energy_mJ.data(), ra.friction_energy_mJ.data(), sizeof(ra.friction_energy_mJ)), 0);
+    // Older or plain recordings: no role, nothing applied, the lag not recorded.
+    EXPECT_EQ(b.recordings[1].role, "");
+    EXPECT_EQ(b.recordings[1].force_bias_source, "none");
+    EXPECT_TRUE(b.recordings[1].used_calibrate.empty());
+    EXPECT_TRUE(b.recordings[1].band95_N.empty());
+    EXPECT_TRUE(std::isnan(b.recordings[1].lag_ms));
+    ASSERT_EQ(b.removed.size(), 1u);
+    const auto &sa = a.removed[0], &sb = b.removed[0];
+    EXPECT_EQ(sb.sample_id, sa.sample_id);
+    EXPECT_EQ(sb.nx, 3u);
+    EXPECT_EQ(sb.ny, 2u);
+    EXPECT_EQ(sb.voxel_mm, sa.voxel_mm);
+    EXPECT_EQ(sb.removed_depth_mm, sa.removed_depth_mm);
+    EXPECT_EQ(sb.removed_class, sa.removed_class);
+    EXPECT_EQ(sb.removed_volume_mm3, sa.removed_volume_mm3);
+  }
   EXPECT_EQ(b.recordings[0].registration_rms_mm, 0.0057);
   EXPECT_TRUE(std::isnan(b.recordings[1].tre_path_rms_mm));  // not stored for a given transform
   EXPECT_EQ(b.recordings[0].samples(), 40u);
@@ -220,8 +276,10 @@ TEST(FormatsPrediction, FileUsesFixedLengthStringsAndTheChecksummedFormat) {
   StringScan scan;
   ASSERT_GE(H5Ovisit2(f.id, H5_INDEX_NAME, H5_ITER_INC, scan_object, &scan, H5O_INFO_BASIC), 0);
   // format, format_version, 3 provenance attributes, 2 provenance string datasets and a
-  // unit on each of the 10 datasets of the 3 recordings, and 2 registration methods.
-  EXPECT_EQ(scan.strings.size(), 2u + 3u + 2u + 3u * 10u + 2u);
+  // unit on each of the 10 datasets of the 3 recordings, 2 registration methods; 2.3: 3
+  // offset sources per recording, one role, a unit on the first recording's 5 optional
+  // datasets (spindle prediction and offset, band, 2 role flags) and on the 2 maps.
+  EXPECT_EQ(scan.strings.size(), 2u + 3u + 2u + 3u * 10u + 2u + 3u * 3u + 1u + 5u + 2u);
   for (const auto& [name, variable] : scan.strings)
     EXPECT_FALSE(variable) << name << " is a variable-length string";
 }
@@ -250,6 +308,20 @@ TEST(FormatsPrediction, ValidatorNamesFieldAndWritesNothing) {
   check([](bb::Prediction& p) { p.recordings[2].recording_id = "sweep"; },
         {"/recordings/sweep", "unique"});
   check([](bb::Prediction& p) { p.recordings[2].recording_id = "a/b"; }, {"without '/'"});
+  // 2.3
+  check([](bb::Prediction& p) { p.recordings[0].role = "train"; }, {"/recordings/sweep/@role", "calibrate or validate"});
+  check([](bb::Prediction& p) { p.recordings[0].force_bias_source = "guess"; },
+        {"/recordings/sweep/@force_bias_source", "fit, tare or none"});
+  check([](bb::Prediction& p) { p.recordings[0].used_validate[3] = 2; }, {"/recordings/sweep/used_validate[3]", "0 or 1"});
+  check([](bb::Prediction& p) { p.recordings[0].used_calibrate.pop_back(); },
+        {"/recordings/sweep/used_calibrate", "40 values"});
+  check([](bb::Prediction& p) { p.recordings[0].band95_N[5].z = NAN; }, {"/recordings/sweep/band95_N[5][2]", "finite"});
+  check([](bb::Prediction& p) { p.recordings[0].torque_bias_Nmm.x = INFINITY; }, {"/recordings/sweep/@torque_bias_Nmm"});
+  check([](bb::Prediction& p) { p.removed[0].removed_depth_mm[4] = -1; },
+        {"/samples/femur-ß/removed_depth_mm[4]", ">= 0"});
+  check([](bb::Prediction& p) { p.removed[0].removed_class.pop_back(); }, {"/samples/femur-ß", "2×3"});
+  check([](bb::Prediction& p) { p.removed[0].removed_class[0] = 9; }, {"/samples/femur-ß/removed_class[0]", "0..7"});
+  check([](bb::Prediction& p) { p.removed[0].voxel_mm = 0; }, {"/samples/femur-ß/@voxel_mm"});
 }
 
 TEST(FormatsPrediction, WrongFormatNameIsRejected) {

@@ -26,6 +26,7 @@
 #include "burrbench/data_schema/prediction.hpp"
 #include "burrbench/data_schema/recording.hpp"
 #include "burrbench/data_schema/sample_volume.hpp"
+#include "burrbench/model/fitted_nuisances.hpp"
 #include "burrbench/model/registration.hpp"
 #include "burrbench/model/replay.hpp"
 
@@ -163,21 +164,53 @@ struct RecordingPrediction : data_schema::PredictedRecording {
 // ω = 0). Positive when the cutting brakes the spin.
 double spindle_torque_Nmm(const glm::dvec3& moment_on_burr_vol_Nmm, const glm::dvec3& omega_vol_rad_s);
 
-// Replays one aligned recording from the given (start-state) volume, which is restored.
+// How a replay becomes a prediction (issue 14: the one path from model to report, used
+// by `replay`, `validate`, `calibrate` at its optimum, `report` of an older calibrate
+// directory and the Python module).
+struct PredictOptions {
+  ReplayOptions replay;  // step and erosion (directions and sensitivities are set here)
+  // The fit whose nuisances are applied per recording: lag, depth offset and pose build the
+  // trajectory, bias and spindle terms are added to the predicted channels. Null: the
+  // manifest's lag, no offset, no correction.
+  const data_schema::FitResult* fit = nullptr;
+  // For a channel without a fitted offset: add the tare, the measured mean over samples
+  // with no predicted contact (≥ 10 of them; the spindle's as idle + slope·Δkrpm over the
+  // spinning ones). Off: nothing is added (a plain replay).
+  bool tare = false;
+  // Covariance of the constants in ln θ: gives band95_N (null or empty: no band).
+  const BandCovariance* band = nullptr;
+  // The manifest's buried policy: excluded buried samples do not count as used.
+  bool exclude_buried = false;
+  // Fill the removed-bone maps (each recording then replays a copy of the scanned volume
+  // and the maps take, per voxel, the largest removal by any recording).
+  bool removed_bone = false;
+  // Progress of every recording's replay, when predict_experiment has no `progress_for`.
+  Progress* progress = nullptr;
+};
+
+// Replays one aligned recording from the given (start-state) volume and applies the
+// options' nuisances, offsets and band. The volume is restored when `restore`, else left
+// eroded.
 RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const ModelParams& params,
-                            const ReplayOptions& options = {}, Progress* progress = nullptr);
+                            const PredictOptions& options = {}, Progress* progress = nullptr,
+                            bool restore = true);
+
+// The prediction of a whole experiment: per recording (manifest order) and, with
+// PredictOptions::removed_bone, per sample the removed bone.
+struct ExperimentPrediction {
+  std::vector<RecordingPrediction> recordings;
+  std::vector<data_schema::RemovedBone> removed;  // manifest's sample order
+};
 
 // Every recording of the experiment, each replayed from its sample as scanned (recordings
-// of one sample are taken to drill separate spots; the undo log restores the volume in
-// between), in manifest order: what `burrbench replay` writes and the Python module's
-// replay() returns. `progress_for` gives each recording's progress reporter (may be
-// empty or return null).
-std::vector<RecordingPrediction> predict_experiment(
-    const Experiment& e, const ModelParams& params, const ReplayOptions& options = {},
+// of one sample are taken to drill separate spots), with the manifest's role on each.
+// `progress_for` gives each recording's progress reporter (may be empty or return null).
+ExperimentPrediction predict_experiment(
+    const Experiment& e, const ModelParams& params, const PredictOptions& options = {},
     const std::function<std::unique_ptr<Progress>(const AlignedRecording&)>& progress_for = {});
 
 // Writes the data_schema prediction file (format "burrbench.prediction").
-void write_prediction(const std::filesystem::path& path, const std::vector<RecordingPrediction>& p,
+void write_prediction(const std::filesystem::path& path, const ExperimentPrediction& p,
                       const Provenance& provenance);
 void write_prediction_csv(const std::filesystem::path& path,
                           const std::vector<RecordingPrediction>& p);

@@ -1,0 +1,102 @@
+"""One path from model to prediction (issue 14): `replay`, `validate` and `calibrate` (at
+its optimum) all replay through model::predict_experiment and write the same
+prediction.h5 format; what each applied (fitted bias and lag, or the tare) is recorded in
+the file, and the CSVs and analysis input beside it are exports of that one prediction."""
+import csv
+import json
+import subprocess
+
+import h5py
+import numpy as np
+import pytest
+
+from synthetic import BURRBENCH, SRC, make_synthetic, run_ok
+
+CRITERIA = SRC / "examples" / "criteria" / "release.toml"
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    d = make_synthetic(tmp_path_factory.mktemp("onepath"))
+    run_ok("replay", d / "experiment.toml", "--params", d / "params_true.toml", "--out", d / "replay.h5")
+    for name, extra in (("raw", ["--no-tare"]), ("tared", [])):
+        # Without the tare the recordings' bias fails the gate (exit 1): the outputs stand.
+        p = subprocess.run([BURRBENCH, "validate", d / "experiment.toml", "--params", d / "params_true.toml",
+                            "--criteria", CRITERIA, "--out", d / name, "--no-verification", *extra],
+                           capture_output=True, text=True, timeout=600)
+        assert p.returncode == (1 if extra else 0), p.stdout + p.stderr
+    run_ok("calibrate", d / "experiment.toml", "--out", d / "cal", "--no-cross-validation",
+           "--no-discretization-check", "--no-profiles")
+    return d
+
+
+def recordings(path):
+    with h5py.File(path) as f:
+        out = {}
+        for rid, g in f["recordings"].items():
+            rec = {k: g[k][()] for k in g}
+            rec.update({k: (v.decode() if isinstance(v, bytes) else v) for k, v in g.attrs.items()})
+            out[rid] = rec
+        removed = {sid: {"depth": s["removed_depth_mm"][()], **dict(s.attrs)} for sid, s in f.get("samples", {}).items()}
+        return out, removed, f.attrs["format_version"]
+
+
+def test_validate_without_tare_predicts_what_replay_predicts_bit_for_bit(runs):
+    plain, plain_removed, _ = recordings(runs / "replay.h5")
+    gate, removed, version = recordings(runs / "raw" / "prediction.h5")
+    assert str(version.decode() if isinstance(version, bytes) else version).startswith("2.3")
+    assert sorted(plain) == sorted(gate) == ["plunge", "polish", "sweep"]
+    for rid in plain:
+        for key in ("force_sensor_pred_N", "force_burr_vol_N", "centre_vol_mm", "torque_sensor_pred_Nmm"):
+            assert np.array_equal(plain[rid][key], gate[rid][key]), (rid, key)
+        assert gate[rid]["force_bias_source"] == "none" and np.all(gate[rid]["force_bias_N"] == 0)
+        assert gate[rid]["role"] == ("validate" if rid == "polish" else "calibrate")
+        assert not plain_removed  # a plain replay keeps no removed-bone map
+    # The gate's prediction carries the removed bone the report draws.
+    analysis = json.loads((runs / "raw" / "analysis.json").read_text())
+    (sample,) = analysis["samples"]
+    assert removed[sample["id"]]["removed_volume_mm3"] == pytest.approx(sample["removed_volume_mm3"], rel=1e-12)
+    assert removed[sample["id"]]["removed_volume_mm3"] > 0
+
+
+def test_the_tare_is_recorded_and_added_to_the_prediction(runs):
+    plain, _, _ = recordings(runs / "replay.h5")
+    tared, _, _ = recordings(runs / "tared" / "prediction.h5")
+    for rid, rec in tared.items():
+        assert rec["force_bias_source"] == "tare"
+        # The synthetic recordings carry a bias of (0.05, -0.03, 0.1) N and σ = 0.02 N.
+        assert np.allclose(rec["force_bias_N"], [0.05, -0.03, 0.1], atol=0.01), (rid, rec["force_bias_N"])
+        assert np.allclose(rec["force_sensor_pred_N"] - plain[rid]["force_sensor_pred_N"], rec["force_bias_N"],
+                           rtol=0, atol=1e-12)
+    # predictions.csv is an export of the same numbers (9 significant digits).
+    with open(runs / "tared" / "predictions.csv") as f:
+        rows = [r for r in csv.DictReader(f) if r["recording_id"] == "sweep"]
+    pred = tared["sweep"]["force_sensor_pred_N"]
+    assert len(rows) == len(pred)
+    got = np.array([[float(r[f"predicted_{a}_N"]) for a in "xyz"] for r in rows])
+    assert np.allclose(got, pred, rtol=1e-8, atol=1e-12)
+
+
+def test_calibrate_writes_the_prediction_at_its_optimum_with_the_fitted_nuisances(runs):
+    fit = json.loads((runs / "cal" / "fit.json").read_text())
+    nuisance = {(n["recording_id"], n["name"]): n["estimate"] for n in fit["nuisance"]}
+    pred, removed, _ = recordings(runs / "cal" / "prediction.h5")
+    for rid in ("plunge", "sweep"):
+        rec = pred[rid]
+        assert rec["force_bias_source"] == "fit"
+        assert list(rec["force_bias_N"]) == [nuisance[(rid, f"bias_{a}")] for a in "xyz"]
+        if (rid, "lag") in nuisance:
+            assert rec["lag_ms"] == nuisance[(rid, "lag")]
+        assert rec["used_calibrate"].sum() > 0 and rec["used_validate"].sum() == 0
+        assert rec["band95_N"].shape == rec["force_sensor_pred_N"].shape and rec["band95_N"].max() > 0
+    # The held-out polish has no fitted bias: it gets the tare, and counts for the gate only.
+    assert pred["polish"]["force_bias_source"] == "tare"
+    assert pred["polish"]["used_validate"].sum() > 0 and pred["polish"]["used_calibrate"].sum() == 0
+    # Energy balance survives the hand-off: α·removed = ∫ΣW dt per class.
+    params = {c["class_name"]: c for c in json.loads((runs / "cal" / "analysis.json").read_text())["parameters"]}
+    for rid, rec in pred.items():
+        for label, c in ((1, params.get("compact")), (2, params.get("trabecular"))):
+            if c and rec["removed_mm3"][label] > 0:
+                assert rec["friction_energy_mJ"][label] == pytest.approx(c["alpha_N_per_mm2"] * rec["removed_mm3"][label],
+                                                                         rel=1e-6)
+    assert removed
