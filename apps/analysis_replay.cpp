@@ -1,20 +1,11 @@
 #include "analysis_replay.hpp"
 
 #include <algorithm>
-#include <array>
-#include <cmath>
-#include <map>
-#include <optional>
-
-#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
+#include "burrbench/model/fitted_nuisances.hpp"
 #include "burrbench/model/model_params.hpp"
-#include "burrbench/model/registration.hpp"
-#include "burrbench/model/replay.hpp"
-#include "burrbench/model/sensitivity.hpp"
-#include "burrbench/model/volume.hpp"
 
 namespace burrbench::apps {
 using namespace analysis;

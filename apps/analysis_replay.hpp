@@ -1,10 +1,12 @@
 #pragma once
-// Fills an analysis input (analysis/'s format) by replaying an experiment through the
-// model with FIXED parameters (no fitting): what `validate` does, what `calibrate` writes
-// at its optimum and what `report` does for an older calibrate directory that has only
-// fit.json (the fit's nuisances — bias, lag, depth offset, pose — are applied then).
-// It lives in apps/ because it joins model/ and analysis/: analysis/ itself only reads
-// files and links data_schema alone.
+// Fills an analysis input (analysis/'s format) from the prediction of an experiment with
+// FIXED parameters (no fitting): what `validate` does, what `calibrate` writes at its
+// optimum and what `report` does for an older calibrate directory that has only fit.json.
+// The prediction itself — the fit's nuisances (bias, lag, depth offset, pose) or the tare,
+// the band, the removed bone — comes from model::predict_experiment, the one path from
+// model to prediction; this only repackages it (metadata, one series per role). It lives
+// in apps/ because it joins model/ and analysis/: analysis/ only reads files and links
+// data_schema alone.
 #include <filesystem>
 #include <string>
 
@@ -18,9 +20,9 @@ namespace burrbench::apps {
 using analysis::AnalysisInput;
 
 struct ReplayInputOptions {
-  // For recordings without a fitted bias (validate; held-out recordings of a fit): subtract from the measured force its mean over the samples where the
-  // model predicts no contact (a tare; the sensor bias is not a model constant). Needs
-  // ≥ 10 such samples, else no tare.
+  // For a channel without a fitted offset (validate; held-out recordings of a fit): add to
+  // the prediction the measured mean over the samples where the model predicts no contact
+  // (a tare; the sensor bias is not a model constant). Needs ≥ 10 such samples.
   bool tare = true;
   std::string context_of_use;
   Progress* progress = nullptr;

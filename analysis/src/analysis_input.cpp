@@ -24,15 +24,26 @@ namespace {
 
 constexpr std::size_t kMaxRows = 50'000'000;         // refuse before allocating
 constexpr std::size_t kMaxMapCells = 16'000'000;
-constexpr const char* kCsvHeader =
-    "recording_id,t_s,measured_x_N,measured_y_N,measured_z_N,predicted_x_N,predicted_y_N,"
-    "predicted_z_N,used";
-
-constexpr const char* kWrenchHeader =
+// The CSV exports' columns (1.3): one naming scheme everywhere — the prediction file's
+// dataset name (docs/formats.md), a vector's component appended as _x/_y/_z, as the
+// Python module's to_pandas() names them. 1.0–1.2 directories used the older headers.
+struct CsvHeaders {
+  const char* predictions;
+  const char* wrench;
+  const char* band;
+};
+constexpr CsvHeaders kHeaders{
+    "recording_id,t_s,force_sensor_meas_N_x,force_sensor_meas_N_y,force_sensor_meas_N_z,force_sensor_pred_N_x,"
+    "force_sensor_pred_N_y,force_sensor_pred_N_z,used",
+    "recording_id,t_s,torque_sensor_meas_Nmm_x,torque_sensor_meas_Nmm_y,torque_sensor_meas_Nmm_z,"
+    "torque_sensor_pred_Nmm_x,torque_sensor_pred_Nmm_y,torque_sensor_pred_Nmm_z,spindle_torque_meas_Nmm,"
+    "spindle_torque_pred_Nmm,spindle_offset_Nmm,spin_rad_s",
+    "recording_id,t_s,band95_N_x,band95_N_y,band95_N_z"};
+constexpr CsvHeaders kHeaders12{
+    "recording_id,t_s,measured_x_N,measured_y_N,measured_z_N,predicted_x_N,predicted_y_N,predicted_z_N,used",
     "recording_id,t_s,torque_meas_x_Nmm,torque_meas_y_Nmm,torque_meas_z_Nmm,torque_pred_x_Nmm,"
-    "torque_pred_y_Nmm,torque_pred_z_Nmm,spindle_meas_Nmm,spindle_pred_Nmm,spindle_offset_Nmm,spin_rad_s";
-
-constexpr const char* kBandHeader = "recording_id,t_s,band95_x_N,band95_y_N,band95_z_N";
+    "torque_pred_y_Nmm,torque_pred_z_Nmm,spindle_meas_Nmm,spindle_pred_Nmm,spindle_offset_Nmm,spin_rad_s",
+    "recording_id,t_s,band95_x_N,band95_y_N,band95_z_N"};
 
 // One finite number of a CSV field, else InputError naming file, line and column.
 double csv_number(const std::string& field, const std::string& file, const std::string& where, std::size_t column) {
@@ -162,7 +173,7 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
   j["provenance"] = data_schema::provenance_json(in.provenance);
   data_schema::write_file_atomic(dir / "analysis.json", j.dump(1) + "\n");
   data_schema::AtomicFile f(dir / "predictions.csv");
-  f << kCsvHeader << "\n";
+  f << kHeaders.predictions << "\n";
   for (const auto& r : in.recordings) {
     const std::string id = csv_quote(r.id);
     for (std::size_t i = 0; i < r.t_s.size(); ++i) {
@@ -175,7 +186,7 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
   f.commit();
   if (std::any_of(in.recordings.begin(), in.recordings.end(), [](const RecordingSeries& r) { return !r.band95_N.empty(); })) {
     data_schema::AtomicFile bf(dir / "band.csv");
-    bf << kBandHeader << "\n";
+    bf << kHeaders.band << "\n";
     for (const auto& r : in.recordings) {
       const std::string id = csv_quote(r.id);
       for (std::size_t i = 0; i < r.band95_N.size(); ++i)
@@ -187,7 +198,7 @@ void write_analysis_input(const fs::path& dir, const AnalysisInput& in) {
                                       [](const RecordingSeries& r) { return r.has_torque() || r.has_spindle(); });
   if (!any_wrench) return;
   data_schema::AtomicFile w(dir / "wrench.csv");
-  w << kWrenchHeader << "\n";
+  w << kHeaders.wrench << "\n";
   auto opt = [](bool has, double v) { return has ? fmt::format("{}", v) : std::string(); };
   for (const auto& r : in.recordings) {
     if (!r.has_torque() && !r.has_spindle()) continue;
@@ -208,7 +219,7 @@ namespace {
 
 // DIR/wrench.csv (1.2) into the recordings that analysis.json says carry moments or a
 // spindle load; each such recording needs exactly its force rows, at the same times.
-void read_wrench_csv(const fs::path& path, std::vector<RecordingSeries>& recs,
+void read_wrench_csv(const fs::path& path, const char* header, std::vector<RecordingSeries>& recs,
                      const std::vector<std::pair<bool, bool>>& channels) {
   const std::string cfile = path.string();
   std::map<std::string, std::size_t> by_id;
@@ -220,7 +231,7 @@ void read_wrench_csv(const fs::path& path, std::vector<RecordingSeries>& recs,
     }
   if (!any) return;
   std::vector<std::size_t> rows(recs.size(), 0);
-  for_each_csv_row(path, kWrenchHeader, 12, "wrench CSV (analysis.json lists moments or a spindle load)",
+  for_each_csv_row(path, header, 12, "wrench CSV (analysis.json lists moments or a spindle load)",
                    [&](const std::vector<std::string>& fields, const std::string& where) {
     const auto it = by_id.find(fields[0]);
     if (it == by_id.end())
@@ -259,13 +270,14 @@ void read_wrench_csv(const fs::path& path, std::vector<RecordingSeries>& recs,
 }
 
 // DIR/band.csv (1.2) into the recordings analysis.json marks with a band.
-void read_band_csv(const fs::path& path, std::vector<RecordingSeries>& recs, const std::vector<bool>& has_band) {
+void read_band_csv(const fs::path& path, const char* header, std::vector<RecordingSeries>& recs,
+                   const std::vector<bool>& has_band) {
   const std::string cfile = path.string();
   std::map<std::string, std::size_t> by_id;
   for (std::size_t r = 0; r < recs.size(); ++r)
     if (has_band[r]) by_id.emplace(recs[r].id, r);
   if (by_id.empty()) return;
-  for_each_csv_row(path, kBandHeader, 5, "band CSV (analysis.json marks recordings with a band)",
+  for_each_csv_row(path, header, 5, "band CSV (analysis.json marks recordings with a band)",
                    [&](const std::vector<std::string>& fields, const std::string& where) {
     const auto it = by_id.find(fields[0]);
     if (it == by_id.end()) throw InputError(cfile, where + " recording_id", "an id analysis.json marks with a band", fields[0]);
@@ -296,6 +308,9 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
          "recordings", "provenance", "verification", "fit"});
   data_schema::check_format(file, "format", o.str("format"), kAnalysisFormat);
   data_schema::check_version(file, "format_version", o.str("format_version"), kAnalysisVersionMajor);
+  // check_version has accepted "1.m": the minor picks the CSV headers.
+  const std::string version = o.str("format_version");
+  const CsvHeaders& headers = std::stoi(version.substr(version.find('.') + 1)) >= 3 ? kHeaders : kHeaders12;
 
   AnalysisInput in;
   in.mode = role_checked(o.str("mode"), file, "mode");
@@ -469,7 +484,7 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
 
   const fs::path csv_path = dir / "predictions.csv";
   const std::string cfile = csv_path.string();
-  for_each_csv_row(csv_path, kCsvHeader, 9, "predictions CSV",
+  for_each_csv_row(csv_path, headers.predictions, 9, "predictions CSV",
                    [&](const std::vector<std::string>& fields, const std::string& where) {
     const auto it = by_id.find(fields[0]);
     if (it == by_id.end())
@@ -492,14 +507,14 @@ AnalysisInput read_analysis_input(const fs::path& dir) {
       throw InputError(cfile, "recording " + in.recordings[r].id,
                        fmt::format("{} rows", expected_rows[r]),
                        std::to_string(in.recordings[r].t_s.size()));
-  read_wrench_csv(dir / "wrench.csv", in.recordings, channels);
-  read_band_csv(dir / "band.csv", in.recordings, has_band);
+  read_wrench_csv(dir / "wrench.csv", headers.wrench, in.recordings, channels);
+  read_band_csv(dir / "band.csv", headers.band, in.recordings, has_band);
   return in;
 }
 
 void write_residuals_csv(const fs::path& path, const AnalysisInput& in) {
   data_schema::AtomicFile f(path);
-  f << "recording_id,role,t_s,used,residual_x_N,residual_y_N,residual_z_N\n";
+  f << "recording_id,role,t_s,used,residual_N_x,residual_N_y,residual_N_z\n";
   for (const auto& r : in.recordings) {
     const std::string id = csv_quote(r.id);
     for (std::size_t i = 0; i < r.t_s.size(); ++i) {

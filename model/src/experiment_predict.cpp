@@ -261,10 +261,14 @@ void write_prediction(const std::filesystem::path& path,
 void write_prediction_csv(const std::filesystem::path& path,
                           const std::vector<RecordingPrediction>& preds) {
   data_schema::AtomicFile out(path);
-  out << "recording,t_s,Fburr_x_N,Fburr_y_N,Fburr_z_N,Fpred_x_N,Fpred_y_N,Fpred_z_N,"
-         "Fmeas_x_N,Fmeas_y_N,Fmeas_z_N,b_mm,n_x,n_y,n_z,class_mask,buried,use,"
-         "Tburr_x_Nmm,Tburr_y_Nmm,Tburr_z_Nmm,Mpred_x_Nmm,Mpred_y_Nmm,Mpred_z_Nmm,"
-         "Mmeas_x_Nmm,Mmeas_y_Nmm,Mmeas_z_Nmm,spindle_pred_Nmm,spindle_meas_Nmm\n";
+  // Columns named as the prediction file's datasets, a vector's component appended as
+  // _x/_y/_z: the one naming scheme of every burrbench CSV export (docs/formats.md).
+  out << "recording_id,t_s,force_burr_vol_N_x,force_burr_vol_N_y,force_burr_vol_N_z,force_sensor_pred_N_x,"
+         "force_sensor_pred_N_y,force_sensor_pred_N_z,force_sensor_meas_N_x,force_sensor_meas_N_y,"
+         "force_sensor_meas_N_z,depth_b_mm,normal_vol_x,normal_vol_y,normal_vol_z,class_mask,buried,use,"
+         "moment_burr_vol_Nmm_x,moment_burr_vol_Nmm_y,moment_burr_vol_Nmm_z,torque_sensor_pred_Nmm_x,"
+         "torque_sensor_pred_Nmm_y,torque_sensor_pred_Nmm_z,torque_sensor_meas_Nmm_x,torque_sensor_meas_Nmm_y,"
+         "torque_sensor_meas_Nmm_z,spindle_torque_pred_Nmm,spindle_torque_meas_Nmm\n";
   // The wrench columns are empty where the prediction has none (nothing measured).
   auto v3 = [](const std::vector<glm::dvec3>& v, std::size_t k) {
     return k < v.size() ? fmt::format("{:.9g},{:.9g},{:.9g}", v[k].x, v[k].y, v[k].z) : std::string(",,");

@@ -75,7 +75,7 @@ TEST(AnalysisInput, BrokenFilesAreInputErrors) {
   replace(j, "\"burrbench.analysis\"", "\"burrbench.fit\"");
   expect_error(j, csv, "wrong format");
   j = json;
-  replace(j, "\"1.2\"", "\"2.0\"");
+  replace(j, "\"1.3\"", "\"2.0\"");
   expect_error(j, csv, "major version");
   expect_error("{ not json", csv, "not JSON");
   std::string c = csv;
@@ -143,6 +143,36 @@ TEST(AnalysisInput, WrenchSeriesRoundTripExactly) {
   write_analysis_input(plain, burrbench::testing::small_input());
   EXPECT_FALSE(fs::exists(plain / "wrench.csv"));
   EXPECT_NO_THROW(read_analysis_input(plain));
+}
+
+TEST(AnalysisInput, OlderDirectoriesWithTheirHeadersAreReadAndMixedOnesRefused) {
+  // 1.3 names the CSV columns as the prediction file's datasets; a 1.2 directory (older
+  // headers) still reads to the same series, while 1.3 with an old header is refused.
+  const auto in = wrench_input();
+  const auto dir = burrbench::testing::temp_dir("v12");
+  write_analysis_input(dir, in);
+  std::string json = slurp(dir / "analysis.json"), pred = slurp(dir / "predictions.csv"),
+              wrench = slurp(dir / "wrench.csv");
+  EXPECT_NE(json.find("\"1.3\""), std::string::npos);
+  replace(pred, "force_sensor_meas_N_x,force_sensor_meas_N_y,force_sensor_meas_N_z,force_sensor_pred_N_x,"
+                "force_sensor_pred_N_y,force_sensor_pred_N_z",
+          "measured_x_N,measured_y_N,measured_z_N,predicted_x_N,predicted_y_N,predicted_z_N");
+  spit(dir / "predictions.csv", pred);
+  EXPECT_THROW(read_analysis_input(dir), burrbench::InputError);  // 1.3 with a 1.2 header
+  replace(wrench, "torque_sensor_meas_Nmm_x,torque_sensor_meas_Nmm_y,torque_sensor_meas_Nmm_z,"
+                  "torque_sensor_pred_Nmm_x,torque_sensor_pred_Nmm_y,torque_sensor_pred_Nmm_z,"
+                  "spindle_torque_meas_Nmm,spindle_torque_pred_Nmm",
+          "torque_meas_x_Nmm,torque_meas_y_Nmm,torque_meas_z_Nmm,torque_pred_x_Nmm,torque_pred_y_Nmm,"
+          "torque_pred_z_Nmm,spindle_meas_Nmm,spindle_pred_Nmm");
+  spit(dir / "wrench.csv", wrench);
+  replace(json, "\"1.3\"", "\"1.2\"");
+  spit(dir / "analysis.json", json);
+  const auto back = read_analysis_input(dir);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(back.recordings[k].predicted_N, in.recordings[k].predicted_N);
+    EXPECT_EQ(back.recordings[k].torque_predicted_Nmm, in.recordings[k].torque_predicted_Nmm);
+    EXPECT_EQ(back.recordings[k].spindle_measured_Nmm, in.recordings[k].spindle_measured_Nmm);
+  }
 }
 
 TEST(AnalysisInput, BrokenWrenchFilesAreInputErrors) {

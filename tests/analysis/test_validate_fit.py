@@ -175,7 +175,7 @@ def test_the_prediction_band_matches_central_differences_of_whole_replays(fitted
     band = {}
     with open(out / "band.csv") as f:
         for row in csv.DictReader(f):
-            band.setdefault(row["recording_id"], []).append([float(row[f"band95_{a}_N"]) for a in "xyz"])
+            band.setdefault(row["recording_id"], []).append([float(row[f"band95_N_{a}"]) for a in "xyz"])
     fit = json.loads((fitted / "cal" / "fit.json").read_text())
     names, cov = fit["covariance"]["names"], fit["covariance"]["matrix"]
     params = tomllib.loads((fitted / "cal" / "params.toml").read_text())["classes"]

@@ -73,7 +73,7 @@ def test_the_tare_is_recorded_and_added_to_the_prediction(runs):
         rows = [r for r in csv.DictReader(f) if r["recording_id"] == "sweep"]
     pred = tared["sweep"]["force_sensor_pred_N"]
     assert len(rows) == len(pred)
-    got = np.array([[float(r[f"predicted_{a}_N"]) for a in "xyz"] for r in rows])
+    got = np.array([[float(r[f"force_sensor_pred_N_{a}"]) for a in "xyz"] for r in rows])
     assert np.allclose(got, pred, rtol=1e-8, atol=1e-12)
 
 

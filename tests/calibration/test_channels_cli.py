@@ -129,13 +129,13 @@ def test_report_shows_the_moments_the_spindle_energy_and_what_the_channels_add(f
     run_ok("report", d / "all", "--out", tmp_path / "rep" / "report.html")
     rep = tmp_path / "rep"
     analysis = json.loads((rep / "analysis.json").read_text())
-    assert analysis["format_version"] == "1.2"
+    assert analysis["format_version"] == "1.3"
     recs = {r["id"]: r for r in analysis["recordings"]}
     assert all(recs[r]["torque"] and recs[r]["spindle"] for r in ("plunge", "sweep", "polish"))
     # Fitted recordings take the fit's idle terms; the held-out polish the tare.
     assert [recs[r]["spindle_offset_source"] for r in ("plunge", "sweep", "polish")] == ["fit", "fit", "tare"]
     header = (rep / "wrench.csv").read_text().splitlines()[0]
-    assert header.startswith("recording_id,t_s,torque_meas_x_Nmm")
+    assert header.startswith("recording_id,t_s,torque_sensor_meas_Nmm_x")
     # Energy balance through the report: α·removed equals the replay's friction work, and
     # the drive's measured cutting energy equals the predicted one (noise ≈ 0.005 N·mm).
     for rid in ("plunge", "sweep", "polish"):

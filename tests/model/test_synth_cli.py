@@ -73,7 +73,7 @@ def test_replay_with_true_params_and_lag_leaves_bias_plus_noise(exp):
             for name in ("depth_b_mm", "normal_vol", "class_mask", "buried", "use", "centre_vol_mm", "t_s"):
                 assert g[name].shape[0] == n
     lines = (exp / "pred.csv").read_text().splitlines()
-    assert lines[0].startswith("recording,t_s,Fburr_x_N")
+    assert lines[0].startswith("recording_id,t_s,force_burr_vol_N_x")
     assert len(lines) == 1 + total
 
 

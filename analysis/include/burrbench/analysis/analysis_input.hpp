@@ -19,7 +19,9 @@ namespace burrbench::analysis {
 
 inline constexpr const char* kAnalysisFormat = "burrbench.analysis";
 inline constexpr int kAnalysisVersionMajor = 1;
-inline constexpr int kAnalysisVersionMinor = 2;  // 1.1: verification; 1.2: wrench
+// 1.1: verification; 1.2: wrench; 1.3: the CSVs' columns named as the prediction file's
+// datasets (one naming scheme; 1.0–1.2 directories are still read).
+inline constexpr int kAnalysisVersionMinor = 3;
 
 // One class's share of a recording's cutting energy (MODEL.md energy balance): the work
 // of erosion α·V_removed equals the friction work ∫ΣW dt the replay integrated for it.
