@@ -1,0 +1,225 @@
+// `burrbench study run|summarize`: many specimens on a workflow engine (docs/study.md).
+// `run` hands the study to Snakemake (study/Snakefile: calibrate → validate per specimen
+// as separate jobs, then summarize), locally with --cores or on Slurm with --profile;
+// burrbench writes no scheduler of its own. `summarize` pools the specimens' fits into
+// population constants (study/population.hpp) with a report.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "burrbench/data_schema/atomic_file.hpp"
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/fit_result.hpp"
+#include "burrbench/data_schema/json_input.hpp"
+#include "burrbench/data_schema/output_folder.hpp"
+#include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/data_schema/provenance.hpp"
+#include "burrbench/study/population.hpp"
+#include "burrbench/study/study_manifest.hpp"
+#include "burrbench/study/study_report.hpp"
+#include "verb_registry.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace burrbench;
+using nlohmann::json;
+
+struct RunArgs {
+  std::string study, out, profile;
+  int cores = 2;
+  bool dry_run = false;
+};
+struct SummarizeArgs {
+  std::string study, results, out;
+  bool overwrite = false;
+};
+
+fs::path self_exe() {
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? fs::path("burrbench") : exe;
+}
+
+// The workflow: $BURRBENCH_SNAKEFILE, the installed copy, or the source tree's.
+fs::path snakefile() {
+  if (const char* env = std::getenv("BURRBENCH_SNAKEFILE")) {
+    if (!fs::is_regular_file(env))
+      throw InputError("environment", "BURRBENCH_SNAKEFILE", "an existing Snakefile", env);
+    return env;
+  }
+  const fs::path installed = self_exe().parent_path().parent_path() / "share/burrbench/study/Snakefile";
+  if (fs::is_regular_file(installed)) return installed;
+  return fs::path(BURRBENCH_SOURCE_DIR) / "study/Snakefile";
+}
+
+fs::path find_on_path(const std::string& name) {
+  const char* path = std::getenv("PATH");
+  std::string p = path ? path : "";
+  for (std::size_t b = 0; b <= p.size();) {
+    const std::size_t e = std::min(p.find(':', b), p.size());
+    const fs::path c = fs::path(p.substr(b, e - b)) / name;
+    if (b < e && ::access(c.c_str(), X_OK) == 0) return c;
+    b = e + 1;
+  }
+  return {};
+}
+
+fs::path default_results(const study::StudyManifest& s) { return s.file.parent_path() / "results"; }
+
+// The resolved study as Snakemake's config: absolute paths, each job's inputs, the
+// calibrate options. Rewritten only when it changes, so its time stamp triggers nothing.
+fs::path write_plan(const study::StudyManifest& s, const fs::path& out) {
+  json plan;
+  plan["burrbench"] = self_exe().string();
+  plan["study"] = s.file.string();
+  plan["criteria"] = s.criteria ? json(s.criteria->string()) : json(nullptr);
+  plan["calibrate_args"] = s.fit.calibrate_args();
+  plan["specimens"] = json::object();
+  for (const auto& sp : s.specimens) {
+    json inputs = json::array();
+    for (const auto& i : sp.inputs) inputs.push_back(i.string());
+    plan["specimens"][sp.id] = {{"experiment", sp.experiment.string()}, {"inputs", inputs}};
+  }
+  const fs::path dir = out / ".burrbench", file = dir / "plan.json";
+  fs::create_directories(dir);
+  const std::string text = plan.dump(1) + "\n";
+  std::ifstream old(file);
+  const std::string before((std::istreambuf_iterator<char>(old)), std::istreambuf_iterator<char>());
+  if (before != text) data_schema::write_file_atomic(file, text);
+  return file;
+}
+
+int run_process(const std::vector<std::string>& argv) {
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  std::cout.flush();
+  const pid_t pid = ::fork();
+  if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
+  if (pid == 0) {
+    ::execv(args[0], args.data());
+    std::fprintf(stderr, "burrbench: cannot run %s: %s\n", args[0], std::strerror(errno));
+    std::_Exit(127);
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) throw std::runtime_error(std::string("waitpid: ") + std::strerror(errno));
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+void run(const RunArgs& a) {
+  if (a.cores < 1 || a.cores > 4096) throw InputError("command line", "--cores", "1..4096", std::to_string(a.cores));
+  const auto s = study::read_study(a.study);
+  const fs::path out = fs::absolute(a.out.empty() ? default_results(s) : fs::path(a.out));
+  if (!a.profile.empty() && !fs::is_regular_file(fs::path(a.profile) / "config.yaml"))
+    throw InputError("command line", "--profile", "a Snakemake profile folder with config.yaml", a.profile);
+  const fs::path snakemake = find_on_path("snakemake");
+  if (snakemake.empty())
+    throw InputError("PATH", "snakemake", "the snakemake command (Debian package snakemake; scripts/install-deps installs it)",
+                     "not found");
+  fs::create_directories(out / "logs");  // job logs, and sbatch's --output (refused when absent)
+  const fs::path plan = write_plan(s, out);
+  std::vector<std::string> argv{snakemake.string(), "--snakefile", snakefile().string(), "--directory", out.string(),
+                                "--configfile", plan.string(), "--cores", std::to_string(a.cores), "--keep-going",
+                                "--rerun-incomplete"};
+  if (!a.profile.empty()) argv.insert(argv.end(), {"--profile", fs::absolute(a.profile).string()});
+  if (a.dry_run) argv.push_back("--dry-run");
+  std::cout << fmt::format("study {}: {} specimens → {} (Snakemake, {} cores{})\n", s.name, s.specimens.size(),
+                           out.string(), a.cores, a.profile.empty() ? "" : ", profile " + a.profile);
+  const int rc = run_process(argv);
+  if (rc != 0) {
+    std::cerr << fmt::format("burrbench: study: Snakemake stopped with exit code {} (its log is above and in {}); "
+                             "finished specimens are kept, running the same command again resumes\n",
+                             rc, (out / ".snakemake/log").string());
+    apps::set_exit_code(1);
+    return;
+  }
+  if (!a.dry_run) std::cout << "study summary: " << (out / "summary/report.html").string() << "\n";
+}
+
+void summarize(const SummarizeArgs& a) {
+  const auto s = study::read_study(a.study);
+  const fs::path results = fs::absolute(a.results.empty() ? default_results(s) : fs::path(a.results)).lexically_normal();
+  const fs::path out = fs::absolute(a.out.empty() ? results / "summary" : fs::path(a.out)).lexically_normal();
+  std::vector<std::pair<std::string, data_schema::FitResult>> fits;
+  std::vector<study::SpecimenRow> rows;
+  std::vector<fs::path> inputs{s.file};
+  for (const auto& sp : s.specimens) {
+    const fs::path dir = results / "specimens" / sp.id, fit = dir / "cal" / "fit.json";
+    if (!fs::is_regular_file(fit))
+      throw InputError(fit.string(), "file", "the specimen's fit (run `burrbench study run` first)", "missing");
+    fits.emplace_back(sp.id, data_schema::read_fit(fit));
+    inputs.push_back(fit);
+    study::SpecimenRow r;
+    r.id = sp.id;
+    r.experiment = sp.experiment.string();
+    r.fit_link = fs::relative(fit, out).string();
+    const fs::path metrics = dir / "gate" / "metrics.json";
+    if (fs::is_regular_file(metrics)) {
+      std::ifstream in(metrics);
+      const json m = json::parse(in, nullptr, false);
+      if (m.is_discarded() || !m.contains("pass") || !m["pass"].is_boolean())
+        throw InputError(metrics.string(), "pass", "a boolean (burrbench validate's metrics.json)");
+      r.gate = m["pass"].get<bool>() ? "PASS" : "FAIL";
+      r.report_link = fs::relative(dir / "gate" / "report.html", out).string();
+    }
+    rows.push_back(std::move(r));
+  }
+  const auto pop = study::summarize(fits);
+  data_schema::OutputFolder folder(out, "--out", a.overwrite);
+  folder.refuse_inputs({"population.json", "params.toml", "report.html"}, inputs);
+  data_schema::ParameterSet ps = study::population_params(pop, fits.front().second);
+  ps.provenance = make_provenance(inputs);
+  data_schema::write_params(folder.staging() / "params.toml", ps);
+  json pj = study::population_json(s, pop, rows);
+  pj["provenance"] = data_schema::provenance_json(ps.provenance);
+  data_schema::write_file_atomic(folder.staging() / "population.json", pj.dump(1) + "\n");
+  data_schema::write_file_atomic(folder.staging() / "report.html", study::study_report_html(s, pop, rows));
+  folder.commit();
+  std::cout << fmt::format("population of {} specimens (random effects on ln θ, 95 % HKSJ interval):\n", fits.size());
+  for (const auto& p : pop)
+    if (p.estimable())
+      std::cout << fmt::format("  {:<12} {:<6} {:>10.4g} [{:.4g}, {:.4g}] {}  k={} tau_ln={:.3g} I2={:.0f}%{}\n",
+                               p.class_name, p.parameter, p.mean, p.ci95_low, p.ci95_high, p.unit, p.k, p.tau_ln,
+                               100 * p.i2, p.excluded.empty() ? "" : fmt::format(", {} excluded", p.excluded.size()));
+    else
+      std::cout << fmt::format("  {:<12} {:<6} not pooled: {} usable specimen(s), {} excluded{}\n", p.class_name,
+                               p.parameter, p.k, p.excluded.size(),
+                               p.excluded.empty() ? "" : " (" + p.excluded.front().second + ")");
+  std::cout << "wrote " << (folder.target() / "population.json").string() << ", params.toml and report.html\n";
+}
+
+void setup(CLI::App& root) {
+  auto* cmd = root.add_subcommand("study", "Studies across many specimens: run them on Snakemake, pool their fits");
+  cmd->require_subcommand(1);
+  auto r = std::make_shared<RunArgs>();
+  auto* run_cmd = cmd->add_subcommand("run", "Calibrate and validate every specimen of a study (Snakemake), then summarize");
+  run_cmd->add_option("STUDY", r->study, "study manifest (burrbench.study TOML)")->required();
+  run_cmd->add_option("--out", r->out, "results folder (default: STUDY's folder/results); re-running resumes there");
+  run_cmd->add_option("--cores", r->cores, "cores Snakemake may use locally (default 2)");
+  run_cmd->add_option("--profile", r->profile, "a Snakemake profile folder, e.g. study/profiles/slurm to submit with sbatch");
+  run_cmd->add_flag("--dry-run", r->dry_run, "list the jobs that would run (snakemake --dry-run)");
+  run_cmd->callback([r] { run(*r); });
+  auto m = std::make_shared<SummarizeArgs>();
+  auto* sum_cmd = cmd->add_subcommand("summarize", "Pool the specimens' fits into population constants with a report");
+  sum_cmd->add_option("STUDY", m->study, "study manifest (burrbench.study TOML)")->required();
+  sum_cmd->add_option("--results", m->results, "the study's results folder (default: STUDY's folder/results)");
+  sum_cmd->add_option("--out", m->out, "output folder (default: RESULTS/summary)");
+  sum_cmd->add_flag("--overwrite", m->overwrite, "write into an existing --out folder, replacing its files");
+  sum_cmd->callback([m] { summarize(*m); });
+}
+
+BURRBENCH_VERB("study", setup);
+
+}  // namespace
