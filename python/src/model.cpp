@@ -54,7 +54,7 @@ py::dict prediction_dict(const model::RecordingPrediction& p) {
   d["used_validate"] = array(p.used_validate);
   d["lag_ms"] = p.lag_ms;
   d["depth_offset_mm"] = p.depth_offset_mm;
-  d["force_bias_N"] = vec3_array(std::vector<glm::dvec3>{p.force_bias_N});
+  d["force_bias_N"] = array(std::vector<double>{p.force_bias_N.x, p.force_bias_N.y, p.force_bias_N.z});
   d["force_bias_source"] = p.force_bias_source;
   return d;
 }

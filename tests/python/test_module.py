@@ -45,6 +45,10 @@ def test_replay_equals_the_cli_prediction_bit_for_bit(exp):
             assert compared >= 12, (rid, compared)
             assert np.array_equal(rec["removed_mm3"], recs[rid].attrs["removed_mm3"])
             assert rec["steps"] == recs[rid].attrs["steps"]
+            a = recs[rid].attrs  # 2.3: what the replay applied and how each sample counts
+            assert rec["role"] == a["role"].decode() and rec["force_bias_source"] == a["force_bias_source"].decode()
+            for name in ("lag_ms", "depth_offset_mm", "force_bias_N", "friction_energy_mJ"):
+                assert np.array_equal(rec[name], a[name]), (rid, name)
             assert rec.units["force_sensor_pred_N"] == "N" and rec.frames["force_sensor_pred_N"] == "sensor"
             assert rec.frames["centre_vol_mm"] == "volume" and rec.units["centre_vol_mm"] == "mm"
     # The same constants as a dict give the same numbers.
