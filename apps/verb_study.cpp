@@ -77,9 +77,22 @@ fs::path find_on_path(const std::string& name) {
 
 fs::path default_results(const study::StudyManifest& s) { return s.file.parent_path() / "results"; }
 
-// The resolved study as Snakemake's config: absolute paths, each job's inputs, the
-// calibrate options. Rewritten only when it changes, so its time stamp triggers nothing.
+// Writes `text` to `file` only when it differs, so the file's time stamp moves only when
+// its content does.
+void write_if_changed(const fs::path& file, const std::string& text) {
+  std::ifstream old(file, std::ios::binary);
+  const std::string before((std::istreambuf_iterator<char>(old)), std::istreambuf_iterator<char>());
+  if (before != text) data_schema::write_file_atomic(file, text);
+}
+
+// The resolved study as Snakemake's config: absolute paths, the calibrate options and per
+// specimen a fingerprint file — the SHA-256 of its manifest, sample and recordings —
+// that its calibration depends on instead of the files themselves. The fingerprint is
+// rewritten only when a hash changes, so jobs are content-addressed: touching or copying
+// a recording unchanged redoes nothing, changing one byte redoes that specimen.
 fs::path write_plan(const study::StudyManifest& s, const fs::path& out) {
+  const fs::path dir = out / ".burrbench";
+  fs::create_directories(dir / "inputs");
   json plan;
   plan["burrbench"] = self_exe().string();
   plan["study"] = s.file.string();
@@ -87,17 +100,14 @@ fs::path write_plan(const study::StudyManifest& s, const fs::path& out) {
   plan["calibrate_args"] = s.fit.calibrate_args();
   plan["specimens"] = json::object();
   for (const auto& sp : s.specimens) {
-    json inputs = json::array();
-    for (const auto& i : sp.inputs) inputs.push_back(i.string());
-    plan["specimens"][sp.id] = {{"experiment", sp.experiment.string()}, {"inputs", inputs}};
+    std::string fingerprint;
+    for (const auto& i : sp.inputs) fingerprint += sha256_file(i) + "  " + i.string() + "\n";
+    const fs::path fp = dir / "inputs" / (sp.id + ".sha256");
+    write_if_changed(fp, fingerprint);
+    plan["specimens"][sp.id] = {{"experiment", sp.experiment.string()}, {"fingerprint", fp.string()}};
   }
-  const fs::path dir = out / ".burrbench", file = dir / "plan.json";
-  fs::create_directories(dir);
-  const std::string text = plan.dump(1) + "\n";
-  std::ifstream old(file);
-  const std::string before((std::istreambuf_iterator<char>(old)), std::istreambuf_iterator<char>());
-  if (before != text) data_schema::write_file_atomic(file, text);
-  return file;
+  write_if_changed(dir / "plan.json", plan.dump(1) + "\n");
+  return dir / "plan.json";
 }
 
 int run_process(const std::vector<std::string>& argv) {

@@ -71,6 +71,7 @@ def test_the_population_interval_holds_the_population_mean(made):
 
 def test_a_second_run_does_nothing_and_a_deleted_fit_redoes_only_its_specimen(made):
     before = fit_mtimes(made)
+    os.utime(made / "P01" / "plunge.h5")  # touched, unchanged: content-addressed, nothing to redo
     p = study("run", made / "study.toml", "--out", made / "results", "--cores", "2")
     assert p.returncode == 0, p.stdout + p.stderr
     assert "Nothing to be done" in p.stdout + p.stderr
@@ -84,6 +85,13 @@ def test_a_second_run_does_nothing_and_a_deleted_fit_redoes_only_its_specimen(ma
     assert after["P02"] != before["P02"]
     log = p.stdout + p.stderr
     assert "wildcards: s=P02" in log and "wildcards: s=P01" not in log and "wildcards: s=P03" not in log
+    # One changed byte in a specimen's inputs redoes that specimen alone.
+    manifest = made / "P03" / "experiment.toml"
+    manifest.write_text(manifest.read_text() + "# a changed byte\n")
+    p = study("run", made / "study.toml", "--out", made / "results", "--cores", "2")
+    assert p.returncode == 0, p.stdout + p.stderr
+    log = p.stdout + p.stderr
+    assert "wildcards: s=P03" in log and "wildcards: s=P01" not in log and "wildcards: s=P02" not in log
 
 
 def test_the_slurm_profile_dry_runs(made, tmp_path):
