@@ -63,12 +63,12 @@ std::string forest_svg(const PopulationEstimate& p) {
                        a, y, m, y - 6, b, y, m, y + 6);
     svg += fmt::format(R"(<line x1="{:.1f}" x2="{:.1f}" y1="10" y2="{:.1f}" stroke="#c0392b" stroke-dasharray="3,3"/>)", m, m, y + 8);
   }
-  // Axis ticks at the data's ends and the mean (log axis, natural units).
+  // The axis: its two end values (natural units on a log scale) and the unit.
   const double ya = H - 12;
   svg += fmt::format(R"(<line x1="{}" x2="{}" y1="{:.1f}" y2="{:.1f}" stroke="#999"/>)", left, W - right, ya - 10, ya - 10);
   for (double v : {std::exp(lo + pad), std::exp(hi - pad)})
     svg += fmt::format(R"(<text x="{:.1f}" y="{:.1f}" font-size="11" text-anchor="middle">{}</text>)", X(v), ya + 2, g4(v));
-  svg += fmt::format(R"(<text x="{}" y="{:.1f}" font-size="11">{} (log axis)</text>)", left, ya + 2 - 14 + 14, "");
+  svg += fmt::format(R"(<text x="4" y="{:.1f}" font-size="11">{}, log axis</text>)", ya + 2, text(p.unit));
   svg += "</svg>";
   return svg;
 }
@@ -123,7 +123,7 @@ std::string study_report_html(const StudyManifest& study, const std::vector<Popu
   std::string h = "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>Study: " + text(study.name) +
                   "</title><style>body{font:14px/1.4 system-ui,sans-serif;margin:2em;max-width:1000px}"
                   "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
-                  "td:first-child,th:first-child{text-align:left}.pass{color:#1a7f37}.fail{color:#b42318}"
+                  "td:first-child,th:first-child,td.text{text-align:left}.pass{color:#1a7f37}.fail{color:#b42318}"
                   "@media print{a{color:inherit}}</style></head><body>";
   h += "<h1>Study: " + text(study.name) + "</h1><p>" + text(study.description) + "</p>";
   h += "<p>Study manifest: <code>" + text(study.file.string()) + "</code>. " + std::to_string(specimens.size()) +
@@ -138,9 +138,9 @@ std::string study_report_html(const StudyManifest& study, const std::vector<Popu
     std::string ex;
     for (const auto& [id, why] : p.excluded) ex += (ex.empty() ? "" : "; ") + text(id) + ": " + text(why);
     h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
-                     "<td>{}</td><td>{}</td></tr>",
+                     "<td>{}</td><td class=\"text\">{}</td></tr>",
                      text(p.class_name), text(p.parameter), text(p.unit), p.k, g4(p.mean), g4(p.ci95_low),
-                     g4(p.ci95_high), g4(p.tau_ln), p.estimable() ? fmt::format("{:.0f} %", 100 * p.i2) : "—",
+                     g4(p.ci95_high), p.estimable() ? g4(p.tau_ln) : "—", p.estimable() ? fmt::format("{:.0f} %", 100 * p.i2) : "—",
                      ex.empty() ? "none" : ex);
   }
   h += "</table><h2 id=\"forest\">Forest plots</h2>";
