@@ -4,22 +4,6 @@
 
 namespace burrbench::analysis {
 
-std::string html_escape(std::string_view s) {
-  std::string out;
-  out.reserve(s.size());
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 // ensure_ascii turns U+2028/2029 into \u escapes; <, > and & are escaped too, so no
 // "</script>" or "<!--" can appear — all valid inside JSON strings, the only place
 // these characters can occur in a JSON text.

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "burrbench/data_schema/format_version.hpp"
+#include "burrbench/data_schema/html_text.hpp"
 
 namespace burrbench::study {
 namespace ds = data_schema;
@@ -15,18 +16,7 @@ namespace {
 
 json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
-std::string text(std::string_view s) {  // HTML text and attribute values
-  std::string out;
-  for (char c : s) switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
-    }
-  return out;
-}
+std::string text(std::string_view s) { return ds::html_escape(s); }
 
 std::string g4(double v) { return std::isfinite(v) ? fmt::format("{:.4g}", v) : "—"; }
 

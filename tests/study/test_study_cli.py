@@ -41,7 +41,7 @@ def test_every_specimen_is_calibrated_validated_and_summarized(made):
     r = made / "results"
     for s in ("P01", "P02", "P03"):
         assert (r / "specimens" / s / "cal" / "fit.json").is_file()
-        assert json.loads((r / "specimens" / s / "gate" / "metrics.json").read_text())["pass"] in (True, False)
+        assert json.loads((r / "specimens" / s / "gate" / "metrics.json").read_text())["pass"] is True  # each fit passes its own gate on its held-out polish
     html = (r / "summary" / "report.html").read_text()
     assert 'id="population-table"' in html and html.count("<h3>") == 6  # one forest plot per constant
     assert html.count('class="forest"') >= 3  # drawn where specimens give estimates (compact)

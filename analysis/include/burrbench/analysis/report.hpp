@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "burrbench/data_schema/html_text.hpp"
 #include "burrbench/analysis/criteria.hpp"
 #include "burrbench/data_schema/progress.hpp"
 
@@ -49,8 +50,9 @@ std::filesystem::path default_assets_dir();
 ReportSummary write_report(const std::filesystem::path& dir, const std::filesystem::path& out_html,
                            const ReportOptions& opt = {});
 
-// Escaping for text from files: HTML text/attributes, and JSON placed in <script>.
-std::string html_escape(std::string_view s);
+// Escaping for text from files: HTML text/attributes (data_schema's, shared with the
+// study report), and JSON placed in <script>.
+using data_schema::html_escape;
 std::string json_for_script(const nlohmann::json& j);
 
 }  // namespace burrbench::analysis
