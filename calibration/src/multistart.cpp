@@ -38,6 +38,17 @@ std::vector<std::vector<double>> latin_hypercube_starts(const Layout& layout,
   return out;
 }
 
+bool hopeless_start(const std::vector<double>& costs, int max_iterations, double reference) {
+  const std::size_t n = costs.size();
+  if (n < 4 || !std::isfinite(reference)) return false;  // start + 3 iterations
+  const double now = costs[n - 1], before = costs[n - 3];
+  if (!(now > reference) || !(before > 0)) return false;
+  const double rate = std::max(0.0, (before - now) / before) / 2;  // per iteration
+  const int left = std::max(0, max_iterations - int(n - 1));
+  const double best_case = now * std::pow(std::max(0.0, 1 - 2 * rate), left);
+  return best_case > reference;
+}
+
 MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector<double>>& starts,
                              const SampleWeights& w, const MultistartOptions& opt,
                              double tolerance) {
@@ -111,6 +122,7 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
     return out.ends[a].prefit_cost < out.ends[b].prefit_cost;
   });
   const std::size_t solved = opt.solved > 0 ? std::min(total, std::size_t(opt.solved)) : total;
+  const double reference = total > 0 ? out.ends[order[0]].prefit_cost : INFINITY;
   done = 0;
   of = solved;
   out.solved = int(solved);
@@ -119,12 +131,20 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
     SolveOptions full;
     full.max_iterations = opt.iterations;
     full.threads = std::max(1, opt.concurrent);  // the pool bounds the CPUs; a lone last solve uses both
+    if (opt.abandon_hopeless)
+      full.stop_early = [&](const std::vector<double>& costs) {
+        return hopeless_start(costs, opt.iterations, reference);
+      };
     const SolveOutcome r = obj.solve(e.end, w, full);
     if (!r.usable) return;
     e.end = r.x;
     e.cost = r.final_cost;
     e.iterations += r.iterations;
-    e.termination = r.termination;
+    e.termination = r.stopped_early
+                        ? fmt::format("abandoned: stalled at cost {:.6g}, above the best pre-fit cost {:.6g} "
+                                      "even at twice its recent rate of descent",
+                                      r.final_cost, reference)
+                        : r.termination;
     e.usable = true;
     report("local solve", e.cost);
   });

@@ -296,18 +296,26 @@ void build(const Objective& obj, std::vector<double>& x, const SampleWeights& w,
 
 class ProgressCallback final : public ceres::IterationCallback {
  public:
-  ProgressCallback(Progress* p, int max_it) : p_(p), max_(max_it) {}
+  ProgressCallback(Progress* p, int max_it, const SolveOptions& o) : p_(p), max_(max_it), o_(o) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
     if (p_)
       p_->update(std::min(1.0, double(s.iteration) / max_),
                  fmt::format("iter {:3d}  cost {:.6g}  step {:.3g}  elapsed {:.1f} s", s.iteration,
                              s.cost, s.step_norm, s.cumulative_time_in_seconds));
+    costs_.push_back(s.cost);
+    if (o_.stop_early && o_.stop_early(costs_)) {
+      stopped = true;
+      return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+    }
     return ceres::SOLVER_CONTINUE;
   }
+  bool stopped = false;
 
  private:
   Progress* p_;
   int max_;
+  const SolveOptions& o_;
+  std::vector<double> costs_;
 };
 
 }  // namespace
@@ -344,7 +352,7 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
   so.gradient_tolerance = 1e-10;
   so.parameter_tolerance = 1e-8;
   so.minimizer_progress_to_stdout = false;
-  ProgressCallback cb(options.progress, options.max_iterations);
+  ProgressCallback cb(options.progress, options.max_iterations, options);
   so.callbacks.push_back(&cb);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &bp.problem, &summary);
@@ -354,6 +362,7 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
   out.termination = ceres::TerminationTypeToString(summary.termination_type) +
                     std::string(": ") + summary.message;
   out.usable = summary.IsSolutionUsable();
+  out.stopped_early = cb.stopped;
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "analytic_model.hpp"
+#include "burrbench/calibration/multistart.hpp"
 #include "burrbench/calibration/objective.hpp"
 #include "burrbench/calibration/uncertainty.hpp"
 
@@ -101,6 +102,57 @@ TEST(CalibrationCore, RecoversAnalyticTruthWithIntervalsCoveringIt) {
       EXPECT_NEAR(n.estimate, 4.0, 4 * n.std_error + 1e-9);
     }
   EXPECT_EQ(rep.correlation.names.size(), rep.covariance.names.size());
+}
+
+// The multistart's rule for abandoning a local solve, on cost sequences of the reference
+// experiment's default calibration (best pre-fit cost 42244, 12 local iterations).
+TEST(CalibrationCore, HopelessStartsAreThoseThatCannotReachTheBestPrefit) {
+  const double ref = 42244;
+  // Stalled far above: 0.6 % over two iterations, 9 iterations left.
+  EXPECT_TRUE(bc::hopeless_start({55226, 53489, 53247, 53156}, 12, ref));
+  EXPECT_TRUE(bc::hopeless_start({66248, 66217, 66216, 66214}, 12, ref));
+  // The best start itself (it starts at the reference) and a fast descent below it.
+  EXPECT_FALSE(bc::hopeless_start({42244, 41697, 41020, 39548}, 12, ref));
+  EXPECT_FALSE(bc::hopeless_start({54664, 27372, 26436, 26428}, 12, ref));
+  // Above, but descending 10 % per iteration: it could still get below the reference.
+  EXPECT_FALSE(bc::hopeless_start({60000, 54000, 48600, 43740}, 12, ref));
+  // 1.9 % per iteration: enough with 9 iterations left, not with 1.
+  EXPECT_FALSE(bc::hopeless_start({60000, 54000, 53000, 52000}, 12, ref));
+  EXPECT_TRUE(bc::hopeless_start({60000, 54000, 53000, 52000}, 4, ref));
+  // Too early to judge (fewer than 3 iterations), or no reference.
+  EXPECT_FALSE(bc::hopeless_start({66248, 66217, 66216}, 12, ref));
+  EXPECT_FALSE(bc::hopeless_start({66248, 66217, 66216, 66214}, 12, INFINITY));
+}
+
+// Abandoning hopeless local solves saves their iterations and never changes the best end.
+TEST(CalibrationCore, AbandoningHopelessStartsKeepsTheBestOptimum) {
+  auto s = make(true, true, 5);
+  bc::Objective obj(*s.layout, ptrs(s), settings());
+  const auto starts = bc::latin_hypercube_starts(*s.layout, s.layout->initial(), 12, 9);
+  bc::MultistartOptions mo;
+  mo.iterations = 12;
+  bc::MultistartOptions keep = mo;
+  keep.abandon_hopeless = false;
+  const auto a = bc::multistart(obj, starts, s.w, mo, 1e-6);
+  const auto b = bc::multistart(obj, starts, s.w, keep, 1e-6);
+  ASSERT_FALSE(a.ends.empty());
+  EXPECT_DOUBLE_EQ(a.ends.front().cost, b.ends.front().cost);
+  EXPECT_EQ(a.ends.front().index, b.ends.front().index);
+  EXPECT_EQ(a.reached_best, b.reached_best);
+  double lowest_prefit = INFINITY;
+  for (const auto& e : a.ends) lowest_prefit = std::min(lowest_prefit, e.prefit_cost);
+  std::uint64_t it_a = 0, it_b = 0;
+  int abandoned = 0;
+  for (const auto& e : a.ends) {
+    it_a += e.iterations;
+    if (e.termination.rfind("abandoned", 0) != 0) continue;
+    ++abandoned;
+    EXPECT_GT(e.cost, lowest_prefit) << e.index;
+  }
+  for (const auto& e : b.ends) it_b += e.iterations;
+  std::cout << abandoned << " of " << a.ends.size() << " starts abandoned; iterations " << it_a
+            << " instead of " << it_b << "\n";
+  EXPECT_LE(it_a, it_b);
 }
 
 // A Jacobian costs a (sensitivity) replay: Ceres's bound-constrained line search asks for

@@ -35,6 +35,9 @@ struct MultistartOptions {
   // end at their pre-fit (termination "screened by pre-fit cost"). ≤ 0: all of them.
   int solved = 0;
   int concurrent = 2;         // starts solved at once
+  // Abandon a local solve that cannot reach the best pre-fit cost in its remaining
+  // iterations (hopeless_start below); its end is kept with that termination.
+  bool abandon_hopeless = true;
   Progress* progress = nullptr;
 };
 
@@ -45,6 +48,15 @@ struct MultistartOutcome {
   double tolerance = 0;
   int solved = 0;  // starts that got the local solve
 };
+
+// Whether a local solve, whose costs after each iteration are `costs` (entry 0: its start),
+// is hopeless: stalled far above `reference` (the lowest pre-fit cost of all starts, which
+// the best start's own solve can only lower). It is when, after at least 3 iterations,
+// even twice its relative decrease over the last two iterations, kept up for all of the
+// `max_iterations` still left, would leave it above `reference`. The best start is never
+// hopeless (it starts at or below the reference); a start still descending fast is kept.
+// Deterministic: it depends on the start's own costs and the pre-fit alone.
+bool hopeless_start(const std::vector<double>& costs, int max_iterations, double reference);
 
 // `tolerance` (cost units): ends within it of the best count as reaching the best optimum.
 MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector<double>>& starts,

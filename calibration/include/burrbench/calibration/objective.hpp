@@ -9,6 +9,7 @@
 // LossFunction on a whole residual block would do): r̃ = sign(r)·√ρ(r²), so Σ r̃² = Σ ρ(r²).
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,9 @@ struct SolveOptions {
   Progress* progress = nullptr;
   std::vector<bool> hold;  // per x entry: true = held constant (empty: none)
   bool geometry_terms = true;  // see EvalPoint::geometry_terms
+  // Called after every iteration with the costs so far (entry 0: the start); true ends
+  // the solve there, keeping its point (SolveOutcome::stopped_early).
+  std::function<bool(const std::vector<double>& costs)> stop_early;
 };
 
 struct SolveOutcome {
@@ -49,6 +53,7 @@ struct SolveOutcome {
   double initial_cost = 0, final_cost = 0;
   std::string termination;
   bool usable = false;
+  bool stopped_early = false;  // SolveOptions::stop_early ended it
   double wall_s = 0;
 };
 
