@@ -184,7 +184,8 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   return in;
 }
 
-AnalysisInput replay_calibrate_directory(const fs::path& dir, const std::string& context_of_use) {
+AnalysisInput replay_calibrate_directory(const fs::path& dir, const std::string& context_of_use,
+                                        model::ExperimentPrediction* prediction) {
   const auto f = ds::read_fit(dir / "fit.json");  // validates
   if (f.experiment_path.empty() || !fs::exists(f.experiment_path))
     throw InputError((dir / "fit.json").string(), "experiment_path", "an existing experiment manifest", f.experiment_path);
@@ -198,7 +199,8 @@ AnalysisInput replay_calibrate_directory(const fs::path& dir, const std::string&
                                  : ds::parameter_set_from(f, (dir / "fit.json").string());
   AnalysisInput in = replay_experiment(f.experiment_path, params, &f,
                                        {true, context_of_use, nullptr,
-                                        (dir / (has_params ? "params.toml" : "fit.json")).string()});
+                                        (dir / (has_params ? "params.toml" : "fit.json")).string(), nullptr,
+                                        prediction});
   if (has_params) {
     in.params_path = fs::absolute(dir / "params.toml").string();
     in.params_sha256 = sha256_file(dir / "params.toml");

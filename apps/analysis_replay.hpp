@@ -42,6 +42,7 @@ AnalysisInput replay_experiment(const std::filesystem::path& manifest,
 // An older calibrate directory (fit.json, usually params.toml, no analysis.json): its
 // experiment (whose SHA-256 must still match) replayed with params.toml, or the fit's
 // estimates, and the fitted nuisances; the directory's files count among the inputs.
-AnalysisInput replay_calibrate_directory(const std::filesystem::path& dir, const std::string& context_of_use);
+AnalysisInput replay_calibrate_directory(const std::filesystem::path& dir, const std::string& context_of_use,
+                                        model::ExperimentPrediction* prediction = nullptr);
 
 }  // namespace burrbench::apps

@@ -42,13 +42,16 @@ void run(const Options& o) {
   for (const char* f : {"analysis.json", "predictions.csv", "wrench.csv", "band.csv", "fit.json", "params.toml", "criteria.toml"})
     inputs.push_back(fs::path(o.dir) / f);
   folder.refuse_inputs({out.filename().string(), "analysis.json", "predictions.csv", "wrench.csv", "band.csv",
-                        "fit.json", "residuals.csv", "metrics.json"},
+                        "fit.json", "residuals.csv", "metrics.json", "prediction.h5"},
                        inputs);
   fs::path dir = o.dir;
   if (!fs::exists(dir / "analysis.json") && fs::exists(dir / "fit.json")) {
-    // An older calibrate directory: replay its fit into an analysis input beside the
-    // report (the report itself only reads files), then render that.
-    auto in = apps::replay_calibrate_directory(dir, o.context);
+    // An older calibrate directory: replay its fit into an analysis input and the
+    // prediction file beside the report (the report itself only reads files), as
+    // calibrate writes them today, then render that.
+    model::ExperimentPrediction prediction;
+    auto in = apps::replay_calibrate_directory(dir, o.context, &prediction);
+    model::write_prediction(folder.staging() / "prediction.h5", prediction, in.provenance);
     analysis::write_analysis_input(folder.staging(), in);
     data_schema::copy_file_atomic(dir / "fit.json", folder.staging() / "fit.json");
     dir = folder.staging();

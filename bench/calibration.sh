@@ -194,7 +194,8 @@ run_part registration && read -r rhits rchits rtotal ridf <<<"$(coverage registr
 run_part mismatch && read -r mhits mlim mwrong mtotal mwd mwc <<<"$(mismatch)"
 run_part channels && chan=$(channels)
 
-pct() { $PY -c "print(f'{100*$1/max(1,$2):.1f}')"; }
+# "p % (hits/total)", or "-" for a coverage that was not run.
+cover() { if (( $2 == 0 )); then echo -; else $PY -c "print(f'{100*$1/$2:.1f} % ($1/$2)')"; fi; }
 ok() { $PY -c "print('ok' if $1 else 'MISSED')" 2>/dev/null || echo -; }
 # A coverage that was not run (COVERAGE=...) says "-", not a vacuous ok.
 covered() { if (( $2 == 0 )); then echo -; else ok "$1 >= 0.9*$2"; fi; }
@@ -207,13 +208,13 @@ printf '%-62s %-22s %-10s %s\n' "default calibration (16 starts, profiles), R/l 
 printf '%-62s %s\n' "  where the time went (stage wall, replays)" "$def_stages"
 printf '%-62s %-22s %-10s %s\n' "same on the sample resampled to 0.05 mm (R/l = 20): wall" "${fine_wall} s (${fine_cpu} CPU, $fine_rep replays)" "report" -
 printf '%-62s %s\n' "  0.05 mm: held values against the truth (profile interval)" "$fine_err"
-printf '%-62s %-22s %-10s %s\n' "profile 95 % interval coverage, 6 constants, $reps seeds" "$(pct $hits $total) % ($hits/$total)" ">= 90 %" "$(covered $hits $total)"
-printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(pct $chits $total) % ($chits/$total)" - -
+printf '%-62s %-22s %-10s %s\n' "profile 95 % interval coverage, 6 constants, $reps seeds" "$(cover $hits $total)" ">= 90 %" "$(covered $hits $total)"
+printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(cover $chits $total)" - -
 printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$idf/$total" - -
-printf '%-62s %-22s %-10s %s\n' "fiducial registration (5 um): profile coverage, $reps seeds" "$(pct $rhits $rtotal) % ($rhits/$rtotal)" ">= 90 %" "$(covered $rhits $rtotal)"
-printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(pct $rchits $rtotal) % ($rchits/$rtotal)" - -
+printf '%-62s %-22s %-10s %s\n' "fiducial registration (5 um): profile coverage, $reps seeds" "$(cover $rhits $rtotal)" ">= 90 %" "$(covered $rhits $rtotal)"
+printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(cover $rchits $rtotal)" - -
 printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$ridf/$rtotal" - -
-printf '%-62s %-22s %-10s %s\n' "data at 0.1 mm fitted at 0.05 mm: coverage, ${MISMATCH_REPS:-10} seeds" "$(pct $mhits $mtotal) % ($mhits/$mtotal)" ">= 90 %" "$(covered $mhits $mtotal)"
+printf '%-62s %-22s %-10s %s\n' "data at 0.1 mm fitted at 0.05 mm: coverage, ${MISMATCH_REPS:-10} seeds" "$(cover $mhits $mtotal)" ">= 90 %" "$(covered $mhits $mtotal)"
 printf '%-62s %-22s %-10s %s\n' "  limited by discretization / confidently wrong" "$mlim / $mwrong of $mtotal" "- / 0" "$( (( mtotal == 0 )) && echo - || ok "$mwrong == 0")"
 printf '%-62s %-22s %-10s %s\n' "  wall at 0.05 mm: default / --coarse-to-fine (sum)" "$mwd s / $mwc s ($($PY -c "print(f'{$mwd/max($mwc,1e-9):.2f}')")x)" report -
 printf '%s\n' "force alone -> force, moments and spindle load (profile interval width hi/lo, error against the truth):"

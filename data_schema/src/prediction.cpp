@@ -215,6 +215,21 @@ void validate(const Prediction& p, const std::string& file) {
   }
 }
 
+std::vector<std::pair<std::string, std::string>> prediction_units() {
+  std::vector<std::pair<std::string, std::string>> out{{kTime.name, kTime.unit}};
+  for (const auto& f : kVec3) out.emplace_back(f.name, f.unit);
+  out.emplace_back(kDepth.name, kDepth.unit);
+  for (const auto& f : kWrench3) out.emplace_back(f.name, f.unit);
+  for (const auto& f : kWrench1) out.emplace_back(f.name, f.unit);
+  out.emplace_back(kBand.name, kBand.unit);
+  for (const auto& f : kRoleFlags) out.emplace_back(f.name, f.unit);
+  for (const auto& f : kFlags) out.emplace_back(f.name, f.unit);
+  // The recording's numeric attributes (docs/formats.md).
+  out.insert(out.end(), {{"force_bias_N", "N"}, {"torque_bias_Nmm", "N*mm"}, {"removed_mm3", "mm^3"},
+                         {"friction_energy_mJ", "mJ"}, {"lag_ms", "ms"}, {"depth_offset_mm", "mm"}});
+  return out;
+}
+
 void write_prediction(const std::filesystem::path& path, const Prediction& p) {
   validate(p, path.string());
   h5::Writer w(path);

@@ -5,7 +5,7 @@ import json
 import os
 import tomllib
 
-from ._burrbench import validate
+from ._burrbench import prediction_units, validate
 
 
 class Group(dict):
@@ -98,15 +98,9 @@ def read_sample(path):
 
 
 def _prediction_units(rec):
-    units = {"t_s": "s", "depth_b_mm": "mm", "removed_mm3": "mm^3", "normal_vol": "1"}
-    for k in rec:
-        if k.endswith("_N"):
-            units[k] = "N"
-        elif k.endswith("_Nmm"):
-            units[k] = "N*mm"
-        elif k.endswith("_mm"):
-            units[k] = "mm"
-    rec.units.update({k: u for k, u in units.items() if k in rec})
+    """Units of an in-memory prediction (replay), from the format's own table: the same
+    strings the file's @unit attributes carry."""
+    rec.units.update({k: u for k, u in prediction_units().items() if k in rec})
     rec.frames.update({k: _frame(k) for k in rec if _frame(k)})
     return rec
 

@@ -45,6 +45,14 @@ void bind_files(py::module_& m) {
       py::arg("kind"), py::arg("path"),
       "Checks a burrbench file with the C++ reader of its format; raises InputError (file, field, "
       "expectation) on any defect.");
+  m.def(
+      "prediction_units",
+      [] {
+        py::dict d;
+        for (const auto& [name, unit] : data_schema::prediction_units()) d[py::str(name)] = unit;
+        return d;
+      },
+      "The prediction format's unit of every per-recording dataset and numeric attribute, by name.");
 }
 
 data_schema::ParameterSet to_parameter_set(const py::object& o) {

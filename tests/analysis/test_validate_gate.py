@@ -10,6 +10,8 @@ import shutil
 import subprocess
 import sys
 
+import h5py
+import numpy as np
 import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -258,3 +260,10 @@ def test_report_of_a_calibrate_directory(exp, tmp_path):
     for rec in ("plunge", "sweep", "polish"):
         assert rows2[(rec, "x")]["rmse_N"] == pytest.approx(rows[(rec, "x")]["rmse_N"], rel=1e-9)
     assert "Parameter correlation matrix" in open(out2, encoding="utf-8").read()
+    # ... and writes the prediction file as calibrate does today: the same predicted force.
+    with h5py.File(cal / "prediction.h5") as a, h5py.File(out2.parent / "prediction.h5") as b:
+        assert sorted(a["recordings"]) == sorted(b["recordings"]) == ["plunge", "polish", "sweep"]
+        for rec in a["recordings"]:
+            pa, pb = a["recordings"][rec], b["recordings"][rec]
+            assert np.allclose(pa["force_sensor_pred_N"][()], pb["force_sensor_pred_N"][()], rtol=0, atol=1e-9), rec
+            assert pa.attrs["force_bias_source"] == pb.attrs["force_bias_source"], rec

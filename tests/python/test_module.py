@@ -51,6 +51,10 @@ def test_replay_equals_the_cli_prediction_bit_for_bit(exp):
                 assert np.array_equal(rec[name], a[name]), (rid, name)
             assert rec.units["force_sensor_pred_N"] == "N" and rec.frames["force_sensor_pred_N"] == "sensor"
             assert rec.frames["centre_vol_mm"] == "volume" and rec.units["centre_vol_mm"] == "mm"
+            # Every dataset's unit as the file's @unit says (one table on both sides).
+            with_unit = {n: ds.attrs["unit"].decode() for n, ds in recs[rid].items() if "unit" in ds.attrs}
+            assert len(with_unit) >= 12
+            assert {n: rec.units.get(n) for n in with_unit if n in rec} == {n: u for n, u in with_unit.items() if n in rec}
     # The same constants as a dict give the same numbers.
     params = burrbench.read_params(exp / "params_true.toml")["classes"]
     again = burrbench.replay(exp / "experiment.toml", {k: {q: v[q] for q in ("id", "alpha_N_per_mm2", "c1_N_per_mm2", "mu")}

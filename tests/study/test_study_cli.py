@@ -5,7 +5,9 @@ mean. The Slurm profile is checked by a dry run in every case."""
 import json
 import os
 import shutil
+import re
 import subprocess
+import sys
 import time
 
 import pytest
@@ -49,6 +51,48 @@ def test_every_specimen_is_calibrated_validated_and_summarized(made):
     params = (r / "summary" / "params.toml").read_text()
     assert "format = 'burrbench.params'" in params
     assert all(f"specimens/{s}/cal/fit.json" in params for s in ("P01", "P02", "P03"))  # provenance
+
+
+# Measures the drawn forest plots in the page as the browser laid them out: no two labels
+# overlap and none leaves its plot (an axis caption once sat on its lower tick).
+LAYOUT_PROBE = """<script>
+window.addEventListener("load", () => {
+  const found = [];
+  const svgs = document.querySelectorAll("svg.forest");
+  for (const svg of svgs) {
+    const vb = svg.viewBox.baseVal;
+    const boxes = [...svg.querySelectorAll("text")].map(t => [t.textContent, t.getBBox()]);
+    boxes.forEach(([a, p], i) => {
+      if (p.x < 0 || p.y < 0 || p.x + p.width > vb.width || p.y + p.height > vb.height) found.push("outside: " + a);
+      for (const [b, q] of boxes.slice(i + 1))
+        if (p.x < q.x + q.width && q.x < p.x + p.width && p.y < q.y + q.height && q.y < p.y + p.height)
+          found.push(a + " / " + b);
+    });
+  }
+  document.body.dataset.forests = svgs.length;
+  document.body.dataset.marks = document.querySelectorAll("svg.forest rect.specimen, svg.forest polygon.population").length;
+  document.body.dataset.overlaps = JSON.stringify(found);
+});
+</script>"""
+
+
+def test_the_study_report_renders_in_a_browser_with_readable_forest_plots(made, tmp_path):
+    sys.path.insert(0, str(SRC / "tests" / "analysis"))
+    import browser_check
+    report = made / "results" / "summary" / "report.html"
+    res = json.loads(subprocess.run(["/usr/bin/python3", SRC / "tests" / "analysis" / "browser_check.py", report,
+                                     tmp_path / "chromium"], capture_output=True, text=True, timeout=200,
+                                    check=True).stdout)
+    assert res["console_errors"] == []
+    assert res["coloured_fraction"] > 0.0005  # the blue specimen marks and red population diamonds
+    page = tmp_path / "probed.html"
+    page.write_text(report.read_text().replace("</body>", LAYOUT_PROBE + "</body>"))
+    dom = browser_check.chromium(["--dump-dom", page.as_uri()], str(tmp_path / "probe")).stdout
+    body = re.search(r"<body[^>]*>", dom).group(0)
+    attr = {k: v for k, v in re.findall(r'data-(\w+)="([^"]*)"', body)}
+    assert int(attr["forests"]) >= 3, body
+    assert int(attr["marks"]) >= 3 * 4  # 3 specimens and the population per drawn constant
+    assert json.loads(attr["overlaps"].replace("&quot;", '"')) == []
 
 
 def test_the_population_interval_holds_the_population_mean(made):

@@ -8,6 +8,7 @@
 #include <limits>
 #include <glm/glm.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "burrbench/data_schema/provenance.hpp"
@@ -108,6 +109,10 @@ struct Prediction {
 // flags other than 0/1, t_s not increasing, duplicate or invalid recording ids.
 void validate(const Prediction& p, const std::string& file_for_messages);
 void write_prediction(const std::filesystem::path& path, const Prediction& p);
+// Unit of every per-sample dataset of a recording (as its @unit in the file) and of the
+// recording's numeric attributes (removed_mm3, friction_energy_mJ, lag_ms, …), by name:
+// the one table the writer, the reader and the Python module's in-memory replay share.
+std::vector<std::pair<std::string, std::string>> prediction_units();
 // Validates format name, major version, layout, units and values; all datasets together
 // ≤ 4 GiB, checked from the headers before reading.
 Prediction read_prediction(const std::filesystem::path& path);
