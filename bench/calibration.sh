@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Calibration figures (issue 10) on the synthetic reference experiment (R/l = 10, two
 # classes, plunge + sweep + polish, bias and lag free; ≈ 15 s at 1 kHz at time scale 3):
-#  1. one single-start fit (--starts 1 --no-profiles) with --derivatives fd against the
+#  1. one single-start fit (--starts 1 --no-profiles --no-discretization-check) with --derivatives fd against the
 #     forward sensitivities: wall time and replays;
 #  2. the default calibration (16 starts, profiles, no cross-validation): wall time;
 #  3. the same experiment calibrated on the sample resampled to 0.05 mm voxels (R/l = 20):
@@ -56,9 +56,9 @@ fine_wall=- fine_cpu=- fine_rep=- fine_err=- def_stages=-
 if [[ -z ${SKIP_TIMING:-} ]]; then
   m=$("$G" "$work/ref" "$B" 1 3 fine)
   mc="$work/ref/experiment.toml"
-  read -r fd_wall fd_cpu fd_rep fd_it <<<"$(calib "$work/ref/fd" "$mc" --starts 1 --no-profiles --derivatives fd)"
+  read -r fd_wall fd_cpu fd_rep fd_it <<<"$(calib "$work/ref/fd" "$mc" --starts 1 --no-profiles --no-discretization-check --derivatives fd)"
   echo "  fd single start: $fd_wall s wall, $fd_cpu s CPU, $fd_rep replays" >&2
-  read -r se_wall se_cpu se_rep se_it <<<"$(calib "$work/ref/se" "$mc" --starts 1 --no-profiles)"
+  read -r se_wall se_cpu se_rep se_it <<<"$(calib "$work/ref/se" "$mc" --starts 1 --no-profiles --no-discretization-check)"
   echo "  sensitivities single start: $se_wall s wall, $se_cpu s CPU, $se_rep replays" >&2
   read -r def_wall def_cpu def_rep def_it <<<"$(calib "$work/ref/def" "$mc" --starts 16)"
   echo "  default calibration: $def_wall s wall, $def_cpu s CPU, $def_rep replays" >&2
