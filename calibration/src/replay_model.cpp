@@ -1,5 +1,6 @@
 #include "burrbench/calibration/replay_model.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "burrbench/data_schema/error.hpp"
@@ -130,6 +131,29 @@ void ReplayRecordingModel::fill_base(const model::ReplayResult& base, const mode
   }
 }
 
+namespace {
+
+// Every column finite, and no force column above kMaxSensitivityRatio × the largest
+// predicted force (≥ 1 mN) per unit of its parameter (ln θ, ms, mm, rad): legitimate
+// columns stay within a few times the force (docs/calibration.md "Sensitivities").
+bool plausible_columns(const Prediction& p) {
+  double fmax = 1e-3;
+  for (const auto& f : p.force_sensor_N) fmax = std::max(fmax, glm::length(f));
+  const double bound = ReplayRecordingModel::kMaxSensitivityRatio * fmax;
+  for (const auto& col : p.columns)
+    for (const auto& v : col)
+      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z) || glm::length(v) > bound) return false;
+  for (const auto& col : p.torque_columns)
+    for (const auto& v : col)
+      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return false;
+  for (const auto& col : p.spindle_columns)
+    for (const double v : col)
+      if (!std::isfinite(v)) return false;
+  return true;
+}
+
+}  // namespace
+
 const char* to_string(Derivatives d) {
   return d == Derivatives::kSensitivities ? "sensitivities" : "fd";
 }
@@ -138,9 +162,15 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
                                    Prediction& out) const {
   // Exact forward sensitivities (one replay) for the full Jacobian; the fixed-geometry
   // pre-fit (geometry_terms = false) and plain evaluations need no replay derivatives.
+  std::uint64_t spent = 0;  // replays of a diverged sensitivity attempt
   if (derivatives_ == Derivatives::kSensitivities && at.geometry_terms && !columns.empty()) {
     predict_sensitivities(at, columns, out);
-    return;
+    if (plausible_columns(out)) return;
+    // The tangent grew without bound (seen at R/l = 5 on a shallow plunge: columns of
+    // 1e97): such a Jacobian would freeze its parameters. Difference the replay instead.
+    ++diverged_;
+    spent = out.replays;
+    out = Prediction{};
   }
   const double lag_s = at.lag_ms * 1e-3;
   const model::PoseCorrection pose = pose_of(at);
@@ -193,7 +223,7 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
     }
   }
   pool_.run(jobs);
-  out.replays = jobs.size();
+  out.replays = jobs.size() + spent;
   const std::size_t n = size();
   const auto& base = jobs[0].result;
   fill_base(base, jobs[0].trajectory, out);

@@ -2,6 +2,7 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "burrbench/data_schema/provenance.hpp"
 #include "pipeline.hpp"
@@ -43,6 +44,24 @@ CalibrationOutput results(Run& run) {
         "level; the intervals are scaled by the residual variance, but a systematic misfit biases the "
         "constants (limited by model error; see the discretization check and `burrbench verify`)",
         out.residuals_summary.rms_normalised));
+
+  // Sensitivity Jacobians that diverged and were differenced instead (replay_model.hpp).
+  std::vector<std::string> diverged;
+  nlohmann::json diverged_json = nlohmann::json::array();
+  auto count = [&](const std::vector<std::unique_ptr<ReplayRecordingModel>>& models, double voxel_mm) {
+    for (const auto& m : models)
+      if (m->diverged_sensitivities() > 0) {
+        diverged.push_back(fmt::format("{} at voxel {:.4g} mm ({}×)", m->id(), voxel_mm, m->diverged_sensitivities()));
+        diverged_json.push_back(
+            {{"recording", m->id()}, {"voxel_mm", voxel_mm}, {"jacobians", m->diverged_sensitivities()}});
+      }
+  };
+  count(run.owned, run.used_samples.empty() ? NAN : run.used_samples.begin()->second.voxel_mm);
+  if (run.coarse) count(run.coarse->owned, run.coarse->voxel_mm);
+  if (!diverged.empty())
+    run.warnings.push_back(fmt::format(
+        "the forward sensitivities diverged for {}: those Jacobians were taken by finite differences of "
+        "the replay instead (slower; the fit is unaffected)", fmt::join(diverged, ", ")));
 
   for (const auto& e : run.search.ends)
     out.multistart.push_back({{"index", e.index},
@@ -95,6 +114,7 @@ CalibrationOutput results(Run& run) {
       {"interval_widening", std::sqrt(run.inflation)}};
   st["parameterisation"] = "ln(alpha), ln(C1), ln(mu); bias N; lag ms; depth offset mm";
   nlohmann::json deriv = {{"scheme", to_string(run.opt.derivatives)}};
+  if (run.opt.derivatives == Derivatives::kSensitivities) deriv["diverged"] = diverged_json;
   if (run.opt.derivatives == Derivatives::kFiniteDifferences) {
     nlohmann::json steps = nlohmann::json::object();
     for (const auto& [label, name] : run.present) steps[name] = run.steps.log_alpha[label];

@@ -11,6 +11,7 @@
 //    below the float resolution of χ and the voxel-scale texture of the force;
 //  - bias: linear, exact (in the objective).
 // The replays of one prediction (base + difference pairs) run on the shared ReplayPool.
+#include <atomic>
 #include <condition_variable>
 #include <deque>
 #include <functional>
@@ -85,6 +86,11 @@ class ReplayRecordingModel final : public RecordingModel {
   void set_steps(const DiffSteps& s) { steps_ = s; }
   void set_derivatives(Derivatives d) { derivatives_ = d; }
   const DiffSteps& steps() const { return steps_; }
+  // Jacobians whose forward sensitivities diverged (a non-finite value, or a column larger
+  // than kMaxSensitivityRatio × the recording's largest predicted force per unit of its
+  // parameter) and were therefore taken by finite differences at that point.
+  std::uint64_t diverged_sensitivities() const { return diverged_.load(); }
+  static constexpr double kMaxSensitivityRatio = 1e6;
 
  private:
   void predict_sensitivities(const EvalPoint& at, const std::vector<Column>& columns,
@@ -98,6 +104,7 @@ class ReplayRecordingModel final : public RecordingModel {
   model::ReplayOptions options_;
   DiffSteps steps_;
   Derivatives derivatives_ = Derivatives::kFiniteDifferences;
+  mutable std::atomic<std::uint64_t> diverged_{0};
 };
 
 model::ModelParams to_model_params(const PhysicsValues& v);
