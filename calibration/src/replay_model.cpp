@@ -135,7 +135,8 @@ namespace {
 
 // Every column finite, and no force column above kMaxSensitivityRatio × the largest
 // predicted force (≥ 1 mN) per unit of its parameter (ln θ, ms, mm, rad): legitimate
-// columns stay within a few times the force (docs/calibration.md "Sensitivities").
+// columns stay within a few times the force (docs/calibration.md "When the sensitivities
+// diverge"). The fallback differences with the model's difference steps (DiffSteps).
 bool plausible_columns(const Prediction& p) {
   double fmax = 1e-3;
   for (const auto& f : p.force_sensor_N) fmax = std::max(fmax, glm::length(f));
