@@ -294,9 +294,10 @@ void build(const Objective& obj, std::vector<double>& x, const SampleWeights& w,
   }
 }
 
-class ProgressCallback final : public ceres::IterationCallback {
+// Per iteration: the progress line, and SolveOptions::stop_early on the costs so far.
+class IterationWatch final : public ceres::IterationCallback {
  public:
-  ProgressCallback(Progress* p, int max_it, const SolveOptions& o) : p_(p), max_(max_it), o_(o) {}
+  IterationWatch(Progress* p, int max_it, const SolveOptions& o) : p_(p), max_(max_it), o_(o) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
     if (p_)
       p_->update(std::min(1.0, double(s.iteration) / max_),
@@ -352,7 +353,7 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
   so.gradient_tolerance = 1e-10;
   so.parameter_tolerance = 1e-8;
   so.minimizer_progress_to_stdout = false;
-  ProgressCallback cb(options.progress, options.max_iterations, options);
+  IterationWatch cb(options.progress, options.max_iterations, options);
   so.callbacks.push_back(&cb);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &bp.problem, &summary);
