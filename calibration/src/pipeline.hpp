@@ -87,6 +87,8 @@ struct Run {
   // coarse level (coarse-to-fine, discretization check); built on first use
   std::unique_ptr<CoarseLevel> coarse;
   double coarse_voxel_mm = NAN;      // voxel of the discretization check's refit (NaN: not done)
+  std::string coarse_termination;    // how that refit ended
+  std::uint64_t coarse_iterations = 0;
   double coarse_cost = NAN;          // coarse-to-fine: the coarse optimum's cost
 
   // resampling

@@ -141,7 +141,9 @@ CalibrationOutput results(Run& run) {
       {"coarse_voxel_mm", std::isfinite(run.coarse_voxel_mm) ? nlohmann::json(run.coarse_voxel_mm) : nlohmann::json(nullptr)},
       {"method", "refit from the optimum on the sample with voxels merged by 2; error of ln(theta) = "
                  "|ln theta_2l - ln theta_l| (Richardson, first order); limited when above half the 95 % "
-                 "interval's half-width in ln(theta); interval widened by it on both sides"}};
+                 "interval's half-width in ln(theta); interval widened by it on both sides"},
+      {"refit_termination", run.coarse_termination.empty() ? nlohmann::json(nullptr) : nlohmann::json(run.coarse_termination)},
+      {"refit_iterations", run.coarse_iterations}};
   st["coarse_to_fine"] = {
       {"used", run.opt.coarse_to_fine},
       {"coarse_voxel_mm", run.opt.coarse_to_fine && run.coarse ? nlohmann::json(run.coarse->voxel_mm) : nlohmann::json(nullptr)},

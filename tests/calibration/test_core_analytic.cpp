@@ -247,3 +247,83 @@ TEST(CalibrationCore, AlphaWithoutErosionIsNotIdentifiable) {
     EXPECT_TRUE(param(rep, k, "mu").identifiable) << param(rep, k, "mu").reason;
   }
 }
+
+namespace {
+// The analytic model with a texture its Jacobian does not see, as the voxel scale's in a
+// coarse replay: a ripple of relative amplitude `amp` in compact C1 that makes
+// Gauss–Newton steps fail near the optimum while the trust region is still wide.
+class Textured final : public bc::RecordingModel {
+ public:
+  Textured(const bc::RecordingModel& m, double amp) : m_(m), amp_(amp) {}
+  const std::string& id() const override { return m_.id(); }
+  std::size_t size() const override { return m_.size(); }
+  const std::vector<double>& t_s() const override { return m_.t_s(); }
+  const std::vector<glm::dvec3>& measured_sensor_N() const override { return m_.measured_sensor_N(); }
+  void predict(const bc::EvalPoint& at, const std::vector<bc::Column>& cols, bc::Prediction& out) const override {
+    m_.predict(at, cols, out);
+    const double ripple = 1.0 + amp_ * std::sin(1000.0 * std::log(at.physics.c1[1]));
+    for (auto& f : out.force_sensor_N) f *= ripple;
+  }
+
+ private:
+  const bc::RecordingModel& m_;
+  double amp_;
+};
+
+struct StallRun {
+  bc::SolveOutcome unlimited, limited;
+  std::vector<double> costs;  // the unlimited solve's cost per iteration (rejected: the trial's)
+};
+
+StallRun solve_textured(double amp) {
+  auto s = make(true, true, 4);
+  std::vector<Textured> tex;
+  for (const auto& m : s.models) tex.emplace_back(m, amp);
+  std::vector<const bc::RecordingModel*> p;
+  for (const auto& m : tex) p.push_back(&m);
+  bc::Objective obj(*s.layout, p, settings());
+  StallRun r;
+  bc::SolveOptions unlimited;
+  unlimited.max_iterations = 60;
+  unlimited.stop_early = [&](const std::vector<double>& c) {
+    r.costs = c;
+    return false;
+  };
+  r.unlimited = obj.solve(s.layout->initial(), s.w, unlimited);
+  bc::SolveOptions limited;
+  limited.max_iterations = 60;
+  limited.max_rejected_in_a_row = 3;
+  r.limited = obj.solve(s.layout->initial(), s.w, limited);
+  return r;
+}
+}  // namespace
+
+// A solve told to stop after 3 unsuccessful steps in a row (the discretization check's
+// coarse refit) ends there, "stalled", at the best point it had, once its cost has
+// levelled off: within a fraction of the profile threshold (χ²₁(0.95)/2 = 1.92) of where
+// the unlimited solve ends, in fewer iterations. Rejections right after a large gain
+// (the trust region adapting on a rougher cost) do not stop it.
+TEST(CalibrationCore, AStalledSolveStopsAtItsBestPointOnceLevelledOff) {
+  const StallRun r = solve_textured(0.002);
+  const auto& a = r.unlimited;
+  const auto& b = r.limited;
+  ASSERT_TRUE(a.usable && b.usable);
+  ASSERT_FALSE(a.stalled);
+  ASSERT_TRUE(b.stalled) << "the ripple no longer makes steps fail: the test lost its case (" << b.termination << ")";
+  EXPECT_EQ(b.termination.rfind("stalled: 3 unsuccessful steps in a row", 0), 0u) << b.termination;
+  EXPECT_LT(b.iterations, a.iterations);
+  // Both solves follow the same path up to the stop (the solver is deterministic).
+  ASSERT_GE(r.costs.size(), b.iterations);
+  double best = INFINITY;
+  for (std::size_t k = 0; k < b.iterations; ++k) best = std::min(best, r.costs[k]);
+  EXPECT_DOUBLE_EQ(b.final_cost, best);
+  EXPECT_GE(b.final_cost, a.final_cost);
+  EXPECT_LT(b.final_cost - a.final_cost, 0.5 * 1.92);
+  std::cout << "stalled after " << b.iterations << " iterations at cost " << b.final_cost << "; unlimited "
+            << a.iterations << " iterations, cost " << a.final_cost << "\n";
+
+  const StallRun rough = solve_textured(0.1);
+  ASSERT_TRUE(rough.limited.usable);
+  EXPECT_FALSE(rough.limited.stalled) << rough.limited.termination;
+  EXPECT_DOUBLE_EQ(rough.limited.final_cost, rough.unlimited.final_cost);
+}

@@ -45,6 +45,12 @@ struct SolveOptions {
   // Called after every iteration with the costs so far (entry 0: the start); true ends
   // the solve there, keeping its point (SolveOutcome::stopped_early).
   std::function<bool(const std::vector<double>& costs)> stop_early;
+  // > 0: end the solve, keeping its best point, after this many unsuccessful steps in a
+  // row once the cost has levelled off (the last accepted step gained < 1 %;
+  // SolveOutcome::stalled). For a cost textured at the voxel scale, where the
+  // Gauss–Newton model stops predicting descent long before the trust region has shrunk,
+  // and each rejected step still costs a Jacobian (the bounds' projected line search).
+  int max_rejected_in_a_row = 0;
 };
 
 struct SolveOutcome {
@@ -54,6 +60,7 @@ struct SolveOutcome {
   std::string termination;
   bool usable = false;
   bool stopped_early = false;  // SolveOptions::stop_early ended it
+  bool stalled = false;        // SolveOptions::max_rejected_in_a_row ended it
   double wall_s = 0;
 };
 
