@@ -80,6 +80,7 @@ struct Sums {
   double in_mass[kMaxClasses] = {};
   double mx = 0, my = 0, mz = 0;  // lens Σ ΔVχ(r/d)v
   double ix = 0, iy = 0, iz = 0;  // inside Σ χ v (× inside volume at the end)
+  std::vector<std::uint32_t>* inside_extra = nullptr;  // Scratch::keep_inside: list them
 };
 
 struct Row {
@@ -109,6 +110,7 @@ inline detail::LensVoxel* lens_segment(const Row& r, long x0, long x1, const Len
     if (d2 >= reach2) continue;
     const std::uint8_t k = kUniform ? r.uniform : r.lab[x];
     if (d2 <= inner2) {  // rounding put an inside voxel here: count it as inside
+      if (S.inside_extra) S.inside_extra->push_back(std::uint32_t(r.base + std::size_t(x)));
       S.in_mass[k] += cf;
       S.ix += cf * dx; S.iy += cf * dy; S.iz += cf * dz;
       continue;
@@ -178,6 +180,12 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
   detail::LensVoxel* first = lens.data();
   detail::LensVoxel* out = first;
   Sums S;
+  detail::Scratch& sc = vol.scratch();
+  if (sc.keep_inside) {
+    sc.inside_spans.clear();
+    sc.inside_extra.clear();
+    S.inside_extra = &sc.inside_extra;
+  }
 
   for (long z = z0; z <= z1; ++z) {
     const double dz = o.z + l * double(z) - p.z, dz2 = dz * dz;
@@ -217,6 +225,7 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
       const Row r{chi + base, lab + base, base, o.x - p.x, l, dy, dz, s2, vol.row_label(row)};
       out = lens_span(r, xa, ia - 1, tab, reach2, inner2, S, out);
       if (ia <= ib) {
+        if (sc.keep_inside) sc.inside_spans.push_back({std::uint32_t(row), std::int32_t(ia), std::int32_t(ib)});
         if (r.uniform != 0) {
           double s0, s1;
           sum_row(r.chi, int(ia), int(ib), s0, s1);

@@ -36,11 +36,24 @@ struct KernelState {
   std::size_t lens_count = 0;
 };
 
+// A row's run of fully-inside voxels (d ≤ R − η), x in [lo, hi].
+struct InsideSpan {
+  std::uint32_t row;  // y + ny·z
+  std::int32_t lo, hi;
+};
+
 struct Scratch {
   bool has_table = false;
   LensTable table;
   std::vector<LensVoxel> lens;
   KernelState state;
+  // While a tangent pass runs (TangentState), the first pass also lists the fully-inside
+  // voxels it summed without geometry: their spans, and the few that rounding moved from a
+  // lens span to the inside. The tangent pass needs them for voxels that were eroded
+  // earlier and are now inside the burr.
+  bool keep_inside = false;
+  std::vector<InsideSpan> inside_spans;
+  std::vector<std::uint32_t> inside_extra;
 };
 
 }  // namespace burrbench::model::detail

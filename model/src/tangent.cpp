@@ -30,7 +30,7 @@ glm::dvec3 Sym3::operator*(const glm::dvec3& u) const {
 
 TangentState::TangentState(const Volume& vol, const std::vector<Direction>& dirs,
                            const ModelParams& prm)
-    : P_(dirs.size()), prm_(prm), nx_(vol.dims()[0]), ny_(vol.dims()[1]) {
+    : vol_(vol), P_(dirs.size()), prm_(prm), nx_(vol.dims()[0]), ny_(vol.dims()[1]) {
   BURRBENCH_CHECK(P_ <= kMaxDirections, "too many sensitivity directions");
   for (const auto& d : dirs) {
     kind_.push_back(d.kind == Direction::Kind::kLogAlpha ? kAlpha
@@ -45,7 +45,10 @@ TangentState::TangentState(const Volume& vol, const std::vector<Direction>& dirs
   for (std::size_t j = 0; j < P_; ++j)
     if (kind_[j] == kPath) path_.push_back(j);
   drem_.assign(P_, std::array<double, kMaxClasses>{});
+  vol.scratch().keep_inside = true;
 }
+
+TangentState::~TangentState() { vol_.scratch().keep_inside = false; }
 
 double* TangentState::tangent(std::uint32_t v) {
   const std::int32_t s = slot_[v];
@@ -79,7 +82,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   const double* const T = tab.data();
   const double t_lo = tab.d2_inner(), t_ih = tab.inv_step();
   const int t_last = tab.intervals() - 1;
-  const double reach2 = tab.d2_outer(), v_in = tab.inside_volume(), R = tab.radius();
+  const double v_in = tab.inside_volume(), R = tab.radius();
   const double l = vol.voxel_mm(), l3 = l * l * l;
   const LensVoxel* lv = vol.scratch().lens.data();
   const bool moves = !path_.empty();
@@ -130,37 +133,29 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     for (int k = 1; k < kMaxClasses; ++k) dmass[j][std::size_t(k)] += glm::dot(amass[std::size_t(k)], dp[j]);
     dm1[j] += -2.0 * (B * dp[j]) - (swr + v_in * st.inside_chi) * dp[j];
   }
-  // Inside voxels with a tangent (eroded earlier, now inside) add v_in·∂χ.
+  // Inside voxels with a tangent (eroded earlier, now inside) add v_in·∂χ. The first pass
+  // listed the inside voxels (Scratch::keep_inside); only rows with tangents are visited.
   if (!touched_.empty()) {
     const glm::dvec3 o = vol.origin_mm(), p = st.p;
-    const double reach = std::sqrt(reach2);
-    const auto& dims = vol.dims();
-    auto range = [&](double c, double oa, std::size_t n, long& lo, long& hi) {
-      lo = std::max(0L, long(std::floor((c - reach - oa) / l)));
-      hi = std::min(long(n) - 1, long(std::ceil((c + reach - oa) / l)));
-    };
-    long z0, z1, y0, y1, x0, x1;
-    range(p.z, o.z, dims[2], z0, z1);
-    range(p.y, o.y, dims[1], y0, y1);
-    range(p.x, o.x, dims[0], x0, x1);
-    for (long z = z0; z <= z1; ++z)
-      for (long y = y0; y <= y1; ++y) {
-        const std::size_t row = std::size_t(y) + ny_ * std::size_t(z);
-        const long xa = std::max(x0, long(row_lo_[row])), xb = std::min(x1, long(row_hi_[row]));
-        for (long x = xa; x <= xb; ++x) {
-          const std::size_t idx = std::size_t(x) + nx_ * row;
-          const std::int32_t s = slot_[idx];
-          if (s < 0 || stamp_[std::size_t(s)] == eval_) continue;  // none, or a lens voxel
-          const glm::dvec3 vv = o + l * glm::dvec3(double(x), double(y), double(z)) - p;
-          if (glm::dot(vv, vv) >= reach2) continue;
-          const double* tg = &dchi_[std::size_t(s) * P];
-          const std::uint8_t k = vol.label(idx);
-          for (std::size_t j = 0; j < P; ++j) {
-            dmass[j][k] += v_in * tg[j];
-            dm1[j] += v_in * tg[j] * vv;
-          }
-        }
+    const Scratch& sc = vol.scratch();
+    auto inside = [&](std::size_t idx, std::size_t x, std::size_t row) {
+      const std::int32_t s = slot_[idx];
+      if (s < 0) return;
+      const std::size_t y = row % ny_, z = row / ny_;
+      const glm::dvec3 vv = o + l * glm::dvec3(double(x), double(y), double(z)) - p;
+      const double* tg = &dchi_[std::size_t(s) * P];
+      const std::uint8_t k = vol.label(idx);
+      for (std::size_t j = 0; j < P; ++j) {
+        dmass[j][k] += v_in * tg[j];
+        dm1[j] += v_in * tg[j] * vv;
       }
+    };
+    for (const InsideSpan& sp : sc.inside_spans) {
+      const std::size_t row = sp.row;
+      const std::int32_t xa = std::max(sp.lo, row_lo_[row]), xb = std::min(sp.hi, row_hi_[row]);
+      for (std::int32_t x = xa; x <= xb; ++x) inside(std::size_t(x) + nx_ * row, std::size_t(x), row);
+    }
+    for (const std::uint32_t idx : sc.inside_extra) inside(idx, idx % nx_, idx / nx_);
   }
 
   // ---- depth, normal, elastic force ----

@@ -26,7 +26,11 @@ struct Sym3 {
 
 class TangentState {
  public:
+  // Lives for one replay of `vol`; while it does, the kernel lists the inside voxels.
   TangentState(const Volume& vol, const std::vector<Direction>& dirs, const ModelParams& prm);
+  ~TangentState();
+  TangentState(const TangentState&) = delete;
+  TangentState& operator=(const TangentState&) = delete;
   std::size_t directions() const { return P_; }
   // `c`: the contact just evaluated on `vol` (by evaluate or step); `dp`: ∂p/∂θ_j at this
   // position (P entries; zero for physics directions); `eroded`: the kernel eroded with
@@ -40,6 +44,7 @@ class TangentState {
  private:
   double* tangent(std::uint32_t voxel);          // existing or null
   double* tangent_or_new(std::uint32_t voxel);   // allocates a zero tangent
+  const Volume& vol_;
   std::size_t P_;
   std::vector<std::int8_t> kind_;   // per direction: 0 ln α, 1 ln C1, 2 ln μ, 3 path
   std::vector<std::uint8_t> label_;
