@@ -35,6 +35,9 @@ struct MultistartOptions {
   // end at their pre-fit (termination "screened by pre-fit cost"). ≤ 0: all of them.
   int solved = 0;
   int concurrent = 2;         // starts solved at once
+  // Of the local solves (Ceres's |Δcost|/cost). The search only has to find the basins:
+  // the refinement polishes the best end at the default 1e-7.
+  double function_tolerance = 1e-7;
   // Abandon a local solve that cannot reach the best pre-fit cost in its remaining
   // iterations (hopeless_start below); its end is kept with that termination.
   bool abandon_hopeless = true;
