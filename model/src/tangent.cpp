@@ -42,8 +42,16 @@ TangentState::TangentState(const Volume& vol, const std::vector<Direction>& dirs
   slot_.assign(vol.voxel_count(), -1);
   row_lo_.assign(vol.dims()[1] * vol.dims()[2], std::numeric_limits<std::int32_t>::max());
   row_hi_.assign(vol.dims()[1] * vol.dims()[2], -1);
-  for (std::size_t j = 0; j < P_; ++j)
-    if (kind_[j] == kPath) path_.push_back(j);
+  active_.assign(P_, 0);
+  for (std::size_t j = 0; j < P_; ++j) {
+    if (kind_[j] == kPath) {
+      path_.push_back(j);
+      active_[j] = 1;
+      act_.push_back(j);
+    } else {
+      ++dormant_;
+    }
+  }
   drem_.assign(P_, std::array<double, kMaxClasses>{});
   vol.scratch().keep_inside = true;
 }
@@ -79,6 +87,17 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   const LensTable& tab = vol.scratch().table;
   if (!st.force) return;  // no bone in reach, or no normal: F ≡ 0 here
   ++eval_;
+  // A class's constants act on nothing before its bone first comes within reach: their
+  // directions stay exactly zero until then and are skipped (a recording in one class
+  // carries 3 fewer directions).
+  if (dormant_ > 0)
+    for (std::size_t j = 0; j < P; ++j)
+      if (!active_[j] && ((c.class_mask >> label_[j]) & 1u)) {
+        active_[j] = 1;
+        act_.push_back(j);
+        --dormant_;
+      }
+  const std::vector<std::size_t>& act = act_;
   const double* const T = tab.data();
   const double t_lo = tab.d2_inner(), t_ih = tab.inv_step();
   const int t_last = tab.intervals() - 1;
@@ -88,7 +107,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   const bool moves = !path_.empty();
   // ∂p per direction, zero for the constants (they do not move the burr).
   auto& dpj = dpj_;
-  for (std::size_t j = 0; j < P; ++j) dpj[j] = kind_[j] == kPath ? dp[j] : glm::dvec3(0);
+  for (const std::size_t j : act) dpj[j] = kind_[j] == kPath ? dp[j] : glm::dvec3(0);
 
   // ---- first moments: ∂mass_k, ∂M₁ ----
   // A path direction changes every lens voxel's d² by −2 v·∂p, so its terms are linear in
@@ -96,7 +115,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   // and applied per direction. Only voxels with a χ tangent need work per direction.
   auto& dmass = dmass_;
   auto& dm1 = dm1_;
-  for (std::size_t j = 0; j < P; ++j) {
+  for (const std::size_t j : act) {
     dmass[j].fill(0.0);
     dm1[j] = glm::dvec3(0);
   }
@@ -115,7 +134,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     if (const double* tg = tangent(v.index)) {
       stamp_[std::size_t(slot_[v.index])] = eval_;
       const glm::dvec3 vr = dV * rd * vv;
-      for (std::size_t j = 0; j < P; ++j) {
+      for (const std::size_t j : act) {
         dmass[j][v.label] += dV * tg[j];
         dm1[j] += tg[j] * vr;
       }
@@ -145,7 +164,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
       const glm::dvec3 vv = o + l * glm::dvec3(double(x), double(y), double(z)) - p;
       const double* tg = &dchi_[std::size_t(s) * P];
       const std::uint8_t k = vol.label(idx);
-      for (std::size_t j = 0; j < P; ++j) {
+      for (const std::size_t j : act) {
         dmass[j][k] += v_in * tg[j];
         dm1[j] += v_in * tg[j] * vv;
       }
@@ -165,7 +184,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   const bool full = M >= 4.0 / 3.0 * kPi * R * R * R;  // b clamped at 2R
   auto &dfe = dfe_, &da2 = da2_, &dp0 = dp0_;
   auto& dn = dn_;
-  for (std::size_t j = 0; j < P; ++j) {
+  for (const std::size_t j : act) {
     double dM = 0, dc = 0;
     for (int k = 1; k < kMaxClasses; ++k) {
       dM += dmass[j][std::size_t(k)];
@@ -192,19 +211,19 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   const glm::dvec3 w = st.w;
   const double p0 = st.p0, inv_a2 = 1.0 / a2;
   auto& dG = dG_;  // ∂χ part of Σ ∂s v, per direction and class
-  for (std::size_t j = 0; j < P; ++j) dG[j].fill(glm::dvec3(0));
+  for (const std::size_t j : act) dG[j].fill(glm::dvec3(0));
   std::array<Sym3, kMaxClasses> D2, VN;             // Σ c_d² v vᵀ, Σ c_vn v vᵀ
   std::array<glm::dvec3, kMaxClasses> uvn{}, up0{}, ua2{};  // Σ c_vn v, Σ c_p₀ v, Σ c_a² v
   std::array<double, kMaxClasses> ssum{};           // Σ s
   auto& z = z_;  // per direction: (∂p, ∂n̂, ∂p₀, ∂a²)
-  for (std::size_t j = 0; j < P; ++j)
+  for (const std::size_t j : act)
     z[j] = {dpj[j].x, dpj[j].y, dpj[j].z, dn[j].x, dn[j].y, dn[j].z, dp0[j], da2[j]};
   // The couple T_k = Σ s (r/d) L, L = (v·ω̂)v − d²ω̂ (contact.cpp): the same ∂s terms, with
   // the lever (r/d)L in place of v, plus ∂(r/d) and ∂L for a moving burr
   // (∂L = −(∂p·ω̂)v − (v·ω̂)∂p + 2(v·∂p)ω̂). Matrices Σ c L vᵀ are not symmetric.
   auto& dTG = dTG_;
   if (dT)
-    for (std::size_t j = 0; j < P; ++j) dTG[j].fill(glm::dvec3(0));
+    for (const std::size_t j : act) dTG[j].fill(glm::dvec3(0));
   std::array<glm::dmat3, kMaxClasses> TVN{}, TD2{};          // Σ c_vn (r/d) L vᵀ, Σ (c_d2 r/d + s ∂(r/d)/∂d²) L vᵀ
   std::array<glm::dvec3, kMaxClasses> tp0{}, ta2{}, tvn{}, tsv{};  // Σ c_p₀(r/d)L, c_a²(r/d)L, c_vn(r/d)L, s(r/d)v
   std::array<double, kMaxClasses> tsvw{};                    // Σ s (r/d)(v·ω̂)
@@ -246,7 +265,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     }
     if (tg) {
       const glm::dvec3 cv = c_chi * vv;
-      for (std::size_t j = 0; j < P; ++j) dG[j][k] += tg[j] * cv;
+      for (const std::size_t j : act) dG[j][k] += tg[j] * cv;
     }
     if (dT) {
       const double vw_ = glm::dot(vv, w), s_ = chi * c_chi;
@@ -262,7 +281,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
       }
       if (tg) {
         const glm::dvec3 cl = c_chi * rL;
-        for (std::size_t j = 0; j < P; ++j) dTG[j][k] += tg[j] * cl;
+        for (const std::size_t j : act) dTG[j][k] += tg[j] * cl;
       }
     }
     const bool erodes = eroded && st.kero[k] > 0 && st.wmu[k] != 0;
@@ -283,7 +302,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     // χ ← max(0, χ − W·kero), kero = dt/(α l³): ∂χ' = ∂χ − kero·∂W (+ W·kero for ln α_k).
     const double kero = st.kero[k];
     const bool clamped = vol.chi(v.index) == 0.0;
-    for (std::size_t j = 0; j < P; ++j) {
+    for (const std::size_t j : act) {
       const double old = tg ? tg[j] : 0.0;
       double t = 0.0;
       if (!clamped) {
@@ -299,14 +318,14 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     }
     if (!tg) {
       bool any = false;
-      for (std::size_t j = 0; j < P; ++j) any |= tnew[j] != 0;
+      for (const std::size_t j : act) any |= tnew[j] != 0;
       if (!any) continue;
       tg = tangent_or_new(v.index);
       stamp_[std::size_t(slot_[v.index])] = eval_;
     }
-    for (std::size_t j = 0; j < P; ++j) tg[j] = tnew[j];
+    for (const std::size_t j : act) tg[j] = tnew[j];
   }
-  for (std::size_t j = 0; j < P; ++j) {
+  for (const std::size_t j : act) {
     glm::dvec3 dfm(0);
     const double ndp = glm::dot(n, dpj[j]);
     for (int k = 1; k < kMaxClasses; ++k) {

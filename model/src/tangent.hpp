@@ -53,6 +53,9 @@ class TangentState {
   std::vector<std::int32_t> slot_;   // per voxel: tangent slot or −1
   std::vector<std::int32_t> row_lo_, row_hi_;  // per row (y, z): x-range of its tangent voxels (lo > hi: none)
   std::vector<std::size_t> path_;    // directions that move the burr
+  std::vector<std::size_t> act_;     // directions carried so far (path ones, and classes that were in reach)
+  std::vector<std::uint8_t> active_; // per direction: in act_
+  std::size_t dormant_ = 0;          // directions not yet in act_
   std::vector<double> dchi_;         // slot × P
   std::vector<std::uint32_t> stamp_; // per slot: evaluation that saw it as a lens voxel
   std::vector<std::uint32_t> touched_;  // voxel of each slot
