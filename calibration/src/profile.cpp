@@ -7,9 +7,12 @@ namespace burrbench::calibration {
 namespace {
 
 // Walks one side (sign ±1). The step grows from the predicted crossing of a quadratic
-// profile, so a well-determined parameter closes in two or three points; a step that
+// profile, so a well-determined parameter closes in one or two points; a step that
 // overshoots the threshold by more than 4× is bisected (in √Δ) before the crossing is
-// interpolated, since a profile is quadratic only near its minimum.
+// interpolated, since a profile is quadratic only near its minimum. A point just inside
+// (Δ ≥ 0.9 × threshold, before any point beyond) closes the side by extrapolating √Δ
+// linearly from the last point inside: at most 5.4 % further than that point.
+constexpr double kNearThreshold = 0.9;
 ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double cost_hat,
                  const SampleWeights& w, std::size_t i, double threshold, double sign,
                  const std::vector<bool>& hold_in, const ProfileOptions& opt, Profile& prof) {
@@ -31,7 +34,7 @@ ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double 
     const double f = s1 > s0 ? std::clamp((st - s0) / (s1 - s0), 0.0, 1.0) : 1.0;
     return h_in + f * (h_out - h_in);
   };
-  double h = std::clamp(opt.first_step, 0.005, 1.0);
+  double h = std::clamp(opt.first_step, 0.001, 1.0);
   for (int k = 0; k < opt.max_points; ++k) {
     bool last = false;
     if (h >= room) {
@@ -70,6 +73,13 @@ ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double 
       if (d_out <= 4 * threshold) break;
       h = crossing();  // overshoot: look closer to the predicted crossing
       continue;
+    }
+    if (h_out < 0 && !last && d >= kNearThreshold * threshold) {
+      const double s0 = std::sqrt(std::max(0.0, d_in)), s1 = std::sqrt(d), st = std::sqrt(threshold);
+      const double f = s1 > s0 ? (st - s0) / (s1 - s0) : 1.0;
+      side.closed = true;
+      side.crossing = x_hat[i] + sign * (h_in + f * (h - h_in));
+      return side;
     }
     h_in = h;
     d_in = std::max(0.0, d);
