@@ -75,12 +75,13 @@ void global_search(Run& run) {
   // A start's solve may stop once an iteration gains less than a tenth of the profile
   // threshold (χ²₁(0.95)/2 at unit residual variance) relative to the cost expected at
   // the optimum (half the used residuals): "reached by k of N" counts ends within the
-  // threshold, and the refinement polishes the best one.
+  // threshold, and the refinement polishes the best one. A lone start is the fit itself:
+  // stopping it early only hands the same iterations to the refinement.
   double residuals = 0;
   for (const auto& rec : run.w_all)
     residuals += double(std::count_if(rec.begin(), rec.end(), [](double w) { return w > 0; }));
   residuals *= double(L.channels().rows_per_sample());
-  if (residuals > 0)
+  if (residuals > 0 && points.size() > 1)
     mo.function_tolerance = std::max(mo.function_tolerance, 0.1 * (0.5 * kChi2_1_95) / (0.5 * residuals));
   run.search = multistart(*run.obj, points, run.w_all, mo, 0.0);
   if (run.search.ends.empty() || !run.search.ends.front().usable)
