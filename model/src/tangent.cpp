@@ -67,7 +67,6 @@ double* TangentState::tangent_or_new(std::uint32_t v) {
   if (slot_[v] < 0) {
     slot_[v] = std::int32_t(touched_.size());
     touched_.push_back(v);
-    stamp_.push_back(eval_);
     dchi_.resize(dchi_.size() + P_, 0.0);
     const std::size_t row = v / nx_;
     const std::int32_t x = std::int32_t(v % nx_);
@@ -86,7 +85,6 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   const KernelState& st = vol.scratch().state;
   const LensTable& tab = vol.scratch().table;
   if (!st.force) return;  // no bone in reach, or no normal: F ≡ 0 here
-  ++eval_;
   // A class's constants act on nothing before its bone first comes within reach: their
   // directions stay exactly zero until then and are skipped (a recording in one class
   // carries 3 fewer directions).
@@ -132,7 +130,6 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     const double dV = a[0] + f * (a[4] - a[0]);
     const double chi = v.chi, rd = v.rd;
     if (const double* tg = tangent(v.index)) {
-      stamp_[std::size_t(slot_[v.index])] = eval_;
       const glm::dvec3 vr = dV * rd * vv;
       for (const std::size_t j : act) {
         dmass[j][v.label] += dV * tg[j];
@@ -321,7 +318,6 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
       for (const std::size_t j : act) any |= tnew[j] != 0;
       if (!any) continue;
       tg = tangent_or_new(v.index);
-      stamp_[std::size_t(slot_[v.index])] = eval_;
     }
     for (const std::size_t j : act) tg[j] = tnew[j];
   }

@@ -57,9 +57,7 @@ class TangentState {
   std::vector<std::uint8_t> active_; // per direction: in act_
   std::size_t dormant_ = 0;          // directions not yet in act_
   std::vector<double> dchi_;         // slot × P
-  std::vector<std::uint32_t> stamp_; // per slot: evaluation that saw it as a lens voxel
   std::vector<std::uint32_t> touched_;  // voxel of each slot
-  std::uint32_t eval_ = 0;
   // Scratch of differentiate(), kept to avoid zeroing kMaxDirections entries per call.
   std::array<std::array<double, kMaxClasses>, kMaxDirections> dmass_;
   std::array<glm::dvec3, kMaxDirections> dm1_, dn_;

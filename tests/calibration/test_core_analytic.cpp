@@ -8,6 +8,7 @@
 #include "analytic_model.hpp"
 #include "burrbench/calibration/multistart.hpp"
 #include "burrbench/calibration/objective.hpp"
+#include "burrbench/calibration/profile.hpp"
 #include "burrbench/calibration/uncertainty.hpp"
 
 namespace bc = burrbench::calibration;
@@ -326,4 +327,62 @@ TEST(CalibrationCore, AStalledSolveStopsAtItsBestPointOnceLevelledOff) {
   ASSERT_TRUE(rough.limited.usable);
   EXPECT_FALSE(rough.limited.stalled) << rough.limited.termination;
   EXPECT_DOUBLE_EQ(rough.limited.final_cost, rough.unlimited.final_cost);
+}
+
+// The profile's crossings against a brute-force profile: on each side, ln θ is bisected
+// for a cost rise of exactly the threshold, every other parameter re-optimised to
+// convergence at each trial. The walk's points (one per side where the covariance
+// predicts the crossing, closed by a short extrapolation) must land on it.
+TEST(CalibrationCore, ProfileCrossingsMatchABruteForceProfile) {
+  auto s = make(true, true, 6);
+  bc::Objective obj(*s.layout, ptrs(s), settings(true));
+  bc::SolveOptions tight;
+  tight.max_iterations = 200;
+  tight.function_tolerance = 1e-12;
+  const auto fit = obj.solve(s.layout->initial(), s.w, tight);
+  ASSERT_TRUE(fit.usable);
+  const auto cov = obj.covariance(fit.x, s.w, {});
+  ASSERT_TRUE(cov.ok);
+  const double thr = 0.5 * bc::kChi2_1_95 * cov.residual_variance;
+  const std::size_t n = cov.indices.size();
+  int single = 0, sides = 0;
+  for (const auto& p : s.layout->physics()) {
+    if (p.index < 0 || p.label != 1) continue;
+    const auto i = std::size_t(p.index);
+    std::size_t at = 0;
+    while (cov.indices[at] != i) ++at;
+    bc::ProfileOptions po;
+    po.first_step = 1.96 * std::sqrt(cov.cov[at * n + at]);
+    const auto prof = bc::profile_parameter(obj, fit.x, fit.final_cost, s.w, i, thr, {}, po);
+    // Brute force: Δ(h) with everything else re-optimised from the optimum.
+    auto delta = [&](double h) {
+      std::vector<double> x = fit.x;
+      x[i] += h;
+      bc::SolveOptions o = tight;
+      o.hold.assign(x.size(), false);
+      o.hold[i] = true;
+      const auto r = obj.solve(x, s.w, o);
+      return r.final_cost - fit.final_cost;
+    };
+    for (const auto* side : {&prof.lower, &prof.upper}) {
+      const double sign = side == &prof.lower ? -1.0 : 1.0;
+      ASSERT_TRUE(side->closed) << p.label << " " << int(p.kind);
+      double lo = 0, hi = po.first_step;
+      while (delta(sign * hi) < thr) hi *= 2;
+      for (int k = 0; k < 30; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (delta(sign * mid) < thr ? lo : hi) = mid;
+      }
+      const double brute = fit.x[i] + sign * 0.5 * (lo + hi);
+      const double half = std::abs(brute - fit.x[i]);
+      std::cout << "class " << int(p.label) << " kind " << int(p.kind) << (sign < 0 ? " lower" : " upper")
+                << ": crossing " << side->crossing << ", brute force " << brute << " (" << side->points.size()
+                << " points)\n";
+      EXPECT_NEAR(side->crossing, brute, 0.01 * half) << "class " << int(p.label) << " kind " << int(p.kind);
+      ++sides;
+      single += side->points.size() == 1;
+    }
+  }
+  std::cout << single << " of " << sides << " sides closed with one point\n";
+  EXPECT_GT(single, 0);
 }
