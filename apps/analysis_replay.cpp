@@ -2,6 +2,9 @@
 
 #include <algorithm>
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
 #include "burrbench/model/fitted_nuisances.hpp"
@@ -126,6 +129,19 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   const model::BandCovariance band = band_fit ? model::band_covariance(*band_fit, params) : model::BandCovariance{};
   po.band = &band;
   model::ExperimentPrediction pred = model::predict_experiment(ex, mp, po);
+  std::vector<std::string> no_band;
+  for (const auto& p : pred.recordings)
+    if (p.band_diverged) no_band.push_back(p.recording_id);
+  if (!no_band.empty()) {
+    const std::string msg = fmt::format(
+        "No prediction band for {}: the forward sensitivities of its replay diverged (not finite, or above {:g} "
+        "x the largest predicted force per unit of a constant; the explicit erosion step's tangent is unstable "
+        "where erosion is fast against the step, e.g. on a sample coarser than the fit's). The band is left out "
+        "rather than drawn from them; the prediction itself is unaffected.",
+        fmt::join(no_band, ", "), model::kMaxSensitivityRatio);
+    in.limitations.push_back(msg);
+    fmt::print(stderr, "warning: {}\n", msg);
+  }
 
   for (std::size_t i = 0; i < ex.recordings.size(); ++i) {
     const auto& r = ex.recordings[i];

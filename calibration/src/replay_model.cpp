@@ -133,17 +133,13 @@ void ReplayRecordingModel::fill_base(const model::ReplayResult& base, const mode
 
 namespace {
 
-// Every column finite, and no force column above kMaxSensitivityRatio × the largest
-// predicted force (≥ 1 mN) per unit of its parameter (ln θ, ms, mm, rad): legitimate
-// columns stay within a few times the force (docs/calibration.md "When the sensitivities
-// diverge"). The fallback differences with the model's difference steps (DiffSteps).
+// The force columns within model::sensitivities_diverged's bound of the largest predicted
+// force; the moment and spindle columns finite. The fallback differences with the model's
+// difference steps (DiffSteps).
 bool plausible_columns(const Prediction& p) {
-  double fmax = 1e-3;
+  double fmax = 0;
   for (const auto& f : p.force_sensor_N) fmax = std::max(fmax, glm::length(f));
-  const double bound = ReplayRecordingModel::kMaxSensitivityRatio * fmax;
-  for (const auto& col : p.columns)
-    for (const auto& v : col)
-      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z) || glm::length(v) > bound) return false;
+  if (model::sensitivities_diverged(p.columns, fmax)) return false;
   for (const auto& col : p.torque_columns)
     for (const auto& v : col)
       if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return false;

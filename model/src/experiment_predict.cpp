@@ -11,6 +11,7 @@
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
+#include "burrbench/model/sensitivity.hpp"
 
 namespace burrbench::model {
 
@@ -228,6 +229,11 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
   }
   for (auto& f : p.force_sensor_pred_N) f += p.force_bias_N;
   if (band) {
+    double fmax = 0;
+    for (const auto& s : res.samples) fmax = std::max(fmax, glm::length(s.contact.force_N));
+    p.band_diverged = sensitivities_diverged(sens.dforce_N, fmax);
+  }
+  if (band && !p.band_diverged) {
     // 95 % band of the prediction from the constants' uncertainty alone (delta method):
     // per axis 1.96·√(gᵀ C g), g = ∂F_sensor/∂ln θ.
     const auto& C = options.band->cov_ln;

@@ -220,6 +220,88 @@ TEST(CalibrateCli, DivergedSensitivitiesDoNotFreezeTheDiscretizationCheck) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
+// A fit validated on a sample at twice its voxel (a simulator running coarser): there the
+// plunge's band sensitivities diverge (the band read 1e92 N). Its band is left out with a
+// warning and a limitation in the report; the other recordings keep theirs.
+TEST(CalibrateCli, DivergedBandIsLeftOutNotDrawn) {
+  const fs::path dir = scratch("band");
+  ReferenceSpec s;
+  s.time_scale = 3;
+  s.multistart = 1;
+  const fs::path m = make_reference_experiment(dir, s, cli());
+  const auto r = calibrate(m, dir / "out", "--no-cross-validation --no-profiles --no-discretization-check --starts 1");
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto run = [&](const std::string& args) {
+    const fs::path err = dir / "run.stderr";
+    const int st = std::system(fmt::format("'{}' {} > /dev/null 2> '{}'", cli(), args, err.string()).c_str());
+    std::ifstream f(err);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ::Run{WIFEXITED(st) ? WEXITSTATUS(st) : -1, ss.str()};
+  };
+  ASSERT_EQ(run(fmt::format("sample resample --merge 2 '{}' --out '{}'", (dir / "sample.h5").string(),
+                            (dir / "coarse.h5").string())).code, 0);
+  std::ifstream mf(m);
+  std::stringstream ms;
+  ms << mf.rdbuf();
+  std::string text = ms.str();
+  const auto at = text.find("path = \"sample.h5\"");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 18, "path = \"coarse.h5\"");
+  burrbench::calibration::testing::write_text(dir / "coarse.toml", text);
+  burrbench::calibration::testing::write_text(dir / "criteria.toml", R"(format = "burrbench.criteria"
+format_version = "1.1"
+[[criterion]]
+name = "force explained"
+metric = "r2"
+axis = "magnitude"
+data = "calibrate"
+min = 0.1
+)");
+  const auto v = run(fmt::format("validate --experiment '{}' --params '{}' --fit '{}' --criteria '{}' --out '{}' "
+                                 "--no-verification",
+                                 (dir / "coarse.toml").string(), (dir / "out" / "params.toml").string(),
+                                 (dir / "out" / "fit.json").string(), (dir / "criteria.toml").string(),
+                                 (dir / "val").string()));
+  ASSERT_EQ(v.code, 0) << v.err;
+  EXPECT_NE(v.err.find("warning: No prediction band for plunge:"), std::string::npos) << v.err;
+  std::ifstream af(dir / "val" / "analysis.json");
+  const auto a = nlohmann::json::parse(af);
+  bool limitation = false;
+  for (const auto& l : a.at("limitations")) limitation |= l.get<std::string>().rfind("No prediction band for plunge", 0) == 0;
+  EXPECT_TRUE(limitation);
+  int with_band = 0;
+  for (const auto& rec : a.at("recordings")) {
+    const bool band = rec.value("band", false);
+    if (rec.at("id") == "plunge") {
+      EXPECT_FALSE(band);
+    }
+    with_band += band;
+  }
+  EXPECT_EQ(with_band, 4) << "the other recordings keep their band";
+  // What is drawn stays a band of the constants' uncertainty: finite, well below 1 N.
+  std::ifstream bf(dir / "val" / "band.csv");
+  std::string line;
+  std::getline(bf, line);
+  double widest = 0;
+  std::size_t rows = 0;
+  while (std::getline(bf, line)) {
+    std::stringstream ls(line);
+    std::string f;
+    std::getline(ls, f, ',');
+    EXPECT_NE(f, "plunge");
+    std::getline(ls, f, ',');
+    for (int k = 0; k < 3; ++k) {
+      std::getline(ls, f, ',');
+      widest = std::max(widest, std::stod(f));
+    }
+    ++rows;
+  }
+  EXPECT_GT(rows, 0u);
+  EXPECT_LT(widest, 1.0);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 // Bad manifests: one small valid experiment, then one defect at a time → exit 2 + message.
 class CalibrateBadManifest : public ::testing::Test {
  protected:

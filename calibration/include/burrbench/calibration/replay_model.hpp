@@ -87,10 +87,9 @@ class ReplayRecordingModel final : public RecordingModel {
   void set_derivatives(Derivatives d) { derivatives_ = d; }
   const DiffSteps& steps() const { return steps_; }
   // Jacobians whose forward sensitivities diverged (a non-finite value, or a column larger
-  // than kMaxSensitivityRatio × the recording's largest predicted force per unit of its
-  // parameter) and were therefore taken by finite differences at that point.
+  // than model::kMaxSensitivityRatio × the recording's largest predicted force per unit of
+  // its parameter) and were therefore taken by finite differences at that point.
   std::uint64_t diverged_sensitivities() const { return diverged_.load(); }
-  static constexpr double kMaxSensitivityRatio = 1e6;
 
  private:
   void predict_sensitivities(const EvalPoint& at, const std::vector<Column>& columns,

@@ -158,6 +158,9 @@ Experiment load_experiment(const std::filesystem::path& manifest_path);
 // the format) plus the replay's wall time, which is not stored (not reproducible).
 struct RecordingPrediction : data_schema::PredictedRecording {
   double wall_s = 0;
+  // The band's sensitivities diverged (sensitivities_diverged): band95_N is left empty
+  // rather than drawn from them.
+  bool band_diverged = false;
 };
 
 // The spindle's load torque for a couple T on the burr spinning at ω: −T·ω̂ (N·mm; 0 when

@@ -35,4 +35,12 @@ struct Sensitivities {  // filled by replay when directions are given
 
 inline constexpr std::size_t kMaxDirections = 64;
 
+// Sensitivities that grew without bound: the explicit erosion step's tangent is unstable
+// where erosion is fast against the step (seen at R/l = 5: columns of 1e97 N). True for a
+// non-finite value, or a column above kMaxSensitivityRatio × `max_force_N` (taken as at
+// least 1 mN) per unit of its parameter; legitimate columns stay within a few times the
+// force (docs/calibration.md "When the sensitivities diverge").
+inline constexpr double kMaxSensitivityRatio = 1e6;
+bool sensitivities_diverged(const std::vector<std::vector<glm::dvec3>>& columns, double max_force_N);
+
 }  // namespace burrbench::model
