@@ -44,15 +44,22 @@ struct Run {
   std::string err;
 };
 
-Run calibrate(const fs::path& manifest, const fs::path& out, const std::string& extra = "") {
-  const fs::path err = out.string() + ".stderr";
-  const std::string cmd = fmt::format("'{}' calibrate --experiment '{}' --out '{}' {} > /dev/null 2> '{}'",
-                                      cli(), manifest.string(), out.string(), extra, err.string());
-  const int st = std::system(cmd.c_str());
-  std::ifstream f(err);
+std::string read_text(const fs::path& p) {
+  std::ifstream f(p);
   std::stringstream ss;
   ss << f.rdbuf();
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, ss.str()};
+  return ss.str();
+}
+
+// `burrbench ARGS` (quoted by the caller), its stderr kept in `err`.
+Run run_cli(const std::string& args, const fs::path& err) {
+  const int st = std::system(fmt::format("'{}' {} > /dev/null 2> '{}'", cli(), args, err.string()).c_str());
+  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, read_text(err)};
+}
+
+Run calibrate(const fs::path& manifest, const fs::path& out, const std::string& extra = "") {
+  return run_cli(fmt::format("calibrate --experiment '{}' --out '{}' {}", manifest.string(), out.string(), extra),
+                   out.string() + ".stderr");
 }
 
 const ds::FitParameter& param(const ds::FitResult& f, int label, const char* name) {
@@ -217,6 +224,10 @@ TEST(CalibrateCli, DivergedSensitivitiesDoNotFreezeTheDiscretizationCheck) {
   bool coarse = false;
   for (const auto& d : diverged) coarse |= d.at("voxel_mm").get<double>() == 0.2;
   EXPECT_TRUE(coarse) << diverged.dump();
+  // fit.json says how the coarse refit ended (here: stalled on the coarse cost's texture).
+  const auto& check = j.at("settings").at("discretization_check");
+  EXPECT_GT(check.at("refit_iterations").get<int>(), 1);
+  EXPECT_FALSE(check.at("refit_termination").get<std::string>().empty());
   if (!HasFailure()) fs::remove_all(dir);
 }
 
@@ -231,20 +242,10 @@ TEST(CalibrateCli, DivergedBandIsLeftOutNotDrawn) {
   const fs::path m = make_reference_experiment(dir, s, cli());
   const auto r = calibrate(m, dir / "out", "--no-cross-validation --no-profiles --no-discretization-check --starts 1");
   ASSERT_EQ(r.code, 0) << r.err;
-  auto run = [&](const std::string& args) {
-    const fs::path err = dir / "run.stderr";
-    const int st = std::system(fmt::format("'{}' {} > /dev/null 2> '{}'", cli(), args, err.string()).c_str());
-    std::ifstream f(err);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ::Run{WIFEXITED(st) ? WEXITSTATUS(st) : -1, ss.str()};
-  };
+  auto run = [&](const std::string& args) { return run_cli(args, dir / "run.stderr"); };
   ASSERT_EQ(run(fmt::format("sample resample --merge 2 '{}' --out '{}'", (dir / "sample.h5").string(),
                             (dir / "coarse.h5").string())).code, 0);
-  std::ifstream mf(m);
-  std::stringstream ms;
-  ms << mf.rdbuf();
-  std::string text = ms.str();
+  std::string text = read_text(m);
   const auto at = text.find("path = \"sample.h5\"");
   ASSERT_NE(at, std::string::npos);
   text.replace(at, 18, "path = \"coarse.h5\"");
@@ -311,10 +312,7 @@ class CalibrateBadManifest : public ::testing::Test {
     s.trabecular = false;
     s.time_scale = 0.5;
     good_ = new fs::path(make_reference_experiment(*dir_, s, cli()));
-    std::ifstream f(*good_);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    text_ = new std::string(ss.str());
+    text_ = new std::string(read_text(*good_));
   }
   static void TearDownTestSuite() {
     fs::remove_all(*dir_);
