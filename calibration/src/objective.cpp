@@ -127,8 +127,8 @@ double prior_cost(const Layout& L, const std::vector<double>& x) {
 class RecordingCost final : public ceres::CostFunction {
  public:
   RecordingCost(const Objective& obj, std::size_t rec, const std::vector<double>& weights,
-                std::atomic<std::uint64_t>& replays, bool geometry_terms)
-      : obj_(obj), rec_(rec), w_(weights), replays_(replays), geometry_terms_(geometry_terms) {
+                std::atomic<std::uint64_t>& replays, bool geometry_terms, double* user_x)
+      : obj_(obj), rec_(rec), w_(weights), replays_(replays), geometry_terms_(geometry_terms), user_x_(user_x) {
     const auto& L = obj.layout();
     for (const auto& p : L.physics())
       if (p.index >= 0) {
@@ -150,6 +150,24 @@ class RecordingCost final : public ceres::CostFunction {
     set_num_residuals(int(rows_ * obj.models()[rec]->size()));
   }
   const std::vector<Layout::Block>& blocks() const { return blocks_; }
+  // Called once the problem's constant blocks are set: Ceres asks for a Jacobian of the
+  // others only, which fixes the columns a prefetch predicts.
+  void note_constant_blocks(const ceres::Problem& problem) {
+    free_.assign(blocks_.size(), false);
+    for (std::size_t b = 0; b < blocks_.size(); ++b)
+      free_[b] = !problem.IsParameterBlockConstant(user_x_ + blocks_[b].offset);
+  }
+  // Predicts at the user's parameter values (where Ceres put the point it is about to
+  // evaluate, EvaluationCallback) into the cache that Evaluate then reads.
+  void prefetch(bool jacobians) const {
+    std::vector<const double*> params;
+    std::vector<double*> jac;
+    for (std::size_t b = 0; b < blocks_.size(); ++b) {
+      params.push_back(user_x_ + blocks_[b].offset);
+      jac.push_back(jacobians && free_[b] ? user_x_ : nullptr);  // non-null marks "wanted" only
+    }
+    prediction(params.data(), jacobians ? jac.data() : nullptr, nullptr);
+  }
 
   bool Evaluate(double const* const* params, double* residuals, double** jac) const override {
     // Rebuild a full x from the blocks (entries of other recordings are irrelevant here).
@@ -158,35 +176,9 @@ class RecordingCost final : public ceres::CostFunction {
     for (std::size_t b = 0; b < blocks_.size(); ++b)
       for (std::size_t k = 0; k < blocks_[b].size; ++k) x[blocks_[b].offset + k] = params[b][k];
     const auto& nz = L.recordings()[rec_];
-    const EvalPoint at = eval_point(L, x.data(), rec_, geometry_terms_);
-    std::vector<Column> want;
     std::vector<int> col_of_block(blocks_.size(), -1);
-    if (jac)
-      for (std::size_t b = 0; b < blocks_.size(); ++b)
-        if (jac[b] && int(b) != bias_block_ && int(b) != tbias_block_ && int(b) != spindle_block_) {
-          col_of_block[b] = int(want.size());
-          if (int(b) == pose_block_)
-            for (std::uint8_t k = 0; k < 6; ++k) want.push_back({ColumnKind::kPose, k});
-          else
-            want.push_back(cols_[b]);
-        }
-    // Ceres's projected line search takes the gradient at the trial point, then the
-    // Jacobian again once that point is accepted: the same replay twice. A replay is
-    // deterministic, so the last prediction is reused when the point and the columns match.
-    std::vector<double> key;
-    for (std::size_t b = 0; b < blocks_.size(); ++b) key.insert(key.end(), params[b], params[b] + blocks_[b].size);
+    const Prediction& pred = prediction(params, jac, &col_of_block);
     const auto* model = obj_.models()[rec_];
-    const bool hit = cache_.valid && cache_.x == key &&
-                     (want.empty() || cache_.want == want);
-    if (!hit) {
-      cache_.pred = Prediction{};
-      model->predict(at, want, cache_.pred);
-      replays_ += cache_.pred.replays;
-      cache_.x = std::move(key);
-      cache_.want = want;
-      cache_.valid = true;
-    }
-    const Prediction& pred = cache_.pred;
     const auto& s = obj_.settings();
     const Channels& ch = L.channels();
     const Offsets off = offsets_at(nz, x.data());
@@ -238,11 +230,48 @@ class RecordingCost final : public ceres::CostFunction {
   }
 
  private:
+  // The prediction at `params` with a column for every block whose `jac` entry is set
+  // (col_of_block: each block's first column, or −1). Ceres's projected line search takes
+  // the gradient at the trial point, then the Jacobian again once that point is accepted:
+  // the same replay twice. A replay is deterministic, so the last prediction is reused
+  // when the point and the columns match; a prefetch fills it the same way.
+  const Prediction& prediction(double const* const* params, double* const* jac, std::vector<int>* col_of_block) const {
+    const auto& L = obj_.layout();
+    std::vector<Column> want;
+    if (jac)
+      for (std::size_t b = 0; b < blocks_.size(); ++b)
+        if (jac[b] && int(b) != bias_block_ && int(b) != tbias_block_ && int(b) != spindle_block_) {
+          if (col_of_block) (*col_of_block)[b] = int(want.size());
+          if (int(b) == pose_block_)
+            for (std::uint8_t k = 0; k < 6; ++k) want.push_back({ColumnKind::kPose, k});
+          else
+            want.push_back(cols_[b]);
+        }
+    std::vector<double> key;
+    for (std::size_t b = 0; b < blocks_.size(); ++b) key.insert(key.end(), params[b], params[b] + blocks_[b].size);
+    const bool hit = cache_.valid && cache_.x == key && (want.empty() || cache_.want == want);
+    if (!hit) {
+      cache_.valid = false;  // until the prediction is whole (predict may throw)
+      std::vector<double> x(L.size(), 0.0);
+      for (std::size_t b = 0; b < blocks_.size(); ++b)
+        for (std::size_t k = 0; k < blocks_[b].size; ++k) x[blocks_[b].offset + k] = params[b][k];
+      cache_.pred = Prediction{};
+      obj_.models()[rec_]->predict(eval_point(L, x.data(), rec_, geometry_terms_), want, cache_.pred);
+      replays_ += cache_.pred.replays;
+      cache_.x = std::move(key);
+      cache_.want = std::move(want);
+      cache_.valid = true;
+    }
+    return cache_.pred;
+  }
+
   const Objective& obj_;
   std::size_t rec_;
   const std::vector<double>& w_;
   std::atomic<std::uint64_t>& replays_;
   bool geometry_terms_;
+  double* user_x_;           // the problem's parameter memory (blocks point into it)
+  std::vector<bool> free_;   // per block: not constant (Ceres asks for its Jacobian)
   std::vector<Layout::Block> blocks_;
   std::vector<Column> cols_;
   int bias_block_ = -1, pose_block_ = -1, tbias_block_ = -1, spindle_block_ = -1;
@@ -257,10 +286,39 @@ class RecordingCost final : public ceres::CostFunction {
   mutable Cache cache_;
 };
 
+// Before Ceres evaluates the recordings at a point, every recording's prediction is
+// queued on the replay pool at once, so the pool runs the longest first and both workers
+// stay busy. Left to Ceres, its threads (two at most in the Debian build) take the
+// recordings in a fixed split: on the reference experiment one took the sweep (46 % of the
+// samples) and both plunges while the other idled after the polishes.
+class Prefetch final : public ceres::EvaluationCallback {
+ public:
+  std::vector<RecordingCost*> costs;
+  bool enabled = true;  // false: a solve asked to use one thread evaluates one recording at a time
+  void PrepareForEvaluation(bool jacobians, bool new_point) override {
+    if (!enabled || costs.size() < 2 || (!new_point && !jacobians)) return;
+    std::vector<std::thread> threads;
+    for (RecordingCost* c : costs)  // longest first (build): it reaches the pool first
+      threads.emplace_back([c, jacobians] {
+        try {
+          c->prefetch(jacobians);
+        } catch (...) {
+          // Left for the recording's own Evaluate to raise again, where Ceres expects it.
+        }
+      });
+    for (auto& t : threads) t.join();
+  }
+};
+
 struct BuiltProblem {
+  Prefetch prefetch;  // outlives `problem`, which refers to it
   ceres::Problem problem;
   std::vector<double*> block_ptrs;  // per layout block
-  BuiltProblem() : problem(ceres::Problem::Options{}) {}
+  BuiltProblem() : problem([this] {
+    ceres::Problem::Options o;
+    o.evaluation_callback = &prefetch;
+    return o;
+  }()) {}
 };
 
 void build(const Objective& obj, std::vector<double>& x, const SampleWeights& w,
@@ -268,7 +326,8 @@ void build(const Objective& obj, std::vector<double>& x, const SampleWeights& w,
            bool geometry_terms = true) {
   const auto& L = obj.layout();
   for (std::size_t r = 0; r < obj.models().size(); ++r) {
-    auto* cost = new RecordingCost(obj, r, w[r], replays, geometry_terms);
+    auto* cost = new RecordingCost(obj, r, w[r], replays, geometry_terms, x.data());
+    bp.prefetch.costs.push_back(cost);
     std::vector<double*> ptrs;
     for (const auto& b : cost->blocks()) ptrs.push_back(x.data() + b.offset);
     bp.problem.AddResidualBlock(cost, nullptr, ptrs);
@@ -292,6 +351,9 @@ void build(const Objective& obj, std::vector<double>& x, const SampleWeights& w,
       if (std::isfinite(L.upper(i))) bp.problem.SetParameterUpperBound(p, int(k), L.upper(i));
     }
   }
+  for (auto* cost : bp.prefetch.costs) cost->note_constant_blocks(bp.problem);
+  std::stable_sort(bp.prefetch.costs.begin(), bp.prefetch.costs.end(),
+                   [](const RecordingCost* a, const RecordingCost* b) { return a->num_residuals() > b->num_residuals(); });
 }
 
 // Per iteration: the progress line, and SolveOptions::stop_early on the costs so far.
@@ -360,6 +422,7 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
   }
   BuiltProblem bp;
   build(*this, out.x, w, options.hold, replays_, bp, options.geometry_terms);
+  bp.prefetch.enabled = options.threads > 1;
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = options.max_iterations;

@@ -44,20 +44,31 @@ void ReplayPool::work(std::size_t w) {
       std::unique_lock lk(mu_);
       cv_.wait(lk, [&] { return stop_ || !queue_.empty(); });
       if (queue_.empty()) return;
-      f = std::move(queue_.front());
+      f = std::move(queue_.front().run);
       queue_.pop_front();
     }
     f(w);
   }
 }
 
+namespace {
+// A job's work in plain-replay sample equivalents: carrying tangents costs ≈ 1.7 plain
+// replays plus ≈ 0.28 per direction (bench/sensitivity.sh, docs/calibration.md).
+double job_work(const ReplayPool::Job& job) {
+  const std::size_t dirs = job.options.directions ? job.options.directions->size() : 0;
+  return double(job.trajectory.t_s.size()) * (dirs > 0 ? 2.7 + 0.28 * double(dirs) : 1.0);
+}
+}  // namespace
+
 void ReplayPool::run(std::vector<Job>& jobs) {
   std::size_t remaining = jobs.size();
   std::exception_ptr error;
   {
     std::lock_guard lk(mu_);
-    for (auto& job : jobs)
-      queue_.emplace_back([this, &job, &remaining, &error](std::size_t w) {
+    for (auto& job : jobs) {
+      const double work = job_work(job);
+      auto at = std::find_if(queue_.begin(), queue_.end(), [&](const Queued& q) { return q.work < work; });
+      queue_.insert(at, Queued{work, [this, &job, &remaining, &error](std::size_t w) {
         try {
           auto& vol = volumes_[w].at(*job.sample_id);
           job.result = model::replay(vol, job.radius_mm, job.params, job.trajectory, job.options, true);
@@ -67,7 +78,8 @@ void ReplayPool::run(std::vector<Job>& jobs) {
         }
         std::lock_guard lk2(mu_);
         if (--remaining == 0) done_cv_.notify_all();
-      });
+      }});
+    }
   }
   cv_.notify_all();
   std::unique_lock lk(mu_);

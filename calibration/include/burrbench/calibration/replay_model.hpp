@@ -46,6 +46,9 @@ class ReplayPool {
     model::ReplayResult result;  // out
   };
   // Runs every job (any thread may call; calls may overlap) and returns when all are done.
+  // A free worker takes the queued job with the most work first (longest processing
+  // time first): a long recording started last would leave the other worker idle while
+  // it runs alone.
   void run(std::vector<Job>& jobs);
   int threads() const { return int(workers_.size()); }
 
@@ -55,7 +58,11 @@ class ReplayPool {
   std::vector<std::thread> workers_;
   std::mutex mu_;
   std::condition_variable cv_, done_cv_;
-  std::deque<std::function<void(std::size_t)>> queue_;
+  struct Queued {
+    double work;  // plain-replay equivalents × samples
+    std::function<void(std::size_t)> run;
+  };
+  std::deque<Queued> queue_;  // ordered by work, most first; equal work in arrival order
   bool stop_ = false;
 };
 
