@@ -70,6 +70,7 @@ struct Run {
   nlohmann::json sweeps = nlohmann::json::array();
   int starts = 1;
   MultistartOutcome search;
+  double search_function_tolerance = 0;  // the starts' local solves (fit.json settings.global_search)
   SolveOutcome fit;
   std::vector<double> x;
   int restarts = 0;  // refits from a profile point cheaper than the optimum

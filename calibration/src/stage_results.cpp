@@ -130,6 +130,7 @@ CalibrationOutput results(Run& run) {
                          {"solved_locally", run.search.solved},
                          {"reached_best", run.search.reached_best},
                          {"tolerance_cost", run.search.tolerance},
+                         {"local_function_tolerance", run.search_function_tolerance},
                          {"seed", run.exp.manifest.fit.seed}};
   st["profiles"] = {{"computed", run.opt.profiles},
                     {"threshold_cost", run.threshold},

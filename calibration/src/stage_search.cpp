@@ -83,6 +83,7 @@ void global_search(Run& run) {
   residuals *= double(L.channels().rows_per_sample());
   if (residuals > 0 && points.size() > 1)
     mo.function_tolerance = std::max(mo.function_tolerance, 0.1 * (0.5 * kChi2_1_95) / (0.5 * residuals));
+  run.search_function_tolerance = mo.function_tolerance;
   run.search = multistart(*run.obj, points, run.w_all, mo, 0.0);
   if (run.search.ends.empty() || !run.search.ends.front().usable)
     throw InputError(run.mfile, "fit", "a start from which the solver can evaluate the cost",

@@ -4,6 +4,7 @@
 // or is reported not identifiable, with a [fit] section and with every default.
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -84,6 +85,15 @@ void run_case(const std::string& name, const LayeredSpec& s) {
   std::printf("%s: best optimum reached by %d of %d starts\n", name.c_str(),
               fit.settings["global_search"]["reached_best"].get<int>(), int(fit.solver.multistart));
   expect_no_confident_miss(fit, s);
+  // With more than one start, the starts' local solves stop at a tenth of the profile
+  // threshold relative to the cost at the optimum: 0.1·(χ²₁(0.95)/2)/(residuals/2), never
+  // below Ceres's 1e-7. Residuals: 3 per sample of weight > 0, counted before any replay,
+  // so buried samples (which the default policy then excludes) count too.
+  ASSERT_GT(fit.solver.multistart, 1u);
+  ASSERT_EQ(fit.settings["buried"].get<std::string>(), "exclude");
+  const double used = 3.0 * double(fit.residuals_summary.samples_used + fit.residuals_summary.samples_buried);
+  const double tol = fit.settings["global_search"]["local_function_tolerance"].get<double>();
+  EXPECT_NEAR(tol, std::max(1e-7, 0.1 * 3.841458820694124 / used), 1e-3 * tol);
   // The polish validates with the recording's own fitted lag and bias.
   ASSERT_TRUE(fit.metrics.contains("validation")) << fit.metrics.dump();
   EXPECT_GT(fit.metrics["validation"]["samples"].get<int>(), 1000);
