@@ -148,7 +148,7 @@ print(h, l, w, t)
 PY
 )"
     hits=$((hits+h)); lim=$((lim+l)); wrong=$((wrong+w)); total=$((total+t))
-    wd=$($PY -c "print($wd + $a)"); wc=$($PY -c "print($wc + $b)")
+    wd=$($PY -c "print(round($wd + $a, 1))"); wc=$($PY -c "print(round($wc + $b, 1))")
     echo "  mismatch seed $seed: $h/$t held ($l limited by discretization, $w confidently wrong); $a s, coarse-to-fine $b s" >&2
     rm -rf "$work/mm$seed"
   done
