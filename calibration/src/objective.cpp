@@ -161,12 +161,8 @@ class RecordingCost final : public ceres::CostFunction {
   // evaluate, EvaluationCallback) into the cache that Evaluate then reads.
   void prefetch(bool jacobians) const {
     std::vector<const double*> params;
-    std::vector<double*> jac;
-    for (std::size_t b = 0; b < blocks_.size(); ++b) {
-      params.push_back(user_x_ + blocks_[b].offset);
-      jac.push_back(jacobians && free_[b] ? user_x_ : nullptr);  // non-null marks "wanted" only
-    }
-    prediction(params.data(), jacobians ? jac.data() : nullptr, nullptr);
+    for (const auto& b : blocks_) params.push_back(user_x_ + b.offset);
+    prediction(params.data(), jacobians ? free_ : std::vector<bool>(blocks_.size(), false), nullptr);
   }
 
   bool Evaluate(double const* const* params, double* residuals, double** jac) const override {
@@ -177,7 +173,9 @@ class RecordingCost final : public ceres::CostFunction {
       for (std::size_t k = 0; k < blocks_[b].size; ++k) x[blocks_[b].offset + k] = params[b][k];
     const auto& nz = L.recordings()[rec_];
     std::vector<int> col_of_block(blocks_.size(), -1);
-    const Prediction& pred = prediction(params, jac, &col_of_block);
+    std::vector<bool> with_jac(blocks_.size(), false);
+    for (std::size_t b = 0; jac && b < blocks_.size(); ++b) with_jac[b] = jac[b] != nullptr;
+    const Prediction& pred = prediction(params, with_jac, &col_of_block);
     const auto* model = obj_.models()[rec_];
     const auto& s = obj_.settings();
     const Channels& ch = L.channels();
@@ -230,23 +228,23 @@ class RecordingCost final : public ceres::CostFunction {
   }
 
  private:
-  // The prediction at `params` with a column for every block whose `jac` entry is set
+  // The prediction at `params` with a column for every block that `with_jac` marks
   // (col_of_block: each block's first column, or −1). Ceres's projected line search takes
   // the gradient at the trial point, then the Jacobian again once that point is accepted:
   // the same replay twice. A replay is deterministic, so the last prediction is reused
   // when the point and the columns match; a prefetch fills it the same way.
-  const Prediction& prediction(double const* const* params, double* const* jac, std::vector<int>* col_of_block) const {
+  const Prediction& prediction(double const* const* params, const std::vector<bool>& with_jac,
+                               std::vector<int>* col_of_block) const {
     const auto& L = obj_.layout();
     std::vector<Column> want;
-    if (jac)
-      for (std::size_t b = 0; b < blocks_.size(); ++b)
-        if (jac[b] && int(b) != bias_block_ && int(b) != tbias_block_ && int(b) != spindle_block_) {
-          if (col_of_block) (*col_of_block)[b] = int(want.size());
-          if (int(b) == pose_block_)
-            for (std::uint8_t k = 0; k < 6; ++k) want.push_back({ColumnKind::kPose, k});
-          else
-            want.push_back(cols_[b]);
-        }
+    for (std::size_t b = 0; b < blocks_.size(); ++b)
+      if (with_jac[b] && int(b) != bias_block_ && int(b) != tbias_block_ && int(b) != spindle_block_) {
+        if (col_of_block) (*col_of_block)[b] = int(want.size());
+        if (int(b) == pose_block_)
+          for (std::uint8_t k = 0; k < 6; ++k) want.push_back({ColumnKind::kPose, k});
+        else
+          want.push_back(cols_[b]);
+      }
     std::vector<double> key;
     for (std::size_t b = 0; b < blocks_.size(); ++b) key.insert(key.end(), params[b], params[b] + blocks_[b].size);
     const bool hit = cache_.valid && cache_.x == key && (want.empty() || cache_.want == want);

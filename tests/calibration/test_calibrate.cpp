@@ -62,6 +62,15 @@ Run calibrate(const fs::path& manifest, const fs::path& out, const std::string& 
                    out.string() + ".stderr");
 }
 
+// The reference experiment at time scale 3, one start: its long plunge is where the
+// sensitivities diverge at a coarser voxel.
+fs::path long_reference(const fs::path& dir) {
+  ReferenceSpec s;
+  s.time_scale = 3;
+  s.multistart = 1;
+  return make_reference_experiment(dir, s, cli());
+}
+
 const ds::FitParameter& param(const ds::FitResult& f, int label, const char* name) {
   const auto* p = f.parameter(std::uint8_t(label), name);
   if (!p) throw std::runtime_error("missing parameter");
@@ -200,10 +209,7 @@ TEST(CalibrateCli, ErosionOffLeavesAlphaNotIdentifiable) {
 // Jacobians are differenced instead: every constant is measured, and fit.json says so.
 TEST(CalibrateCli, DivergedSensitivitiesDoNotFreezeTheDiscretizationCheck) {
   const fs::path dir = scratch("diverged");
-  ReferenceSpec s;
-  s.time_scale = 3;
-  s.multistart = 1;
-  const auto r = calibrate(make_reference_experiment(dir, s, cli()), dir / "out",
+  const auto r = calibrate(long_reference(dir), dir / "out",
                            "--no-cross-validation --no-profiles --starts 1");
   ASSERT_EQ(r.code, 0) << r.err;
   const auto fit = ds::read_fit(dir / "out" / "fit.json");
@@ -236,10 +242,7 @@ TEST(CalibrateCli, DivergedSensitivitiesDoNotFreezeTheDiscretizationCheck) {
 // warning and a limitation in the report; the other recordings keep theirs.
 TEST(CalibrateCli, DivergedBandIsLeftOutNotDrawn) {
   const fs::path dir = scratch("band");
-  ReferenceSpec s;
-  s.time_scale = 3;
-  s.multistart = 1;
-  const fs::path m = make_reference_experiment(dir, s, cli());
+  const fs::path m = long_reference(dir);
   const auto r = calibrate(m, dir / "out", "--no-cross-validation --no-profiles --no-discretization-check --starts 1");
   ASSERT_EQ(r.code, 0) << r.err;
   auto run = [&](const std::string& args) { return run_cli(args, dir / "run.stderr"); };
