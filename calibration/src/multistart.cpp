@@ -95,7 +95,10 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
     if (opt.progress)
       opt.progress->update(-1, fmt::format("multistart {} {}/{}: cost {:.6g}", what, done, of, cost));
   };
-  // 1. Pre-fit every start.
+  // 1. Pre-fit every start. Pre-fits run side by side, one thread each; fewer starts than
+  // threads share them out (a lone start's pre-fit would otherwise leave a core idle).
+  const std::size_t concurrent = std::size_t(std::max(1, opt.concurrent));
+  const int prefit_threads = int(concurrent / std::clamp<std::size_t>(total, 1, concurrent));
   parallel(total, [&](std::size_t s) {
     StartEnd e;
     e.index = int(s);
@@ -103,7 +106,7 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
     SolveOptions pre;
     pre.max_iterations = opt.prefit_iterations;
     pre.geometry_terms = false;
-    pre.threads = 1;
+    pre.threads = prefit_threads;
     pre.hold = prefit_hold;
     const SolveOutcome warm = obj.solve(e.start, w, pre);
     e.prefit_cost = warm.usable ? warm.final_cost : INFINITY;

@@ -214,27 +214,42 @@ class GatedModel final : public bc::RecordingModel {
   Gate& g_;
 };
 
-TEST(CalibrationCore, EveryRecordingOfAnEvaluationIsPredictedAtOnce) {
-  auto s = make(true, true, 5);
-  // Four recordings: the two of `make` and two more over the same data.
-  std::vector<std::pair<std::string, double>> ids;
-  for (int r = 0; r < 4; ++r) ids.emplace_back("rec" + std::to_string(r), 0.0);
-  s.models.emplace_back("rec2", 500, true, true);
-  s.models.emplace_back("rec3", 300, true, true);
-  for (int r = 2; r < 4; ++r)
-    s.models[std::size_t(r)].synthesise(s.truth, glm::dvec3(0.1, -0.05, 0.2), 0.02, 40u + unsigned(r));
-  ds::NuisanceSpec nz;
-  nz.bias = true;
-  nz.lag = true;
-  bc::Layout layout({{1, {"compact", spec(30, 5, 0.3)}}, {2, {"trabecular", spec(30, 5, 0.3)}}}, ids, nz, 0.5);
+// Four gated recordings: the two of `make` and two more over the same data.
+struct GatedScene {
+  Setup s = make(true, true, 5);
+  std::unique_ptr<bc::Layout> layout;
   bc::SampleWeights w;
-  for (const auto& m : s.models) w.emplace_back(m.size(), 1.0);
   GatedModel::Gate gate;
-  gate.n = 4;
   std::vector<GatedModel> gated;
-  for (const auto& m : s.models) gated.emplace_back(m, gate);
-  std::vector<const bc::RecordingModel*> p;
-  for (const auto& g : gated) p.push_back(&g);
+  std::vector<const bc::RecordingModel*> models;
+  GatedScene() {
+    std::vector<std::pair<std::string, double>> ids;
+    for (int r = 0; r < 4; ++r) ids.emplace_back("rec" + std::to_string(r), 0.0);
+    s.models.emplace_back("rec2", 500, true, true);
+    s.models.emplace_back("rec3", 300, true, true);
+    for (int r = 2; r < 4; ++r)
+      s.models[std::size_t(r)].synthesise(s.truth, glm::dvec3(0.1, -0.05, 0.2), 0.02, 40u + unsigned(r));
+    ds::NuisanceSpec nz;
+    nz.bias = true;
+    nz.lag = true;
+    layout = std::make_unique<bc::Layout>(
+        std::vector<std::pair<std::uint8_t, std::pair<std::string, ds::ClassFitSpec>>>{
+            {1, {"compact", spec(30, 5, 0.3)}}, {2, {"trabecular", spec(30, 5, 0.3)}}},
+        ids, nz, 0.5);
+    for (const auto& m : s.models) w.emplace_back(m.size(), 1.0);
+    gate.n = 4;
+    gated.reserve(s.models.size());
+    for (const auto& m : s.models) gated.emplace_back(m, gate);
+    for (const auto& g : gated) models.push_back(&g);
+  }
+};
+
+TEST(CalibrationCore, EveryRecordingOfAnEvaluationIsPredictedAtOnce) {
+  GatedScene g;
+  const bc::Layout& layout = *g.layout;
+  auto& gate = g.gate;
+  const auto& w = g.w;
+  const auto& p = g.models;
   bc::Objective obj(layout, p, settings());
   bc::SolveOptions o;
   o.threads = 2;
@@ -253,6 +268,21 @@ TEST(CalibrationCore, EveryRecordingOfAnEvaluationIsPredictedAtOnce) {
   ASSERT_EQ(alone.x.size(), fit.x.size());
   for (std::size_t i = 0; i < fit.x.size(); ++i) EXPECT_NEAR(alone.x[i], fit.x[i], 1e-7 * std::max(1.0, std::abs(fit.x[i]))) << i;
   EXPECT_EQ(alone.iterations, fit.iterations);
+}
+
+// A lone start's pre-fit gets both threads: its recordings are predicted at once, as in
+// the local solve that follows (one thread each only while pre-fits run side by side).
+TEST(CalibrationCore, ALoneStartIsPreFittedOnEveryThread) {
+  GatedScene g;
+  bc::Objective obj(*g.layout, g.models, settings());
+  bc::MultistartOptions mo;
+  mo.prefit_iterations = 3;
+  mo.iterations = 3;
+  const auto out = bc::multistart(obj, {g.layout->initial()}, g.w, mo, 1e-6);
+  ASSERT_EQ(out.ends.size(), 1u);
+  EXPECT_TRUE(out.ends.front().usable) << out.ends.front().termination;
+  EXPECT_EQ(g.gate.max_inside, 4u);
+  EXPECT_EQ(g.gate.waits_timed_out, 0u);
 }
 
 // Correlated residuals (AR(1), ρ = 0.8: about 9× fewer independent samples than counted)
