@@ -104,6 +104,7 @@ constexpr double kPoseStep[6] = {1e-4, 1e-4, 1e-4, 1e-3, 1e-3, 1e-3};  // rad, m
 
 void ReplayRecordingModel::set_channels(const Channels& c, const std::string& file) {
   channels_ = c;
+  forget();
   if (c.torque && rec_.torque_sensor_Nmm.size() != rec_.t_s.size())
     throw InputError(file, "fit.channels", "\"torque\" only for recordings with a torque_Nmm channel beside force_N",
                      "recording " + rec_.id + " has none");
@@ -167,7 +168,58 @@ const char* to_string(Derivatives d) {
   return d == Derivatives::kSensitivities ? "sensitivities" : "fd";
 }
 
+namespace {
+constexpr std::size_t kRemembered = 3;  // a solve's last accepted point and trial, and one more
+
+// Everything of an EvalPoint a prediction depends on, as numbers.
+std::vector<double> point_key(const EvalPoint& at) {
+  std::vector<double> k;
+  k.reserve(3 * kLabels + 14);
+  for (const PerLabel* v : {&at.physics.alpha, &at.physics.c1, &at.physics.mu}) k.insert(k.end(), v->begin(), v->end());
+  k.insert(k.end(), {at.lag_ms, at.depth_mm, double(at.geometry_terms), double(at.has_pose)});
+  k.insert(k.end(), at.pose.begin(), at.pose.end());
+  k.insert(k.end(), {at.pose_centre_vol_mm.x, at.pose_centre_vol_mm.y, at.pose_centre_vol_mm.z});
+  return k;
+}
+}  // namespace
+
+void ReplayRecordingModel::forget() {
+  std::lock_guard lk(memory_mu_);
+  memory_.clear();
+}
+
 void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column>& columns,
+                                   Prediction& out) const {
+  std::vector<double> key = point_key(at);
+  {
+    std::lock_guard lk(memory_mu_);
+    for (const Remembered& m : memory_)
+      if (m.key == key && (columns.empty() || m.columns == columns)) {
+        const Prediction& p = *m.prediction;
+        if (columns.empty()) {  // the values only
+          out = Prediction{};
+          out.force_sensor_N = p.force_sensor_N;
+          out.buried = p.buried;
+          out.class_mask = p.class_mask;
+          out.removed_mm3 = p.removed_mm3;
+          out.torque_sensor_Nmm = p.torque_sensor_Nmm;
+          out.spindle_Nmm = p.spindle_Nmm;
+        } else {
+          out = p;
+        }
+        out.replays = 0;
+        ++remembered_;
+        return;
+      }
+  }
+  compute(at, columns, out);
+  auto kept = std::make_shared<const Prediction>(out);
+  std::lock_guard lk(memory_mu_);
+  memory_.push_front({std::move(key), columns, std::move(kept)});
+  if (memory_.size() > kRemembered) memory_.pop_back();
+}
+
+void ReplayRecordingModel::compute(const EvalPoint& at, const std::vector<Column>& columns,
                                    Prediction& out) const {
   // Exact forward sensitivities (one replay) for the full Jacobian; the fixed-geometry
   // pre-fit (geometry_terms = false) and plain evaluations need no replay derivatives.

@@ -16,6 +16,7 @@
 #include <deque>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -90,17 +91,21 @@ class ReplayRecordingModel final : public RecordingModel {
   const std::vector<glm::dvec3>& measured_torque_Nmm() const override { return rec_.torque_sensor_Nmm; }
   const std::vector<double>& measured_spindle_Nmm() const override { return spindle_Nmm_; }
   const std::vector<double>& spindle_krpm() const override { return krpm_; }
-  void set_steps(const DiffSteps& s) { steps_ = s; }
-  void set_derivatives(Derivatives d) { derivatives_ = d; }
+  void set_steps(const DiffSteps& s) { steps_ = s; forget(); }
+  void set_derivatives(Derivatives d) { derivatives_ = d; forget(); }
   const DiffSteps& steps() const { return steps_; }
+  // Predictions served from the model's memory of its last ones (no replay).
+  std::uint64_t remembered() const { return remembered_.load(); }
   // Jacobians whose forward sensitivities diverged (a non-finite value, or a column larger
   // than model::kMaxSensitivityRatio × the recording's largest predicted force per unit of
   // its parameter) and were therefore taken by finite differences at that point.
   std::uint64_t diverged_sensitivities() const { return diverged_.load(); }
 
  private:
+  void compute(const EvalPoint& at, const std::vector<Column>& columns, Prediction& out) const;
   void predict_sensitivities(const EvalPoint& at, const std::vector<Column>& columns,
                              Prediction& out) const;
+  void forget();
   // The base replay's predictions (force, and the moment and spindle load when asked).
   void fill_base(const model::ReplayResult& base, const model::Trajectory& tr, Prediction& out) const;
   const model::AlignedRecording& rec_;
@@ -111,6 +116,18 @@ class ReplayRecordingModel final : public RecordingModel {
   DiffSteps steps_;
   Derivatives derivatives_ = Derivatives::kFiniteDifferences;
   mutable std::atomic<std::uint64_t> diverged_{0};
+  // The last few predictions, by point and columns. A replay is deterministic, and each
+  // solve of a calibration starts where the one before ended (refine after the search, the
+  // second refine pass, the covariance at the optimum): the Jacobian there was already
+  // replayed. One solve's own repeats are caught by its cost's cache (objective.cpp).
+  struct Remembered {
+    std::vector<double> key;
+    std::vector<Column> columns;
+    std::shared_ptr<const Prediction> prediction;
+  };
+  mutable std::mutex memory_mu_;
+  mutable std::deque<Remembered> memory_;  // most recent first
+  mutable std::atomic<std::uint64_t> remembered_{0};
 };
 
 model::ModelParams to_model_params(const PhysicsValues& v);
