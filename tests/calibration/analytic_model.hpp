@@ -4,6 +4,7 @@
 // check the solver, covariance and identifiability machinery on a problem with known
 // truth and exact smooth derivatives. NOT a model of bone: the replay tests use synth data.
 #include <cmath>
+#include <mutex>
 #include <random>
 #include <set>
 #include <string>
@@ -46,10 +47,13 @@ class AnalyticModel final : public RecordingModel {
     forces(at, out.force_sensor_N, &out.class_mask, &out.removed_mm3);
     out.buried.assign(size(), 0);
     out.replays = 1;
-    if (!cols.empty()) {  // count derivative predictions and repeats at one point (one call per model at a time)
+    if (!cols.empty()) {  // count derivative predictions and repeats at one point
       std::vector<double> key{at.lag_ms, at.depth_mm, double(cols.size())};
       for (int k = 1; k <= 2; ++k)
         key.insert(key.end(), {at.physics.alpha[k], at.physics.c1[k], at.physics.mu[k]});
+      // Side-by-side solves (the multistart's) predict one model at once.
+      static std::mutex count_mu;
+      std::lock_guard lk(count_mu);
       ++column_calls;
       repeated_column_calls += !seen_.insert(key).second;
     }

@@ -65,7 +65,8 @@ class RecordingModel {
   virtual std::size_t size() const = 0;                          // force samples
   virtual const std::vector<double>& t_s() const = 0;            // from the first sample
   virtual const std::vector<glm::dvec3>& measured_sensor_N() const = 0;
-  // Must be safe to call concurrently for DIFFERENT models (one call per model at a time).
+  // Called concurrently for different models, and for one model by solves that run side
+  // by side (the multistart's): must be safe for both.
   virtual void predict(const EvalPoint& at, const std::vector<Column>& columns,
                        Prediction& out) const = 0;
   // The other measured channels (empty when the recording has none): the sensor's moment
