@@ -197,17 +197,11 @@ void ReplayRecordingModel::predict(const EvalPoint& at, const std::vector<Column
     std::lock_guard lk(memory_mu_);
     for (const Remembered& m : memory_)
       if (m.key == key && (columns.empty() || m.columns == columns)) {
-        const Prediction& p = *m.prediction;
-        if (columns.empty()) {  // the values only
-          out = Prediction{};
-          out.force_sensor_N = p.force_sensor_N;
-          out.buried = p.buried;
-          out.class_mask = p.class_mask;
-          out.removed_mm3 = p.removed_mm3;
-          out.torque_sensor_Nmm = p.torque_sensor_Nmm;
-          out.spindle_Nmm = p.spindle_Nmm;
-        } else {
-          out = p;
+        out = *m.prediction;
+        if (columns.empty()) {  // the values only, as a prediction without columns is
+          out.columns.clear();
+          out.torque_columns.clear();
+          out.spindle_columns.clear();
         }
         out.replays = 0;
         ++remembered_;

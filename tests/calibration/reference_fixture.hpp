@@ -38,6 +38,12 @@ struct ReferenceSpec {
   double alpha2 = 60, c1_2 = 6, mu2 = 0.3;
 };
 
+// The burrbench executable under test: $BURRBENCH (set by CTest), else the one on PATH.
+inline std::string burrbench_cli() {
+  const char* b = std::getenv("BURRBENCH");
+  return b ? b : "burrbench";
+}
+
 inline void write_text(const std::filesystem::path& p, const std::string& s) {
   std::ofstream f(p);
   f << s;

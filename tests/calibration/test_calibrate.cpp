@@ -27,10 +27,7 @@ using burrbench::calibration::testing::ReferenceSpec;
 
 namespace {
 
-std::string cli() {
-  const char* b = std::getenv("BURRBENCH");
-  return b ? b : "burrbench";
-}
+std::string cli() { return burrbench::calibration::testing::burrbench_cli(); }
 
 fs::path scratch(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / fmt::format("bb_calib_{}_{}", name, ::getpid());

@@ -25,10 +25,7 @@ using burrbench::calibration::testing::make_layered_experiment;
 
 namespace {
 
-std::string cli() {
-  const char* b = std::getenv("BURRBENCH");
-  return b ? b : "burrbench";
-}
+std::string cli() { return burrbench::calibration::testing::burrbench_cli(); }
 
 fs::path scratch(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / fmt::format("bb_heldout_{}_{}", name, ::getpid());

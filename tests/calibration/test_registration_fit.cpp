@@ -25,10 +25,7 @@ namespace bt = burrbench::calibration::testing;
 
 namespace {
 
-std::string cli() {
-  const char* b = std::getenv("BURRBENCH");
-  return b ? b : "burrbench";
-}
+std::string cli() { return burrbench::calibration::testing::burrbench_cli(); }
 
 int run(const std::string& args, std::string& log, const fs::path& lf) {
   const std::string cmd = fmt::format("'{}' {} > '{}' 2>&1", cli(), args, lf.string());

@@ -18,10 +18,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string cli() {
-  const char* b = std::getenv("BURRBENCH");
-  return b ? b : "burrbench";
-}
+std::string cli() { return burrbench::calibration::testing::burrbench_cli(); }
 
 bc::EvalPoint point(double c1_compact) {
   bc::EvalPoint at;
