@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "direction_plan.hpp"
 #include "tangent.hpp"
 
 namespace burrbench::model {
@@ -65,8 +66,12 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
     throw InputError("replay", "step_s", "at most 1e9 internal steps",
                      fmt::format("{} s over {} s", h, tr.t_s.back() - tr.t_s.front()));
   // Forward sensitivities: a tangent state beside the undo log (it lives for this replay).
+  // It carries only the directions that do not follow exactly from others (direction_plan.hpp).
   const bool sens = opt.directions && opt.sensitivities;
   std::unique_ptr<detail::TangentState> tan;
+  detail::DirectionPlan plan;
+  Sensitivities carried;
+  std::vector<std::uint32_t> reached;
   std::vector<glm::dvec3> dp, dF, dT;
   const bool moments = opt.moment_sensitivities;
   if (sens) {
@@ -79,27 +84,30 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
     if (dirs.size() > kMaxDirections)
       throw InputError("replay", "directions", fmt::format("at most {}", kMaxDirections),
                        std::to_string(dirs.size()));
-    tan = std::make_unique<detail::TangentState>(vol, dirs, params);
-    opt.sensitivities->dforce_N.assign(dirs.size(), std::vector<glm::dvec3>(n, glm::dvec3(0)));
-    dp.assign(dirs.size(), glm::dvec3(0));
-    dF.assign(dirs.size(), glm::dvec3(0));
+    plan = detail::plan_directions(dirs, params, vol.bone_volume_by_class(), opt.derive_directions);
+    const std::size_t P = plan.carried.size();
+    tan = std::make_unique<detail::TangentState>(vol, plan.carried, params);
+    carried.dforce_N.assign(P, std::vector<glm::dvec3>(n, glm::dvec3(0)));
+    reached.assign(n, 0);
+    dp.assign(P, glm::dvec3(0));
+    dF.assign(P, glm::dvec3(0));
     if (moments) {
-      opt.sensitivities->dmoment_Nmm.assign(dirs.size(), std::vector<glm::dvec3>(n, glm::dvec3(0)));
-      dT.assign(dirs.size(), glm::dvec3(0));
+      carried.dmoment_Nmm.assign(P, std::vector<glm::dvec3>(n, glm::dvec3(0)));
+      dT.assign(P, glm::dvec3(0));
     }
   }
   // ∂p/∂θ_j at a fraction f of interval k (linear, like the centre).
   auto path_at = [&](std::size_t k, double f) {
-    const auto& dirs = *opt.directions;
-    for (std::size_t j = 0; j < dirs.size(); ++j) {
-      if (dirs[j].kind != Direction::Kind::kPath) continue;
-      const auto& d = dirs[j].dcentre_vol_mm;
+    for (std::size_t j = 0; j < plan.carried.size(); ++j) {
+      if (plan.carried[j].kind != Direction::Kind::kPath) continue;
+      const auto& d = (*opt.directions)[plan.requested_of[j]].dcentre_vol_mm;
       dp[j] = f == 0 ? d[k] : d[k] + f * (d[k + 1] - d[k]);
     }
   };
   auto record = [&](std::size_t k) {
-    for (std::size_t j = 0; j < dF.size(); ++j) opt.sensitivities->dforce_N[j][k] = dF[j];
-    for (std::size_t j = 0; j < dT.size(); ++j) opt.sensitivities->dmoment_Nmm[j][k] = dT[j];
+    for (std::size_t j = 0; j < dF.size(); ++j) carried.dforce_N[j][k] = dF[j];
+    for (std::size_t j = 0; j < dT.size(); ++j) carried.dmoment_Nmm[j][k] = dT[j];
+    reached[k] = tan->reached_classes();
   };
   if (restore) vol.begin_undo();
   try {
@@ -143,8 +151,12 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
     throw;
   }
   if (sens) {
-    opt.sensitivities->dremoved_mm3 = tan->dremoved_mm3();
-    opt.sensitivities->tangent_voxels = tan->tangent_voxels();
+    carried.dremoved_mm3 = tan->dremoved_mm3();
+    carried.tangent_voxels = tan->tangent_voxels();
+    std::vector<const ContactResult*> contacts(n);
+    for (std::size_t k = 0; k < n; ++k) contacts[k] = &res.samples[k].contact;
+    detail::assemble_directions(plan, params, std::move(carried), contacts, reached, moments,
+                                *opt.sensitivities);
   }
   if (restore) vol.rollback();
   res.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();

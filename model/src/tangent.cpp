@@ -88,6 +88,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   // A class's constants act on nothing before its bone first comes within reach: their
   // directions stay exactly zero until then and are skipped (a recording in one class
   // carries 3 fewer directions).
+  reached_ |= c.class_mask;
   if (dormant_ > 0)
     for (std::size_t j = 0; j < P; ++j)
       if (!active_[j] && ((c.class_mask >> label_[j]) & 1u)) {

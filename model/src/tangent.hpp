@@ -40,6 +40,9 @@ class TangentState {
                      bool eroded, glm::dvec3* dF, glm::dvec3* dT = nullptr);
   const std::vector<std::array<double, kMaxClasses>>& dremoved_mm3() const { return drem_; }
   std::size_t tangent_voxels() const { return touched_.size(); }
+  // Bit k: class k has come within reach (its directions are carried from then on; before,
+  // every derivative in its constants is exactly zero).
+  std::uint32_t reached_classes() const { return reached_; }
 
  private:
   double* tangent(std::uint32_t voxel);          // existing or null
@@ -56,6 +59,7 @@ class TangentState {
   std::vector<std::size_t> act_;     // directions carried so far (path ones, and classes that were in reach)
   std::vector<std::uint8_t> active_; // per direction: in act_
   std::size_t dormant_ = 0;          // directions not yet in act_
+  std::uint32_t reached_ = 0;        // classes that have come within reach
   std::vector<double> dchi_;         // slot × P
   std::vector<std::uint32_t> touched_;  // voxel of each slot
   // Scratch of differentiate(), kept to avoid zeroing kMaxDirections entries per call.

@@ -28,6 +28,10 @@ struct ReplayOptions {
   const std::vector<Direction>* directions = nullptr;
   Sensitivities* sensitivities = nullptr;
   bool moment_sensitivities = false;  // also ∂T/∂θ_j (Sensitivities::dmoment_Nmm)
+  // true: directions that follow exactly from others are assembled, not carried (docs/model.md
+  // "Directions that follow from others"); false: every direction is carried (the test of
+  // those identities, and the bench's comparison).
+  bool derive_directions = true;
 };
 
 struct ReplaySample { ContactResult contact; };  // at each trajectory time

@@ -31,6 +31,9 @@ struct Sensitivities {  // filled by replay when directions are given
   std::vector<std::vector<glm::dvec3>> dmoment_Nmm;
   std::vector<std::array<double, kMaxClasses>> dremoved_mm3;  // [direction]: ∂(removed volume per class)/∂θ_j
   std::size_t tangent_voxels = 0;  // voxels that carried a tangent (bench, docs)
+  // Directions the tangent pass carried; the others follow exactly from them (docs/model.md
+  // "Directions that follow from others"). Bench, docs.
+  std::size_t carried_directions = 0;
 };
 
 inline constexpr std::size_t kMaxDirections = 64;
