@@ -14,20 +14,6 @@ constexpr double kPi = std::numbers::pi;
 constexpr std::int8_t kAlpha = 0, kC1 = 1, kMu = 2, kPath = 3;
 }  // namespace
 
-void Sym3::add(double c, const glm::dvec3& v) {
-  const glm::dvec3 cv = c * v;
-  xx += cv.x * v.x;
-  xy += cv.x * v.y;
-  xz += cv.x * v.z;
-  yy += cv.y * v.y;
-  yz += cv.y * v.z;
-  zz += cv.z * v.z;
-}
-
-glm::dvec3 Sym3::operator*(const glm::dvec3& u) const {
-  return {xx * u.x + xy * u.y + xz * u.z, xy * u.x + yy * u.y + yz * u.z, xz * u.x + yz * u.y + zz * u.z};
-}
-
 TangentState::TangentState(const Volume& vol, const std::vector<Direction>& dirs,
                            const ModelParams& prm)
     : vol_(vol), P_(dirs.size()), prm_(prm), nx_(vol.dims()[0]), ny_(vol.dims()[1]) {
