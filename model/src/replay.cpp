@@ -137,8 +137,11 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
                                res.removed_mm3, &res.friction_energy_mJ);
         if (sens) {
           path_at(k, f);
-          tan->differentiate(vol, c, dp.data(), true, dF.data(), moments ? dT.data() : nullptr);
-          if (j == 0) record(k);
+          // Only the first sub-step's force is reported; the others just advance the tangents.
+          const bool reported = j == 0;
+          tan->differentiate(vol, c, dp.data(), true, reported ? dF.data() : nullptr,
+                             reported && moments ? dT.data() : nullptr);
+          if (reported) record(k);
         }
         if (j == 0) res.samples[k].contact = c;
         ++res.steps;

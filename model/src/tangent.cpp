@@ -65,7 +65,12 @@ double* TangentState::tangent_or_new(std::uint32_t v) {
 void TangentState::differentiate(const Volume& vol, const ContactResult& c, const glm::dvec3* dp,
                                  bool eroded, glm::dvec3* dF, glm::dvec3* dT) {
   const std::size_t P = P_;
-  for (std::size_t j = 0; j < P; ++j) dF[j] = glm::dvec3(0);
+  // No dF: only the voxel tangents advance (an erosion sub-step whose force is not
+  // reported); the friction force's derivative sums are skipped.
+  const bool forces = dF != nullptr;
+  BURRBENCH_CHECK(forces || (eroded && !dT), "differentiate: no dF only for an unreported erosion step");
+  if (forces)
+    for (std::size_t j = 0; j < P; ++j) dF[j] = glm::dvec3(0);
   if (dT)
     for (std::size_t j = 0; j < P; ++j) dT[j] = glm::dvec3(0);
   const KernelState& st = vol.scratch().state;
@@ -180,7 +185,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     const double db = (!full && a2 > 0) ? dM / (kPi * a2) : 0.0;
     const double dg = 1.5 * g / b * db;
     dn[j] = -(dm1[j] - n * glm::dot(n, dm1[j])) / st.m1n;
-    dF[j] = (dc * g + cbar * dg) * n + cbar * g * dn[j];
+    if (forces) dF[j] = (dc * g + cbar * dg) * n + cbar * g * dn[j];
     dfe[j] = dc * g + cbar * dg;
     da2[j] = 2 * (R - b) * db;
     dp0[j] = st.friction ? st.p0 * (dfe[j] / st.fe - da2[j] / a2) : 0.0;
@@ -221,6 +226,8 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     const double t2 = d2 - vn * vn, xi2 = rd * rd * t2;
     if (xi2 >= a2) continue;  // off the disc: neither force nor power
     const std::size_t k = v.label;
+    const bool erodes = eroded && st.kero[k] > 0 && st.wmu[k] != 0;
+    if (!forces && !erodes) continue;
     double* tg = tangent(v.index);
     const double chi = v.chi;
     const double u = (d2 - t_lo) * t_ih;
@@ -235,40 +242,41 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     // ∂P = sq ∂p₀ + e_xi ∂ξ² + e_a2 ∂a²,  ∂ξ² = h_d2 ∂d² + h_vn ∂(n̂·v)
     const double e_xi = -p0 / (2 * sq * a2), e_a2 = p0 * xi2 / (2 * sq * a2 * a2);
     const double h_d2 = 2 * rd * s_rd * t2 + rd * rd, h_vn = -2 * rd * rd * vn;
-    // ∂s = A P₀ ∂χ + c_d2 ∂d² + c_vn ∂(n̂·v) + c_p0 ∂p₀ + c_a2 ∂a²
-    const double c_chi = A * P0;
-    const double c_d2 = chi * ((s_area * inv_d + area * s_invd) * P0 + A * e_xi * h_d2);
-    const double c_vn = chi * A * e_xi * h_vn;
-    VN[k].add(c_vn, vv);
-    up0[k] += (chi * A * sq) * vv;
-    ua2[k] += (chi * A * e_a2) * vv;
-    if (moves) {
-      D2[k].add(c_d2, vv);
-      uvn[k] += c_vn * vv;
-      ssum[k] += chi * c_chi;
-    }
-    if (tg) {
-      const glm::dvec3 cv = c_chi * vv;
-      for (const std::size_t j : act) dG[j][k] += tg[j] * cv;
-    }
-    if (dT) {
-      const double vw_ = glm::dot(vv, w), s_ = chi * c_chi;
-      const glm::dvec3 L = vw_ * vv - d2 * w, rL = rd * L;
-      TVN[k] += glm::outerProduct(c_vn * rL, vv);
-      tp0[k] += (chi * A * sq) * rL;
-      ta2[k] += (chi * A * e_a2) * rL;
+    if (forces) {  // the friction force's derivative sums
+      // ∂s = A P₀ ∂χ + c_d2 ∂d² + c_vn ∂(n̂·v) + c_p0 ∂p₀ + c_a2 ∂a²
+      const double c_chi = A * P0;
+      const double c_d2 = chi * ((s_area * inv_d + area * s_invd) * P0 + A * e_xi * h_d2);
+      const double c_vn = chi * A * e_xi * h_vn;
+      VN[k].add(c_vn, vv);
+      up0[k] += (chi * A * sq) * vv;
+      ua2[k] += (chi * A * e_a2) * vv;
       if (moves) {
-        TD2[k] += glm::outerProduct((c_d2 * rd + s_ * s_rd) * L, vv);
-        tvn[k] += c_vn * rL;
-        tsv[k] += (s_ * rd) * vv;
-        tsvw[k] += s_ * rd * vw_;
+        D2[k].add(c_d2, vv);
+        uvn[k] += c_vn * vv;
+        ssum[k] += chi * c_chi;
       }
       if (tg) {
-        const glm::dvec3 cl = c_chi * rL;
-        for (const std::size_t j : act) dTG[j][k] += tg[j] * cl;
+        const glm::dvec3 cv = c_chi * vv;
+        for (const std::size_t j : act) dG[j][k] += tg[j] * cv;
+      }
+      if (dT) {
+        const double vw_ = glm::dot(vv, w), s_ = chi * c_chi;
+        const glm::dvec3 L = vw_ * vv - d2 * w, rL = rd * L;
+        TVN[k] += glm::outerProduct(c_vn * rL, vv);
+        tp0[k] += (chi * A * sq) * rL;
+        ta2[k] += (chi * A * e_a2) * rL;
+        if (moves) {
+          TD2[k] += glm::outerProduct((c_d2 * rd + s_ * s_rd) * L, vv);
+          tvn[k] += c_vn * rL;
+          tsv[k] += (s_ * rd) * vv;
+          tsvw[k] += s_ * rd * vw_;
+        }
+        if (tg) {
+          const glm::dvec3 cl = c_chi * rL;
+          for (const std::size_t j : act) dTG[j][k] += tg[j] * cl;
+        }
       }
     }
-    const bool erodes = eroded && st.kero[k] > 0 && st.wmu[k] != 0;
     if (!erodes) continue;
     // ∂W = w_chi ∂χ + K1 ∂P + K2 ∂d² + K3 ∂(v·ω̂/d), with ∂d² = −2 v·∂p, ∂(n̂·v) = v·∂n̂ − n̂·∂p
     // and ∂(v·ω̂/d) = −ω̂·∂p/d + (v·ω̂) s_invd ∂d².
@@ -308,6 +316,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     }
     for (const std::size_t j : act) tg[j] = tnew[j];
   }
+  if (!forces) return;
   for (const std::size_t j : act) {
     glm::dvec3 dfm(0);
     const double ndp = glm::dot(n, dpj[j]);

@@ -46,7 +46,8 @@ class TangentState {
   // `c`: the contact just evaluated on `vol` (by evaluate or step); `dp`: ∂p/∂θ_j at this
   // position (P entries; zero for physics directions); `eroded`: the kernel eroded with
   // this step (then the voxel tangents advance). Writes ∂F/∂θ_j to dF (P entries) and,
-  // when dT is given, ∂T/∂θ_j of the friction couple to dT (P entries).
+  // when dT is given, ∂T/∂θ_j of the friction couple to dT (P entries). dF (and dT) null:
+  // an erosion step whose force is not reported; only the tangents advance.
   void differentiate(const Volume& vol, const ContactResult& c, const glm::dvec3* dp,
                      bool eroded, glm::dvec3* dF, glm::dvec3* dT = nullptr);
   const std::vector<std::array<double, kMaxClasses>>& dremoved_mm3() const { return drem_; }
