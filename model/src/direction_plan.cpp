@@ -1,7 +1,6 @@
 #include "direction_plan.hpp"
 
 #include <cmath>
-#include <utility>
 
 namespace burrbench::model::detail {
 
@@ -89,83 +88,77 @@ DirectionPlan plan_directions(const std::vector<Direction>& requested, const Mod
   return plan;
 }
 
-void assemble_directions(const DirectionPlan& plan, const ModelParams& prm, Sensitivities&& carried,
+namespace {
+using Column = std::vector<glm::dvec3>;
+
+// Column j of one channel (the force or the couple) from the carried columns `cols`;
+// `partial_mu(c, k)`: the kernel's fixed-geometry ∂/∂μ_k of that channel, `total(c)` its value.
+template <class PartialMu, class Total>
+Column assemble(const DirectionPlan& plan, const DirectionPlan::Recipe& r, const ModelParams& prm,
+                const std::vector<Column>& cols, const std::vector<const ContactResult*>& contacts,
+                const std::vector<std::uint32_t>& reached, PartialMu partial_mu, Total total) {
+  const std::size_t n = contacts.size();
+  Column out(n, glm::dvec3(0));
+  switch (r.source) {
+    case Source::kCarried:
+      return cols[r.carried];
+    case Source::kZero:
+      return out;
+    case Source::kMuFromAlpha:  // −∂/∂ln α_k + μ_k ∂/∂μ_k|χ
+      for (std::size_t k = 0; k < n; ++k) {
+        out[k] = prm.by_label[r.label].mu * partial_mu(*contacts[k], r.label);
+        if (r.carried != DirectionPlan::kNone) out[k] -= cols[r.carried][k];
+      }
+      return out;
+    case Source::kC1FromRest:  // F − Σ_k ∂/∂ln α_k − Σ_{k≠m} ∂/∂ln C1_k, zero until in reach
+      for (std::size_t k = 0; k < n; ++k) {
+        if (!((reached[k] >> r.label) & 1u)) continue;
+        out[k] = total(*contacts[k]);
+        for (std::size_t c = 0; c < plan.carried.size(); ++c)
+          if (plan.carried[c].kind != Direction::Kind::kPath) out[k] -= cols[c][k];
+      }
+      return out;
+  }
+  return out;
+}
+
+// The removed volume's derivative: no explicit dependence on the constants, only the
+// geometric part of the same identities.
+std::array<double, kMaxClasses> assemble_removed(const DirectionPlan& plan, const DirectionPlan::Recipe& r,
+                                                 const std::vector<std::array<double, kMaxClasses>>& carried) {
+  std::array<double, kMaxClasses> out{};
+  for (std::size_t k = 0; k < kMaxClasses; ++k) {
+    if (r.source == Source::kCarried) out[k] = carried[r.carried][k];
+    if (r.source == Source::kMuFromAlpha && r.carried != DirectionPlan::kNone) out[k] = -carried[r.carried][k];
+    if (r.source == Source::kC1FromRest)
+      for (std::size_t c = 0; c < plan.carried.size(); ++c)
+        if (plan.carried[c].kind != Direction::Kind::kPath) out[k] -= carried[c][k];
+  }
+  return out;
+}
+}  // namespace
+
+void assemble_directions(const DirectionPlan& plan, const ModelParams& prm, const Sensitivities& carried,
                          const std::vector<const ContactResult*>& contacts,
                          const std::vector<std::uint32_t>& reached, bool moments, Sensitivities& out) {
-  const std::size_t P = plan.recipe.size(), n = contacts.size();
+  const std::size_t P = plan.recipe.size();
   out.tangent_voxels = carried.tangent_voxels;
   out.carried_directions = plan.carried.size();
-  out.dforce_N.assign(P, {});
-  out.dmoment_Nmm.assign(moments ? P : 0, {});
-  out.dremoved_mm3.assign(P, std::array<double, kMaxClasses>{});
-  // The C1 that follows from the rest: F − Σ_k ∂F/∂ln α_k − Σ_{k≠m} ∂F/∂ln C1_k (the
-  // non-eroding classes' α columns are zero), exactly zero until its class is in reach.
-  auto rest = [&](std::uint8_t label, auto column, auto total, std::vector<glm::dvec3>& to) {
-    to.assign(n, glm::dvec3(0));
-    for (std::size_t k = 0; k < n; ++k) {
-      if (!((reached[k] >> label) & 1u)) continue;
-      glm::dvec3 v = total(*contacts[k]);
-      for (std::size_t c = 0; c < plan.carried.size(); ++c)
-        if (plan.carried[c].kind != Direction::Kind::kPath) v -= column(c)[k];
-      to[k] = v;
-    }
-  };
+  out.dforce_N.resize(P);
+  out.dmoment_Nmm.resize(moments ? P : 0);
+  out.dremoved_mm3.resize(P);
   for (std::size_t j = 0; j < P; ++j) {
     const auto& r = plan.recipe[j];
-    switch (r.source) {
-      case Source::kCarried:
-        break;  // moved in below, once the derived ones have read it
-      case Source::kZero:
-        out.dforce_N[j].assign(n, glm::dvec3(0));
-        if (moments) out.dmoment_Nmm[j].assign(n, glm::dvec3(0));
-        break;
-      case Source::kMuFromAlpha: {
-        const double mu = prm.by_label[r.label].mu;
-        auto from = [&](const std::vector<std::vector<glm::dvec3>>& a, auto partial, std::vector<glm::dvec3>& to) {
-          to.assign(n, glm::dvec3(0));
-          for (std::size_t k = 0; k < n; ++k) {
-            const glm::dvec3 explicit_part = mu * partial(*contacts[k]);
-            to[k] = r.carried == DirectionPlan::kNone ? explicit_part : explicit_part - a[r.carried][k];
-          }
-        };
-        from(carried.dforce_N, [&](const ContactResult& c) { return c.dFmu_dmu[r.label]; }, out.dforce_N[j]);
-        if (moments)
-          from(carried.dmoment_Nmm, [&](const ContactResult& c) { return c.dTmu_dmu[r.label]; }, out.dmoment_Nmm[j]);
-        if (r.carried != DirectionPlan::kNone)
-          for (int k = 0; k < kMaxClasses; ++k) out.dremoved_mm3[j][std::size_t(k)] = -carried.dremoved_mm3[r.carried][std::size_t(k)];
-        break;
-      }
-      case Source::kC1FromRest: {
-        rest(r.label, [&](std::size_t c) -> const std::vector<glm::dvec3>& { return carried.dforce_N[c]; },
-             [](const ContactResult& c) { return c.force_N; }, out.dforce_N[j]);
-        if (moments)
-          rest(r.label, [&](std::size_t c) -> const std::vector<glm::dvec3>& { return carried.dmoment_Nmm[c]; },
-               [](const ContactResult& c) { return c.moment_Nmm; }, out.dmoment_Nmm[j]);
-        // The removed volume has no explicit dependence on C1: only the geometric part.
-        for (std::size_t c = 0; c < plan.carried.size(); ++c)
-          if (plan.carried[c].kind != Direction::Kind::kPath)
-            for (int k = 0; k < kMaxClasses; ++k)
-              out.dremoved_mm3[j][std::size_t(k)] -= carried.dremoved_mm3[c][std::size_t(k)];
-        break;
-      }
-    }
-  }
-  // A carried direction asked for twice (or α asked for and also needed by μ) is copied;
-  // the last use takes it over.
-  for (std::size_t j = 0; j < P; ++j) {
-    const auto& r = plan.recipe[j];
-    if (r.source != Source::kCarried) continue;
-    bool last = true;
-    for (std::size_t i = j + 1; i < P; ++i)
-      last &= !(plan.recipe[i].source == Source::kCarried && plan.recipe[i].carried == r.carried);
-    out.dremoved_mm3[j] = carried.dremoved_mm3[r.carried];
-    if (last) {
-      out.dforce_N[j] = std::move(carried.dforce_N[r.carried]);
-      if (moments) out.dmoment_Nmm[j] = std::move(carried.dmoment_Nmm[r.carried]);
-    } else {
-      out.dforce_N[j] = carried.dforce_N[r.carried];
-      if (moments) out.dmoment_Nmm[j] = carried.dmoment_Nmm[r.carried];
-    }
+    out.dforce_N[j] = assemble(
+        plan, r, prm, carried.dforce_N, contacts, reached,
+        [](const ContactResult& c, std::uint8_t k) { return c.dFmu_dmu[k]; },
+        [](const ContactResult& c) { return c.force_N; });
+    if (moments)
+      out.dmoment_Nmm[j] = assemble(
+          plan, r, prm, carried.dmoment_Nmm, contacts, reached,
+          [](const ContactResult& c, std::uint8_t k) { return c.dTmu_dmu[k]; },
+          [](const ContactResult& c) { return c.moment_Nmm; });
+    out.dremoved_mm3[j] = assemble_removed(plan, r, carried.dremoved_mm3);
   }
 }
 

@@ -48,7 +48,7 @@ DirectionPlan plan_directions(const std::vector<Direction>& requested, const Mod
 // Fills `out` (one entry per requested direction) from the carried directions' results
 // `carried`, the reported contacts (`contacts[k]`: the contact whose derivatives sample k
 // holds) and `reached[k]`, the classes within reach by sample k (TangentState).
-void assemble_directions(const DirectionPlan& plan, const ModelParams& prm, Sensitivities&& carried,
+void assemble_directions(const DirectionPlan& plan, const ModelParams& prm, const Sensitivities& carried,
                          const std::vector<const ContactResult*>& contacts,
                          const std::vector<std::uint32_t>& reached, bool moments, Sensitivities& out);
 

@@ -158,7 +158,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
     carried.tangent_voxels = tan->tangent_voxels();
     std::vector<const ContactResult*> contacts(n);
     for (std::size_t k = 0; k < n; ++k) contacts[k] = &res.samples[k].contact;
-    detail::assemble_directions(plan, params, std::move(carried), contacts, reached, moments,
+    detail::assemble_directions(plan, params, carried, contacts, reached, moments,
                                 *opt.sensitivities);
   }
   if (restore) vol.rollback();
