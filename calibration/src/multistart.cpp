@@ -52,17 +52,9 @@ bool hopeless_start(const std::vector<double>& costs, int max_iterations, double
 MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector<double>>& starts,
                              const SampleWeights& w, const MultistartOptions& opt,
                              double tolerance) {
-  const Layout& L = obj.layout();
   MultistartOutcome out;
   out.tolerance = tolerance;
   out.ends.resize(starts.size());
-  std::vector<bool> prefit_hold(L.size(), false);
-  for (const auto& p : L.physics())
-    if (p.index >= 0 && p.kind == PhysKind::kAlpha) prefit_hold[std::size_t(p.index)] = true;
-  for (const auto& r : L.recordings()) {
-    if (r.lag >= 0) prefit_hold[std::size_t(r.lag)] = true;
-    if (r.depth >= 0) prefit_hold[std::size_t(r.depth)] = true;
-  }
   std::mutex mu;
   std::exception_ptr error;
   std::size_t done = 0;
@@ -103,12 +95,9 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
     StartEnd e;
     e.index = int(s);
     e.start = starts[s];
-    SolveOptions pre;
-    pre.max_iterations = opt.prefit_iterations;
-    pre.geometry_terms = false;
+    PrefitOptions pre = opt.prefit;
     pre.threads = prefit_threads;
-    pre.hold = prefit_hold;
-    const SolveOutcome warm = obj.solve(e.start, w, pre);
+    const SolveOutcome warm = obj.prefit(e.start, w, pre);
     e.prefit_cost = warm.usable ? warm.final_cost : INFINITY;
     e.end = warm.usable ? warm.x : e.start;
     e.cost = e.prefit_cost;

@@ -409,15 +409,7 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
                               const SolveOptions& options) const {
   const auto t0 = std::chrono::steady_clock::now();
   SolveOutcome out;
-  out.x = x0;
-  // Start strictly inside the bounds.
-  for (std::size_t i = 0; i < out.x.size(); ++i) {
-    const double lo = layout_.lower(i), hi = layout_.upper(i);
-    if (std::isfinite(lo) && std::isfinite(hi)) {
-      const double eps = 1e-6 * (hi - lo);
-      out.x[i] = std::clamp(out.x[i], lo + eps, hi - eps);
-    }
-  }
+  out.x = inside_bounds(x0);
   BuiltProblem bp;
   build(*this, out.x, w, options.hold, replays_, bp, options.geometry_terms);
   bp.prefetch.enabled = options.threads > 1;
@@ -448,10 +440,20 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
   return out;
 }
 
-Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights& w,
-                               int only) const {
-  Evaluation ev;
-  ev.predictions.resize(models_.size());
+std::vector<double> Objective::inside_bounds(std::vector<double> x) const {
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double lo = layout_.lower(i), hi = layout_.upper(i);
+    if (std::isfinite(lo) && std::isfinite(hi)) {
+      const double eps = 1e-6 * (hi - lo);
+      x[i] = std::clamp(x[i], lo + eps, hi - eps);
+    }
+  }
+  return x;
+}
+
+std::vector<Prediction> Objective::predict_all(const std::vector<double>& x, int only,
+                                               bool geometry_terms) const {
+  std::vector<Prediction> out(models_.size());
   // Predict every recording concurrently: each call queues its replay on the shared pool.
   std::vector<std::thread> threads;
   std::vector<std::exception_ptr> errors(models_.size());
@@ -459,7 +461,7 @@ Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights
     if (only >= 0 && std::size_t(only) != r) continue;
     threads.emplace_back([&, r] {
       try {
-        models_[r]->predict(eval_point(layout_, x.data(), r, true), {}, ev.predictions[r]);
+        models_[r]->predict(eval_point(layout_, x.data(), r, geometry_terms), {}, out[r]);
       } catch (...) {
         errors[r] = std::current_exception();
       }
@@ -468,13 +470,20 @@ Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights
   for (auto& t : threads) t.join();
   for (auto& e : errors)
     if (e) std::rethrow_exception(e);
+  for (const auto& p : out) replays_ += p.replays;
+  return out;
+}
+
+Evaluation Objective::evaluate(const std::vector<double>& x, const SampleWeights& w,
+                               int only) const {
+  Evaluation ev;
+  ev.predictions = predict_all(x, only, true);
   const Robust robust{settings_.loss, settings_.loss_scale * settings_.loss_scale};
   if (only < 0) ev.cost += prior_cost(layout_, x);
   double lag_num = 0, lag_den = 0;
   for (std::size_t r = 0; r < models_.size(); ++r) {
     if (only >= 0 && std::size_t(only) != r) continue;
     const auto& pred = ev.predictions[r];
-    replays_ += pred.replays;
     const Offsets off = offsets_at(layout_.recordings()[r], x.data());
     const Channels& ch = layout_.channels();
     const std::size_t R = std::size_t(ch.rows_per_sample());

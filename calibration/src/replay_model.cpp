@@ -144,6 +144,34 @@ void ReplayRecordingModel::fill_base(const model::ReplayResult& base, const mode
   }
 }
 
+std::shared_ptr<const FixedGeometryTerms> ReplayRecordingModel::fixed_geometry_terms(
+    const EvalPoint& at, const model::ReplayResult& base, const model::Trajectory& tr) const {
+  auto out = std::make_shared<FixedGeometryTerms>();
+  out->at = at.physics;
+  std::uint32_t seen = 0;
+  for (const auto& s : base.samples) seen |= s.contact.class_mask;
+  for (int k = 1; k < kLabels; ++k)
+    if (seen & (1u << k)) out->labels.push_back(std::uint8_t(k));
+  const std::size_t nl = out->labels.size(), n = size();
+  out->terms.resize(n * nl);
+  const bool wrench = channels_.torque || channels_.spindle;
+  for (std::size_t j = 0; j < n; ++j) {
+    const auto& c = base.samples[j].contact;
+    for (std::size_t i = 0; i < nl; ++i) {
+      const std::size_t k = out->labels[i];
+      auto& t = out->terms[j * nl + i];
+      t.elastic_force = rec_.sensor_force_from_burr_force(c.dF_dC1[k]);
+      t.elastic_N = glm::length(c.dF_dC1[k]);
+      t.friction_force = rec_.sensor_force_from_burr_force(c.dFmu_dmu[k]);
+      if (!wrench) continue;
+      t.elastic_moment = rec_.sensor_torque_from_burr_wrench(c.dF_dC1[k], glm::dvec3(0), tr.centre_vol_mm[j]);
+      t.friction_moment = rec_.sensor_torque_from_burr_wrench(c.dFmu_dmu[k], c.dTmu_dmu[k], tr.centre_vol_mm[j]);
+      t.friction_spindle = model::spindle_torque_Nmm(c.dTmu_dmu[k], tr.omega_vol_rad_s[j]);
+    }
+  }
+  return out;
+}
+
 namespace {
 
 // The force columns within model::sensitivities_diverged's bound of the largest predicted
@@ -284,6 +312,7 @@ void ReplayRecordingModel::compute(const EvalPoint& at, const std::vector<Column
   const std::size_t n = size();
   const auto& base = jobs[0].result;
   fill_base(base, jobs[0].trajectory, out);
+  if (!at.geometry_terms) out.fixed = fixed_geometry_terms(at, base, jobs[0].trajectory);
   // A column of every fitted channel: the force (sensor frame), and with the moment and
   // spindle channels their columns, from the same partials and difference pairs.
   struct Deriv {

@@ -14,20 +14,10 @@ void choose_steps(Run& run) {
   if (run.opt.derivatives != Derivatives::kFiniteDifferences) return;
   const Layout& L = *run.layout;
   const Objective& obj = *run.obj;
-  // Swept at the manifest's start after its cheap pre-fit (C1, μ, bias at fixed α).
+  // Swept at the manifest's start after its cheap pre-fit (C1, μ, bias at held geometry).
   std::vector<double> x = L.initial();
   {
-    SolveOptions pre;
-    pre.max_iterations = 4;
-    pre.geometry_terms = false;
-    pre.hold.assign(L.size(), false);
-    for (const auto& p : L.physics())
-      if (p.index >= 0 && p.kind == PhysKind::kAlpha) pre.hold[std::size_t(p.index)] = true;
-    for (const auto& r : L.recordings()) {
-      if (r.lag >= 0) pre.hold[std::size_t(r.lag)] = true;
-      if (r.depth >= 0) pre.hold[std::size_t(r.depth)] = true;
-    }
-    const auto r = obj.solve(x, run.w_all, pre);
+    const auto r = obj.prefit(x, run.w_all, {});
     if (r.usable) x = r.x;
   }
   auto record = [&](const StepSweep& s) {

@@ -276,7 +276,7 @@ TEST(CalibrationCore, ALoneStartIsPreFittedOnEveryThread) {
   GatedScene g;
   bc::Objective obj(*g.layout, g.models, settings());
   bc::MultistartOptions mo;
-  mo.prefit_iterations = 3;
+  mo.prefit.fallback_iterations = 3;
   mo.iterations = 3;
   const auto out = bc::multistart(obj, {g.layout->initial()}, g.w, mo, 1e-6);
   ASSERT_EQ(out.ends.size(), 1u);

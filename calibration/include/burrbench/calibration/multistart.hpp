@@ -1,7 +1,7 @@
 #pragma once
 // Global search: many local fits from a Latin hypercube of starts (docs/calibration.md
-// "Global search"). Every start is first warmed by the cheap fixed-geometry pre-fit (C1, μ
-// and bias at fixed α, lag and depth); the most promising ones are then solved locally
+// "Global search"). Every start is first warmed by the cheap fixed-geometry pre-fit
+// (Objective::prefit: C1, μ and bias at held α, lag, depth and pose); the most promising ones are then solved locally
 // with every parameter free; the starts run concurrently on the shared replay pool. Every end point is
 // kept: sorted by cost they are the waterfall plot.
 #include <cstdint>
@@ -29,7 +29,7 @@ struct StartEnd {
 };
 
 struct MultistartOptions {
-  int prefit_iterations = 4;  // C1, μ, bias at fixed α / lag / depth
+  PrefitOptions prefit;       // C1, μ and the linear nuisances at held geometry (threads: set here)
   int iterations = 6;         // local solve with everything free
   // Only the `solved` starts with the lowest pre-fit cost get the local solve; the others
   // end at their pre-fit (termination "screened by pre-fit cost"). ≤ 0: all of them.

@@ -53,6 +53,18 @@ struct SolveOptions {
   int max_rejected_in_a_row = 0;
 };
 
+// The cheap pre-fit (Objective::prefit): C1, μ and the linear nuisances (bias, the
+// moment's bias, the spindle's idle and viscous terms) with α, lag, depth and pose held.
+struct PrefitOptions {
+  // Replays per recording at most. Each holds its geometry while C1, μ and the nuisances
+  // are solved exactly on it (FixedGeometryTerms); the next replays at the result.
+  int replays = 3;
+  int threads = 2;
+  // Models without fixed-geometry terms (a closed-form test model): Levenberg–Marquardt
+  // iterations with the fixed-geometry Jacobian, every point replayed.
+  int fallback_iterations = 4;
+};
+
 struct SolveOutcome {
   std::vector<double> x;
   std::uint64_t iterations = 0;
@@ -104,6 +116,9 @@ class Objective {
 
   SolveOutcome solve(const std::vector<double>& x0, const SampleWeights& w,
                      const SolveOptions& options) const;
+  // The cheap pre-fit from x0 (PrefitOptions): final_cost is the replayed cost at x.
+  SolveOutcome prefit(const std::vector<double>& x0, const SampleWeights& w,
+                      const PrefitOptions& options) const;
   // only >= 0: replay and score that recording alone (the others count as cost 0).
   Evaluation evaluate(const std::vector<double>& x, const SampleWeights& w, int only = -1) const;
   // `inflation`: multiplies the covariance besides the residual variance (ar1_inflation).
@@ -114,6 +129,11 @@ class Objective {
   std::uint64_t replays() const;
 
  private:
+  // Every recording's prediction at x (only >= 0: that one), concurrently, without columns;
+  // counts their replays.
+  std::vector<Prediction> predict_all(const std::vector<double>& x, int only, bool geometry_terms) const;
+  // x strictly inside the layout's bounds.
+  std::vector<double> inside_bounds(std::vector<double> x) const;
   const Layout& layout_;
   std::vector<const RecordingModel*> models_;
   ObjectiveSettings settings_;

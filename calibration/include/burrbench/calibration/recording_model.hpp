@@ -5,6 +5,7 @@
 // implement it with a closed-form model to check the solver machinery alone.
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,24 @@ struct EvalPoint {
   glm::dvec3 pose_centre_vol_mm{0};
 };
 
+// At fixed geometry (the voxels' χ history of one replay held), every predicted channel
+// is exact in the C1's and μ's (MODEL.md "Forces"): F_e = Σ_k C1_k·E_k with every E_k
+// along n̂, so |F_e| = Σ_k C1_k·|E_k|, and the friction force, its couple and the spindle
+// load are Σ_k μ_k·(per unit μ_k) scaled by |F_e|. These are the per-sample, per-class
+// ingredients, in the sensor frame; FixedGeometryModel (fixed_geometry_model.hpp) predicts
+// from them at other C1's and μ's without a replay.
+struct FixedGeometryTerms {
+  std::vector<std::uint8_t> labels;  // the classes with terms, in the order of each sample's entries
+  PhysicsValues at;                  // the constants the replay ran with
+  struct Class {
+    glm::dvec3 elastic_force{0}, elastic_moment{0};  // per unit C1_k (N/(N/mm²), N·mm/(N/mm²))
+    double elastic_N = 0;                             // |E_k|, burr frame
+    glm::dvec3 friction_force{0}, friction_moment{0};  // per unit μ_k at the replay's |F_e|
+    double friction_spindle = 0;
+  };
+  std::vector<Class> terms;  // sample j, class i at [j·labels.size() + i]
+};
+
 struct Prediction {
   std::vector<glm::dvec3> force_sensor_N;        // predicted sensor reading without bias
   std::vector<std::uint8_t> buried;              // 1: normal ill-defined at this sample
@@ -56,6 +75,9 @@ struct Prediction {
   std::vector<double> spindle_Nmm;
   std::vector<std::vector<glm::dvec3>> torque_columns;
   std::vector<std::vector<double>> spindle_columns;
+  // Set for a prediction at EvalPoint::geometry_terms = false by models that have a
+  // geometry (ReplayRecordingModel); null otherwise.
+  std::shared_ptr<const FixedGeometryTerms> fixed;
 };
 
 class RecordingModel {

@@ -108,6 +108,10 @@ class ReplayRecordingModel final : public RecordingModel {
   void forget();
   // The base replay's predictions (force, and the moment and spindle load when asked).
   void fill_base(const model::ReplayResult& base, const model::Trajectory& tr, Prediction& out) const;
+  // The kernel's fixed-geometry partials of the base replay (Prediction::fixed).
+  std::shared_ptr<const FixedGeometryTerms> fixed_geometry_terms(const EvalPoint& at,
+                                                                 const model::ReplayResult& base,
+                                                                 const model::Trajectory& tr) const;
   const model::AlignedRecording& rec_;
   ReplayPool& pool_;
   Channels channels_;
