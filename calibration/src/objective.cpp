@@ -414,7 +414,7 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
   build(*this, out.x, w, options.hold, replays_, bp, options.geometry_terms);
   bp.prefetch.enabled = options.threads > 1;
   ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
+  so.linear_solver_type = options.normal_equations ? ceres::DENSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
   so.max_num_iterations = options.max_iterations;
   so.num_threads = std::max(1, options.threads);
   so.function_tolerance = options.function_tolerance;

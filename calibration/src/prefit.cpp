@@ -98,6 +98,7 @@ SolveOutcome Objective::prefit(const std::vector<double>& x0, const SampleWeight
     so.threads = 1;  // microseconds per evaluation: not worth a thread
     so.hold = hold;
     so.geometry_terms = false;
+    so.normal_equations = true;
     const SolveOutcome r = at_geometry.solve(x, w, so);
     out.iterations += r.iterations;
     // Nothing left to gain at this geometry (the step would not pay for its replay).
