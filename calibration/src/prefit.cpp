@@ -80,8 +80,8 @@ SolveOutcome Objective::prefit(const std::vector<double>& x0, const SampleWeight
     // Exact at x itself: the replayed cost.
     const double cost = at_geometry.evaluate(x, w).cost;
     if (replays == 1) out.initial_cost = cost;
-    // The erosion that the new C1, μ drive moved the geometry enough to lose the gain:
-    // keep the point before.
+    // The geometry moved enough to lose the gain (both classes sharing the contact, or an
+    // α stopped at its bound by follow_geometry): keep the point before.
     if (!(cost < out.final_cost)) {
       out.termination = fmt::format("pre-fit: {} replays; the last did not lower the cost", replays);
       break;
@@ -95,7 +95,7 @@ SolveOutcome Objective::prefit(const std::vector<double>& x0, const SampleWeight
     }
     SolveOptions so;
     so.max_iterations = 50;
-    so.threads = 1;  // microseconds per evaluation: not worth a thread
+    so.threads = 1;  // milliseconds per evaluation and no replay: not worth a thread
     so.hold = hold;
     so.geometry_terms = false;
     so.normal_equations = true;
