@@ -193,3 +193,37 @@ TEST_F(FixedGeometry, PreFitReportsTheReplayedCostOfItsEndWithinThreeReplays) {
   }
   for (const auto& r : layout.recordings()) EXPECT_EQ(out.x[std::size_t(r.lag)], start[std::size_t(r.lag)]);
 }
+
+// The identity the pre-fit rests on, with erosion: a voxel of class k loses bone at a rate
+// ∝ μ_k·|F_e|/α_k, so moving α_k by the factor C1_k·μ_k moved keeps the geometry of a
+// recording in one class, and the held-geometry prediction there equals a replay. Without
+// the α move the eroded shape differs and so does the force.
+TEST_F(FixedGeometry, MovingAlphaWithC1TimesMuKeepsTheErodedGeometry) {
+  bc::ReplayPool pool(exp_->samples, 2);
+  const auto it = std::find_if(exp_->recordings.begin(), exp_->recordings.end(),
+                               [](const auto& r) { return r.id == "polish"; });
+  ASSERT_NE(it, exp_->recordings.end());
+  bc::ReplayRecordingModel m(*it, pool);
+  m.set_channels({true, true}, "experiment_wrench.toml");
+  bc::Prediction at_replay;
+  m.predict(point(16, 0.4, 6, 0.3, false), {}, at_replay);
+  ASSERT_NE(at_replay.fixed, nullptr);
+  ASSERT_EQ(at_replay.fixed->labels, (std::vector<std::uint8_t>{1}));  // compact only
+  EXPECT_GT(at_replay.removed_mm3[1], 0.0);
+  const bc::FixedGeometryModel held(m, at_replay);
+
+  auto elsewhere = point(16 * 2.0, 0.4 * 0.7, 6, 0.3, false);
+  bc::Prediction predicted, followed, kept;
+  held.predict(elsewhere, {}, predicted);
+  elsewhere.physics.alpha[1] *= 2.0 * 0.7;  // α with C1·μ
+  m.predict(elsewhere, {}, followed);
+  EXPECT_NEAR(followed.removed_mm3[1], at_replay.removed_mm3[1], 1e-9 * at_replay.removed_mm3[1]);
+  EXPECT_LT(rel_diff(predicted.force_sensor_N, followed.force_sensor_N), 1e-9);  // 1.5e-13 measured
+  EXPECT_LT(rel_diff(predicted.torque_sensor_Nmm, followed.torque_sensor_Nmm), 1e-9);
+  EXPECT_LT(rel_diff(predicted.spindle_Nmm, followed.spindle_Nmm), 1e-9);
+  // α left where it was: 1.4× the erosion rate, more bone removed, another force.
+  elsewhere.physics.alpha[1] = 150;
+  m.predict(elsewhere, {}, kept);
+  EXPECT_GT(kept.removed_mm3[1], 1.01 * at_replay.removed_mm3[1]);
+  EXPECT_GT(rel_diff(predicted.force_sensor_N, kept.force_sensor_N), 1e-2);  // 4.9 % measured
+}

@@ -1,9 +1,10 @@
 #pragma once
 // Global search: many local fits from a Latin hypercube of starts (docs/calibration.md
-// "Global search"). Every start is first warmed by the cheap fixed-geometry pre-fit
-// (Objective::prefit: C1, μ and bias at held α, lag, depth and pose); the most promising ones are then solved locally
-// with every parameter free; the starts run concurrently on the shared replay pool. Every end point is
-// kept: sorted by cost they are the waterfall plot.
+// "Global search"). Every start is first warmed by the cheap pre-fit at held geometry
+// (Objective::prefit: C1, μ and the linear nuisances, with lag, depth and pose held and α
+// following C1·μ); the most promising ones are then solved locally with every parameter
+// free; the starts run concurrently on the shared replay pool. Every end point is kept:
+// sorted by cost they are the waterfall plot.
 #include <cstdint>
 #include <string>
 #include <vector>

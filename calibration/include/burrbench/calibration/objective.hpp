@@ -58,11 +58,14 @@ struct SolveOptions {
 };
 
 // The cheap pre-fit (Objective::prefit): C1, μ and the linear nuisances (bias, the
-// moment's bias, the spindle's idle and viscous terms) with α, lag, depth and pose held.
+// moment's bias, the spindle's idle and viscous terms) with lag, depth and pose held and
+// each α moved with its class's C1·μ, so that the replayed geometry stays.
 struct PrefitOptions {
   // Replays per recording at most. Each holds its geometry while C1, μ and the nuisances
   // are solved exactly on it (FixedGeometryTerms); the next replays at the result.
   int replays = 3;
+  // Threads of the fallback's solve below. With fixed-geometry terms every replay queues
+  // all recordings at once on the pool, and the held-geometry solves run on one thread.
   int threads = 2;
   // Models without fixed-geometry terms (a closed-form test model): Levenberg–Marquardt
   // iterations with the fixed-geometry Jacobian, every point replayed.
