@@ -76,9 +76,9 @@ void discretization_check(Run& run) {
   so.hold = run.unc.held;
   // The coarse cost is textured at the voxel scale (a quarter of the lens voxels): near
   // its optimum the Gauss–Newton model stops predicting descent while the trust region is
-  // still wide, and every rejected step costs a Jacobian at the trial point (by finite
-  // differences where the coarse sensitivities diverge). On the reference the refit's last
-  // 9 steps were all rejected and took 9 of its 13 s without moving it.
+  // still wide, and every rejected step costs a replay at the trial point. On the reference
+  // the refit's last 9 steps were all rejected and took 9 of its 13 s without moving it
+  // (when each still cost a Jacobian: objective.cpp, the line search's interpolation).
   so.max_rejected_in_a_row = 3;
   const auto before = c.obj->replays();
   const SolveOutcome fit = c.obj->solve(run.x, run.w_all, so);

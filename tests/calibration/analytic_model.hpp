@@ -47,15 +47,21 @@ class AnalyticModel final : public RecordingModel {
     forces(at, out.force_sensor_N, &out.class_mask, &out.removed_mm3);
     out.buried.assign(size(), 0);
     out.replays = 1;
-    if (!cols.empty()) {  // count derivative predictions and repeats at one point
-      std::vector<double> key{at.lag_ms, at.depth_mm, double(cols.size())};
+    {  // count derivative predictions, repeats at one point, and those at untried points
+      std::vector<double> point{at.lag_ms, at.depth_mm};
       for (int k = 1; k <= 2; ++k)
-        key.insert(key.end(), {at.physics.alpha[k], at.physics.c1[k], at.physics.mu[k]});
+        point.insert(point.end(), {at.physics.alpha[k], at.physics.c1[k], at.physics.mu[k]});
       // Side-by-side solves (the multistart's) predict one model at once.
       static std::mutex count_mu;
       std::lock_guard lk(count_mu);
-      ++column_calls;
-      repeated_column_calls += !seen_.insert(key).second;
+      if (cols.empty()) {
+        plain_seen_.insert(point);
+      } else {
+        ++column_calls;
+        columns_at_untried_points += plain_seen_.count(point) == 0;
+        point.push_back(double(cols.size()));
+        repeated_column_calls += !seen_.insert(point).second;
+      }
     }
     for (const auto& c : cols) {
       const double h = 1e-5;
@@ -107,10 +113,12 @@ class AnalyticModel final : public RecordingModel {
       }
     }
   }
-  mutable std::set<std::vector<double>> seen_;
+  mutable std::set<std::vector<double>> seen_, plain_seen_;
 
  public:
   mutable std::size_t column_calls = 0, repeated_column_calls = 0;
+  // Derivative predictions at a point never predicted without them first.
+  mutable std::size_t columns_at_untried_points = 0;
 
  private:
   std::string id_;

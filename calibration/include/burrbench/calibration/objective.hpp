@@ -49,7 +49,7 @@ struct SolveOptions {
   // row once the cost has levelled off (the last accepted step gained < 1 %;
   // SolveOutcome::stalled). For a cost textured at the voxel scale, where the
   // Gauss–Newton model stops predicting descent long before the trust region has shrunk,
-  // and each rejected step still costs a Jacobian (the bounds' projected line search).
+  // and each rejected step still costs a replay at the trial point.
   int max_rejected_in_a_row = 0;
   // Solve each step's linear system by Cholesky of JᵀJ instead of QR of J: 4× faster on
   // the pre-fit's held-geometry solves (hundreds of thousands of rows, no replay behind
