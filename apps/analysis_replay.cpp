@@ -125,6 +125,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   po.exclude_buried = exclude_buried;
   po.removed_bone = true;
   po.progress = opt.progress;
+  po.threads = opt.threads;
   const ds::FitResult* band_fit = opt.band_fit ? opt.band_fit : fit;
   const model::BandCovariance band = band_fit ? model::band_covariance(*band_fit, params) : model::BandCovariance{};
   po.band = &band;
@@ -201,7 +202,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
 }
 
 AnalysisInput replay_calibrate_directory(const fs::path& dir, const std::string& context_of_use,
-                                        model::ExperimentPrediction* prediction) {
+                                        model::ExperimentPrediction* prediction, int threads) {
   const auto f = ds::read_fit(dir / "fit.json");  // validates
   if (f.experiment_path.empty() || !fs::exists(f.experiment_path))
     throw InputError((dir / "fit.json").string(), "experiment_path", "an existing experiment manifest", f.experiment_path);
@@ -216,7 +217,7 @@ AnalysisInput replay_calibrate_directory(const fs::path& dir, const std::string&
   AnalysisInput in = replay_experiment(f.experiment_path, params, &f,
                                        {true, context_of_use, nullptr,
                                         (dir / (has_params ? "params.toml" : "fit.json")).string(), nullptr,
-                                        prediction});
+                                        prediction, threads});
   if (has_params) {
     in.params_path = fs::absolute(dir / "params.toml").string();
     in.params_sha256 = sha256_file(dir / "params.toml");

@@ -33,6 +33,7 @@ struct ReplayInputOptions {
   // Filled with the prediction the analysis input came from (the verbs write it as
   // prediction.h5), when given.
   model::ExperimentPrediction* prediction = nullptr;
+  int threads = 2;  // recordings replayed at once (the result does not depend on it)
 };
 
 AnalysisInput replay_experiment(const std::filesystem::path& manifest,
@@ -43,6 +44,6 @@ AnalysisInput replay_experiment(const std::filesystem::path& manifest,
 // experiment (whose SHA-256 must still match) replayed with params.toml, or the fit's
 // estimates, and the fitted nuisances; the directory's files count among the inputs.
 AnalysisInput replay_calibrate_directory(const std::filesystem::path& dir, const std::string& context_of_use,
-                                        model::ExperimentPrediction* prediction = nullptr);
+                                        model::ExperimentPrediction* prediction = nullptr, int threads = 2);
 
 }  // namespace burrbench::apps

@@ -4,7 +4,6 @@
 
 #include <chrono>
 #include <map>
-#include <memory>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
@@ -23,6 +22,7 @@ struct Args {
   std::string experiment, params, out, csv;
   double step_us = 0;
   bool no_erosion = false, overwrite = false;
+  int threads = 2;
 };
 
 void run(const Args& a) {
@@ -51,10 +51,11 @@ void run(const Args& a) {
   opt.replay.step_s = a.step_us * 1e-6;
   opt.replay.erosion = !a.no_erosion;
   opt.exclude_buried = e.manifest.fit.buried == data_schema::BuriedPolicy::kExclude;
+  opt.threads = a.threads;
 
-  const auto prediction = model::predict_experiment(e, mp, opt, [](const model::AlignedRecording& r) {
-    return std::make_unique<TerminalProgress>("replay " + r.id);
-  });
+  TerminalProgress progress("replay");
+  opt.progress = &progress;
+  const auto prediction = model::predict_experiment(e, mp, opt);
   const auto& preds = prediction.recordings;
   std::size_t samples = 0, buried = 0;
   std::array<double, model::kMaxClasses> removed{};
@@ -98,6 +99,7 @@ void setup(CLI::App& root) {
   cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")
       ->capture_default_str();
   cmd->add_flag("--no-erosion", a->no_erosion, "forces only, the volume is not eroded");
+  cmd->add_option("--threads", a->threads, "recordings replayed at once")->capture_default_str()->check(CLI::Range(1, 64));
   cmd->callback([a] { run(*a); });
 }
 BURRBENCH_VERB("replay", setup);

@@ -34,6 +34,7 @@ struct Args {
                         "the given constants, reproduce the forces recorded on the rig well enough "
                         "for the simulator's intended use?";
   bool no_tare = false, no_verification = false, overwrite = false;
+  int threads = 2;
 };
 
 // validate --fit: the parameter set must hold the constants that fit held at its optimum
@@ -94,7 +95,7 @@ void run(const Args& a) {
   TerminalProgress progress("validate");
   model::ExperimentPrediction prediction;
   auto in = apps::replay_experiment(a.experiment, params, nullptr,
-                                    {!a.no_tare, a.context, &progress, a.params, fit ? &*fit : nullptr, &prediction});
+                                    {!a.no_tare, a.context, &progress, a.params, fit ? &*fit : nullptr, &prediction, a.threads});
   // A criterion that selects data this experiment lacks is bad input, named by its file.
   (void)analysis::evaluate_criteria(criteria, analysis::compute_metric_rows(in), a.criteria);
   if (!a.no_verification) {
@@ -159,6 +160,7 @@ void setup(CLI::App& root) {
                   "the fit.json the parameters came from: the report shows its intervals, correlations, search "
                   "and nuisances, and whether the criteria were fixed before it (calibrate --criteria)");
   cmd->add_option("--context-of-use", a->context, "context-of-use statement for the report");
+  cmd->add_option("--threads", a->threads, "recordings replayed at once")->capture_default_str()->check(CLI::Range(1, 64));
   cmd->add_flag("--no-tare", a->no_tare, "do not subtract the no-contact mean force (sensor bias)");
   cmd->add_flag("--no-verification", a->no_verification,
                 "skip the solution verification (replays at l/2, 2l and half the step; the report's section 3)");

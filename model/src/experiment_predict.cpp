@@ -4,9 +4,13 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <fstream>
 #include <map>
+#include <mutex>
+#include <thread>
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -118,31 +122,107 @@ void add_wrench_offsets(const AlignedRecording& r, const ReplayResult& res, cons
   }
 }
 
+// Reports every recording's replay to one sink, from any worker: the fraction is the
+// experiment's (each recording weighted by its samples) and each line names its recording.
+class ExperimentProgress {
+ public:
+  ExperimentProgress(const Experiment& e, Progress* sink) : sink_(sink), done_(e.recordings.size(), 0.0) {
+    for (const auto& r : e.recordings) weight_.push_back(double(r.t_s.size()));
+    for (double w : weight_) total_ += w;
+  }
+  // The reporter handed to recording i's replay (null when there is no sink).
+  std::unique_ptr<Progress> child(std::size_t i, const std::string& id) {
+    if (!sink_) return nullptr;
+    return std::make_unique<Child>(*this, i, id);
+  }
+
+ private:
+  class Child final : public Progress {
+   public:
+    Child(ExperimentProgress& p, std::size_t i, std::string id) : p_(p), i_(i), id_(std::move(id)) {}
+    void update(double fraction, const std::string& line) override {
+      const std::lock_guard<std::mutex> lock(p_.mutex_);
+      if (fraction >= 0) p_.done_[i_] = fraction;
+      p_.sink_->update(p_.overall(), p_.done_.size() > 1 ? id_ + ": " + line : line);
+    }
+    void finish(const std::string& summary_line) override {
+      const std::lock_guard<std::mutex> lock(p_.mutex_);
+      p_.done_[i_] = 1.0;
+      p_.sink_->finish(p_.done_.size() > 1 ? id_ + ": " + summary_line : summary_line);
+    }
+
+   private:
+    ExperimentProgress& p_;
+    std::size_t i_;
+    std::string id_;
+  };
+  double overall() const {
+    if (!(total_ > 0)) return -1;
+    double s = 0;
+    for (std::size_t i = 0; i < done_.size(); ++i) s += done_[i] * weight_[i];
+    return s / total_;
+  }
+  Progress* sink_;
+  std::mutex mutex_;
+  std::vector<double> done_, weight_;
+  double total_ = 0;
+};
+
 }  // namespace
 
-ExperimentPrediction predict_experiment(
-    const Experiment& e, const ModelParams& params, const PredictOptions& options,
-    const std::function<std::unique_ptr<Progress>(const AlignedRecording&)>& progress_for) {
-  std::map<std::string, Volume> volumes;  // as scanned
+ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& params,
+                                        const PredictOptions& options) {
+  BURRBENCH_CHECK(options.threads >= 1, "predict_experiment needs at least one thread");
+  const std::size_t n = e.recordings.size();
+  const std::size_t workers = std::min<std::size_t>(std::size_t(options.threads), std::max<std::size_t>(n, 1));
+  std::map<std::string, Volume> scanned;  // read-only once the workers start
+  for (const auto& r : e.recordings)
+    if (!scanned.count(r.sample_id)) scanned.emplace(r.sample_id, Volume::from_sample(e.samples.at(r.sample_id)));
+  // Without the removed bone a recording replays in place and its undo log restores the
+  // volume, so each worker needs volumes of its own (worker 0 takes the scanned ones).
+  std::vector<std::map<std::string, Volume>> own(options.removed_bone ? 0 : workers - 1, scanned);
   std::map<std::string, std::vector<float>> removed;
-  ExperimentPrediction out;
   if (options.removed_bone)
     for (const auto& [id, s] : e.samples) removed[id].assign(s.voxel_count(), 0.0f);
-  for (const auto& r : e.recordings) {
-    auto it = volumes.find(r.sample_id);
-    if (it == volumes.end()) it = volumes.emplace(r.sample_id, Volume::from_sample(e.samples.at(r.sample_id))).first;
-    const auto own_progress = progress_for ? progress_for(r) : nullptr;
-    Progress* const progress = own_progress ? own_progress.get() : options.progress;
-    if (options.removed_bone) {
-      Volume vol = it->second;  // left eroded: its difference to the scan is the removed bone
-      out.recordings.push_back(predict(r, vol, params, options, progress, false));
-      auto& rem = removed[r.sample_id];
-      for (std::size_t i = 0; i < rem.size(); ++i) rem[i] = std::max(rem[i], float(it->second.chi(i) - vol.chi(i)));
-    } else {
-      out.recordings.push_back(predict(r, it->second, params, options, progress, true));
+
+  ExperimentPrediction out;
+  out.recordings.resize(n);
+  ExperimentProgress shared(e, options.progress);
+  std::mutex removed_mutex;
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> failed{false};
+  std::vector<std::exception_ptr> errors(n);
+  auto work = [&](std::size_t w) {
+    std::map<std::string, Volume>& volumes = (options.removed_bone || w == 0) ? scanned : own[w - 1];
+    for (std::size_t i = next++; i < n && !failed; i = next++) {
+      const AlignedRecording& r = e.recordings[i];
+      try {
+        const std::unique_ptr<Progress> progress = shared.child(i, r.id);
+        const Volume& as_scanned = volumes.at(r.sample_id);
+        if (options.removed_bone) {
+          Volume vol = as_scanned;  // left eroded: its difference to the scan is the removed bone
+          out.recordings[i] = predict(r, vol, params, options, progress.get(), false);
+          const std::lock_guard<std::mutex> lock(removed_mutex);
+          auto& rem = removed[r.sample_id];
+          for (std::size_t v = 0; v < rem.size(); ++v)
+            rem[v] = std::max(rem[v], float(as_scanned.chi(v) - vol.chi(v)));
+        } else {
+          out.recordings[i] = predict(r, volumes.at(r.sample_id), params, options, progress.get(), true);
+        }
+        if (const auto* ref = e.manifest.recording(r.id)) out.recordings[i].role = data_schema::to_string(ref->role);
+      } catch (...) {
+        errors[i] = std::current_exception();
+        failed = true;
+      }
     }
-    if (const auto* ref = e.manifest.recording(r.id)) out.recordings.back().role = data_schema::to_string(ref->role);
-  }
+  };
+  std::vector<std::thread> threads;
+  for (std::size_t w = 1; w < workers; ++w) threads.emplace_back(work, w);
+  work(0);
+  for (auto& t : threads) t.join();
+  // The first failing recording in manifest order, whichever worker met it first.
+  for (const auto& err : errors)
+    if (err) std::rethrow_exception(err);
   if (options.removed_bone)
     for (const auto& sref : e.manifest.samples)
       if (removed.count(sref.id))

@@ -165,7 +165,8 @@ void bind_model(py::module_& m) {
 
   m.def(
       "replay",
-      [](const fs::path& experiment, const py::object& params, double step_us, bool erosion) {
+      [](const fs::path& experiment, const py::object& params, double step_us, bool erosion, int threads) {
+        if (threads < 1 || threads > 64) throw InputError("replay()", "threads", "1..64 recordings at once", std::to_string(threads));
         const auto ps = to_parameter_set(params);
         const std::string params_name = py::isinstance<py::dict>(params)
                                             ? std::string("params (Python)")
@@ -181,13 +182,14 @@ void bind_model(py::module_& m) {
           opt.replay.step_s = step_us * 1e-6;
           opt.replay.erosion = erosion;
           opt.exclude_buried = e.manifest.fit.buried == data_schema::BuriedPolicy::kExclude;
+          opt.threads = threads;
           preds = model::predict_experiment(e, mp, opt).recordings;
         }
         py::dict out;
         for (const auto& p : preds) out[py::str(p.recording_id)] = prediction_dict(p);
         return out;
       },
-      py::arg("experiment"), py::arg("params"), py::arg("step_us") = 0.0, py::arg("erosion") = true,
+      py::arg("experiment"), py::arg("params"), py::arg("step_us") = 0.0, py::arg("erosion") = true, py::arg("threads") = 2,
       "Replays every recording of an experiment manifest, as `burrbench replay` does: {recording id: "
       "{t_s, force_sensor_pred_N, ... (the prediction file's datasets), removed_mm3, steps}}.");
 }

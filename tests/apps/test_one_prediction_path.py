@@ -100,3 +100,48 @@ def test_calibrate_writes_the_prediction_at_its_optimum_with_the_fitted_nuisance
                 assert rec["friction_energy_mJ"][label] == pytest.approx(c["alpha_N_per_mm2"] * rec["removed_mm3"][label],
                                                                          rel=1e-6)
     assert removed
+
+
+def test_recordings_replayed_at_once_predict_what_one_at_a_time_predicts(runs, tmp_path):
+    """--threads replays several recordings at once (the default, 2); each starts from its
+    sample as scanned, so the prediction, its band and the removed bone must not change."""
+    cal = runs / "cal"
+    outs = {}
+    for threads in ("1", "3"):
+        run_ok("replay", runs / "experiment.toml", "--params", runs / "params_true.toml",
+               "--out", tmp_path / f"replay{threads}.h5", "--threads", threads)
+        p = subprocess.run([BURRBENCH, "validate", runs / "experiment.toml", "--params", cal / "params.toml",
+                            "--fit", cal / "fit.json", "--criteria", CRITERIA, "--out", tmp_path / f"v{threads}",
+                            "--no-verification", "--threads", threads],
+                           capture_output=True, text=True, timeout=600)
+        assert p.returncode in (0, 1), p.stdout + p.stderr
+        outs[threads] = p
+    # Progress names the recording each line is about.
+    assert "sweep: " in outs["3"].stderr
+    plain, _, _ = recordings(runs / "replay.h5")
+    for threads in ("1", "3"):
+        other, _, _ = recordings(tmp_path / f"replay{threads}.h5")
+        for rid in plain:
+            for key in ("force_sensor_pred_N", "torque_sensor_pred_Nmm", "buried", "removed_mm3"):
+                assert np.array_equal(plain[rid][key], other[rid][key]), (threads, rid, key)
+    one, one_removed, _ = recordings(tmp_path / "v1" / "prediction.h5")
+    three, three_removed, _ = recordings(tmp_path / "v3" / "prediction.h5")
+    assert sorted(one) == sorted(three) == ["plunge", "polish", "sweep"]
+    for rid in one:
+        assert one[rid]["band95_N"].max() > 0, rid
+        for key in ("force_sensor_pred_N", "band95_N", "force_bias_N", "friction_energy_mJ"):
+            assert np.array_equal(one[rid][key], three[rid][key]), (rid, key)
+    assert sorted(one_removed) == sorted(three_removed) and one_removed
+    for sid in one_removed:
+        assert np.array_equal(one_removed[sid]["depth"], three_removed[sid]["depth"]), sid
+        assert one_removed[sid]["removed_volume_mm3"] == three_removed[sid]["removed_volume_mm3"] > 0
+
+
+@pytest.mark.parametrize("verb", ["replay", "validate"])
+def test_threads_out_of_range_is_one_line_and_exit_2(runs, tmp_path, verb):
+    extra = ["--criteria", CRITERIA] if verb == "validate" else []
+    p = subprocess.run([BURRBENCH, verb, runs / "experiment.toml", "--params", runs / "params_true.toml",
+                        "--out", tmp_path / "x", "--threads", "0", *extra], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2, p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1 and "--threads" in p.stderr, p.stderr
+    assert not (tmp_path / "x").exists()

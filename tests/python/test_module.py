@@ -58,8 +58,11 @@ def test_replay_equals_the_cli_prediction_bit_for_bit(exp):
     # The same constants as a dict give the same numbers.
     params = burrbench.read_params(exp / "params_true.toml")["classes"]
     again = burrbench.replay(exp / "experiment.toml", {k: {q: v[q] for q in ("id", "alpha_N_per_mm2", "c1_N_per_mm2", "mu")}
-                                                       for k, v in params.items()})
-    assert np.array_equal(again["polish"]["force_sensor_pred_N"], pred["polish"]["force_sensor_pred_N"])
+                                                       for k, v in params.items()}, threads=1)
+    for rid in pred:  # one recording at a time predicts what two at once (the default) did
+        assert np.array_equal(again[rid]["force_sensor_pred_N"], pred[rid]["force_sensor_pred_N"]), rid
+    with pytest.raises(burrbench.InputError, match="threads"):
+        burrbench.replay(exp / "experiment.toml", exp / "params_true.toml", threads=0)
 
 
 def test_every_reader_gives_back_what_the_cpp_side_wrote(exp):

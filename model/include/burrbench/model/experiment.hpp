@@ -14,10 +14,8 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
-#include <functional>
 #include <glm/glm.hpp>
 #include <map>
-#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -187,8 +185,13 @@ struct PredictOptions {
   // Fill the removed-bone maps (each recording then replays a copy of the scanned volume
   // and the maps take, per voxel, the largest removal by any recording).
   bool removed_bone = false;
-  // Progress of every recording's replay, when predict_experiment has no `progress_for`.
+  // Progress of the experiment's replays: the fraction is the experiment's, each line
+  // names its recording.
   Progress* progress = nullptr;
+  // predict_experiment replays this many recordings at once. The result does not depend
+  // on it (each recording starts from its sample as scanned); each further worker holds a
+  // copy of the scanned volumes.
+  int threads = 1;
 };
 
 // Replays one aligned recording from the given (start-state) volume and applies the
@@ -206,11 +209,10 @@ struct ExperimentPrediction {
 };
 
 // Every recording of the experiment, each replayed from its sample as scanned (recordings
-// of one sample are taken to drill separate spots), with the manifest's role on each.
-// `progress_for` gives each recording's progress reporter (may be empty or return null).
-ExperimentPrediction predict_experiment(
-    const Experiment& e, const ModelParams& params, const PredictOptions& options = {},
-    const std::function<std::unique_ptr<Progress>(const AlignedRecording&)>& progress_for = {});
+// of one sample are taken to drill separate spots), with the manifest's role on each,
+// PredictOptions::threads of them at once.
+ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& params,
+                                        const PredictOptions& options = {});
 
 // Writes the data_schema prediction file (format "burrbench.prediction").
 void write_prediction(const std::filesystem::path& path, const ExperimentPrediction& p,
