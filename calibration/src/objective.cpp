@@ -368,30 +368,15 @@ class IterationWatch final : public ceres::IterationCallback {
       stopped = true;
       return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
     }
-    if (s.iteration > 0 && s.step_is_successful) {
-      rejected_ = 0;
-      gain_ = s.cost_change / std::max(s.cost + s.cost_change, 1e-300);
-    } else if (s.iteration > 0) {
-      ++rejected_;
-    }
-    if (o_.max_rejected_in_a_row > 0 && rejected_ >= o_.max_rejected_in_a_row && gain_ < kLevelledOff) {
-      stalled = true;
-      return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
-    }
     return ceres::SOLVER_CONTINUE;
   }
-  bool stopped = false, stalled = false;
+  bool stopped = false;
 
  private:
   Progress* p_;
   int max_;
   const SolveOptions& o_;
   std::vector<double> costs_;
-  int rejected_ = 0;  // unsuccessful steps in a row
-  // Relative cost decrease of the last accepted step: a solve stalls only once its cost
-  // has levelled off; rejections right after a large gain are the trust region adapting.
-  double gain_ = INFINITY;
-  static constexpr double kLevelledOff = 0.01;
 };
 
 }  // namespace
@@ -439,10 +424,6 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
                     std::string(": ") + summary.message;
   out.usable = summary.IsSolutionUsable();
   out.stopped_early = cb.stopped;
-  out.stalled = cb.stalled;
-  if (cb.stalled)
-    out.termination = fmt::format("stalled: {} unsuccessful steps in a row at cost {:.6g}",
-                                  options.max_rejected_in_a_row, summary.final_cost);
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

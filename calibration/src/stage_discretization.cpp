@@ -74,12 +74,10 @@ void discretization_check(Run& run) {
   so.threads = run.opt.threads;
   so.progress = run.opt.progress;
   so.hold = run.unc.held;
-  // The coarse cost is textured at the voxel scale (a quarter of the lens voxels): near
-  // its optimum the Gauss–Newton model stops predicting descent while the trust region is
-  // still wide, and every rejected step costs a replay at the trial point. On the reference
-  // the refit's last 9 steps were all rejected and took 9 of its 13 s without moving it
-  // (when each still cost a Jacobian: objective.cpp, the line search's interpolation).
-  so.max_rejected_in_a_row = 3;
+  // The coarse cost is textured at the voxel scale, so near its optimum many steps are
+  // rejected; each costs only a plain coarse replay (objective.cpp, the line search's
+  // interpolation), so the refit runs to convergence: a rule that stopped it after a few
+  // rejections in a row could stop it short, understating the discretization error.
   const auto before = c.obj->replays();
   const SolveOutcome fit = c.obj->solve(run.x, run.w_all, so);
   run.replays_before += c.obj->replays() - before;

@@ -227,7 +227,7 @@ TEST(CalibrateCli, DivergedSensitivitiesDoNotFreezeTheDiscretizationCheck) {
   bool coarse = false;
   for (const auto& d : diverged) coarse |= d.at("voxel_mm").get<double>() == 0.2;
   EXPECT_TRUE(coarse) << diverged.dump();
-  // fit.json says how the coarse refit ended (here: stalled on the coarse cost's texture).
+  // fit.json says how the coarse refit ended.
   const auto& check = j.at("settings").at("discretization_check");
   EXPECT_GT(check.at("refit_iterations").get<int>(), 1);
   EXPECT_FALSE(check.at("refit_termination").get<std::string>().empty());

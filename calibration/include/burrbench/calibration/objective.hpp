@@ -45,12 +45,6 @@ struct SolveOptions {
   // Called after every iteration with the costs so far (entry 0: the start); true ends
   // the solve there, keeping its point (SolveOutcome::stopped_early).
   std::function<bool(const std::vector<double>& costs)> stop_early;
-  // > 0: end the solve, keeping its best point, after this many unsuccessful steps in a
-  // row once the cost has levelled off (the last accepted step gained < 1 %;
-  // SolveOutcome::stalled). For a cost textured at the voxel scale, where the
-  // Gauss–Newton model stops predicting descent long before the trust region has shrunk,
-  // and each rejected step still costs a replay at the trial point.
-  int max_rejected_in_a_row = 0;
   // Solve each step's linear system by Cholesky of JᵀJ instead of QR of J: 4× faster on
   // the pre-fit's held-geometry solves (hundreds of thousands of rows, no replay behind
   // them, ~20 well-scaled columns), where QR was half of the pre-fit's time.
@@ -79,7 +73,6 @@ struct SolveOutcome {
   std::string termination;
   bool usable = false;
   bool stopped_early = false;  // SolveOptions::stop_early ended it
-  bool stalled = false;        // SolveOptions::max_rejected_in_a_row ended it
   double wall_s = 0;
 };
 
