@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/analysis_fixture.hpp"
+#include "burrbench_cli.hpp"
 #include "burrbench/analysis/report.hpp"
 
 namespace fs = std::filesystem;
@@ -33,10 +34,7 @@ Run run(const std::string& cmd) {
   return r;
 }
 
-std::string cli() {
-  const char* b = std::getenv("BURRBENCH");
-  return b ? b : "burrbench";
-}
+std::string cli() { return burrbench::testing::burrbench_cli(); }
 
 std::string slurp(const fs::path& p) {
   std::ifstream f(p);

@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "../burrbench_cli.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/sample_volume.hpp"
 
@@ -38,11 +39,7 @@ struct ReferenceSpec {
   double alpha2 = 60, c1_2 = 6, mu2 = 0.3;
 };
 
-// The burrbench executable under test: $BURRBENCH (set by CTest), else the one on PATH.
-inline std::string burrbench_cli() {
-  const char* b = std::getenv("BURRBENCH");
-  return b ? b : "burrbench";
-}
+using burrbench::testing::burrbench_cli;
 
 inline void write_text(const std::filesystem::path& p, const std::string& s) {
   std::ofstream f(p);
