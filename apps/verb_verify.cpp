@@ -22,6 +22,7 @@ struct Args {
   std::string experiment, params, out;
   double step_us = 0, sigma_N = 0;
   bool overwrite = false;
+  int threads = 2;
 };
 
 void run(const Args& a) {
@@ -44,6 +45,7 @@ void run(const Args& a) {
   model::VerifyOptions opt;
   opt.step_s = a.step_us * 1e-6;
   if (a.sigma_N > 0) opt.sigma_N = a.sigma_N;
+  opt.threads = a.threads;
   TerminalProgress progress("verify");
   const auto study = model::verify_convergence(e, mp, opt, &progress);
 
@@ -87,6 +89,9 @@ void setup(CLI::App& root) {
   cmd->add_option("--step-us", a->step_us, "base replay step (µs; 0 = half the sample period)")->capture_default_str();
   cmd->add_option("--sigma-N", a->sigma_N, "sensor noise per axis (N; 0 = the manifest's sensor.sigma_N, else estimated)")
       ->capture_default_str();
+  cmd->add_option("--threads", a->threads, "replays run at once (each recording at each level; at most one at l/2)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
   cmd->callback([a] { run(*a); });
 }
 BURRBENCH_VERB("verify", setup);

@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
+#include <exception>
+#include <mutex>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -107,6 +111,7 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
                                     const VerifyOptions& options, Progress* progress) {
   if (!(options.step_s >= 0) || !std::isfinite(options.step_s))
     throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
+  BURRBENCH_CHECK(options.threads >= 1, "verify_convergence needs at least one thread");
   ConvergenceStudy out;
   // The sample at each voxel level, built once (recordings of one sample share it).
   std::map<std::string, std::array<ds::SampleVolume, 3>> samples;
@@ -116,50 +121,112 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
     samples[r.sample_id] = {s, ds::import::split_voxels(s, 2), ds::import::merge_voxels(s, 2)};
     for (const auto& [id, name] : s.classes) out.classes[id] = name;
   }
-  std::vector<std::vector<glm::dvec3>> quiet;  // measured force without contact, per recording
-  const std::size_t total = e.recordings.size() * kLevels.size();
+  const std::size_t n = e.recordings.size(), L = kLevels.size();
+  std::vector<double> dt(n);
+  for (std::size_t i = 0; i < n; ++i)
+    dt[i] = options.step_s > 0 ? options.step_s : default_step_s(e.recordings[i].t_s);
+
+  // Every (recording, level) replay is independent: `threads` of them run at once, at most
+  // one at l/2 (its volume holds 8× the voxels, and it is the longest: the l/2 replays
+  // are queued first so that they run back to back beside the others).
+  std::vector<std::pair<std::size_t, std::size_t>> jobs;  // (recording, level)
+  for (std::size_t i = 0; i < n; ++i) jobs.emplace_back(i, 1);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t k = 0; k < L; ++k)
+      if (k != 1) jobs.emplace_back(i, k);
+  std::vector<RecordingPrediction> pred(n * L);
+  std::vector<double> wall(n * L, 0.0);
+  std::vector<std::exception_ptr> errors(n * L);
+  std::vector<std::uint8_t> taken(jobs.size(), 0);
+  std::mutex mu;
+  std::condition_variable cv;
+  bool fine_busy = false, failed = false;
   std::size_t done = 0;
-  for (const auto& r : e.recordings) {
-    RecordingConvergence rc;
-    rc.id = r.id;
-    const double dt = options.step_s > 0 ? options.step_s : default_step_s(r.t_s);
-    std::vector<std::uint8_t> use = r.use;
-    if (std::none_of(use.begin(), use.end(), [](auto u) { return u != 0; })) use.assign(use.size(), 1);
-    rc.samples = std::size_t(std::count(use.begin(), use.end(), 1));
-    std::vector<std::vector<glm::dvec3>> force(kLevels.size());
-    for (std::size_t k = 0; k < kLevels.size(); ++k) {
+  auto work = [&] {
+    std::unique_lock<std::mutex> lock(mu);
+    for (;;) {
+      if (failed) return;
+      std::size_t q = jobs.size(), left = 0;
+      for (std::size_t j = 0; j < jobs.size(); ++j) {
+        if (taken[j]) continue;
+        ++left;
+        if (jobs[j].second == 1 && fine_busy) continue;
+        q = j;
+        break;
+      }
+      if (left == 0) return;
+      if (q == jobs.size()) {  // only l/2 replays left, and one is running
+        cv.wait(lock);
+        continue;
+      }
+      taken[q] = 1;
+      const auto [i, k] = jobs[q];
+      const bool fine = k == 1;
+      fine_busy |= fine;
+      const AlignedRecording& r = e.recordings[i];
       const Level& lv = kLevels[k];
       const auto& s = samples.at(r.sample_id)[lv.voxel == 0 ? 0 : lv.voxel > 0 ? 1 : 2];
       if (progress)
-        progress->update(double(done) / double(total),
+        progress->update(double(done) / double(jobs.size()),
                          fmt::format("{}: {} (voxel {:.4g} mm, step {:.4g} µs)", r.id, lv.name, s.voxel_mm,
-                                     1e6 * dt * lv.step));
-      Volume vol = Volume::from_sample(s);
-      ReplayOptions ro;
-      ro.step_s = dt * lv.step;
-      const auto t0 = std::chrono::steady_clock::now();
-      PredictOptions po;
-      po.replay = ro;
-      const RecordingPrediction p = predict(r, vol, params, po);
-      LevelReplay L;
-      L.level = lv.name;
-      L.voxel_mm = s.voxel_mm;
-      L.step_s = ro.step_s;
-      L.removed_mm3 = p.removed_mm3;
-      L.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                                     1e6 * dt[i] * lv.step));
+      lock.unlock();
+      try {
+        Volume vol = Volume::from_sample(s);
+        PredictOptions po;
+        po.replay.step_s = dt[i] * lv.step;
+        const auto t0 = std::chrono::steady_clock::now();
+        pred[i * L + k] = predict(r, vol, params, po);
+        wall[i * L + k] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      } catch (...) {
+        errors[i * L + k] = std::current_exception();
+      }
+      lock.lock();
+      if (errors[i * L + k]) failed = true;
+      if (fine) fine_busy = false;
+      ++done;
+      cv.notify_all();
+    }
+  };
+  {
+    std::vector<std::thread> threads;
+    for (int t = 1; t < std::min<int>(options.threads, int(jobs.size())); ++t) threads.emplace_back(work);
+    work();
+    for (auto& t : threads) t.join();
+  }
+  for (const auto& err : errors)  // the first failing replay in recording and level order
+    if (err) std::rethrow_exception(err);
+
+  std::vector<std::vector<glm::dvec3>> quiet;  // measured force without contact, per recording
+  for (std::size_t i = 0; i < n; ++i) {
+    const AlignedRecording& r = e.recordings[i];
+    RecordingConvergence rc;
+    rc.id = r.id;
+    std::vector<std::uint8_t> use = r.use;
+    if (std::none_of(use.begin(), use.end(), [](auto u) { return u != 0; })) use.assign(use.size(), 1);
+    rc.samples = std::size_t(std::count(use.begin(), use.end(), 1));
+    std::vector<std::vector<glm::dvec3>> force(L);
+    for (std::size_t k = 0; k < L; ++k) {
+      const Level& lv = kLevels[k];
+      const RecordingPrediction& p = pred[i * L + k];
+      LevelReplay lr;
+      lr.level = lv.name;
+      lr.voxel_mm = samples.at(r.sample_id)[lv.voxel == 0 ? 0 : lv.voxel > 0 ? 1 : 2].voxel_mm;
+      lr.step_s = dt[i] * lv.step;
+      lr.removed_mm3 = p.removed_mm3;
+      lr.wall_s = wall[i * L + k];
       for (std::size_t j = 0; j < p.force_burr_vol_N.size(); ++j)
-        if (use[j]) L.peak_N = std::max(L.peak_N, glm::length(p.force_burr_vol_N[j]));
+        if (use[j]) lr.peak_N = std::max(lr.peak_N, glm::length(p.force_burr_vol_N[j]));
       force[k] = p.force_burr_vol_N;
-      L.rms_change_N = k == 0 ? 0.0 : rms_diff(force[k], force[0], use);
+      lr.rms_change_N = k == 0 ? 0.0 : rms_diff(force[k], force[0], use);
       for (std::size_t j = 0; k > 0 && j < force[k].size(); ++j)
-        if (use[j]) L.max_change_N = std::max(L.max_change_N, glm::length(force[k][j] - force[0][j]));
+        if (use[j]) lr.max_change_N = std::max(lr.max_change_N, glm::length(force[k][j] - force[0][j]));
       if (k == 0) {
         quiet.emplace_back();
         for (std::size_t j = 0; j < p.class_mask.size(); ++j)
           if (use[j] && p.class_mask[j] == 0) quiet.back().push_back(r.force_sensor_N[j]);
       }
-      rc.levels.push_back(L);
-      ++done;
+      rc.levels.push_back(lr);
     }
     // Levels: 0 = l, 1 = l/2, 2 = 2l, 3 = Δt/2. RMS norms of the changes.
     rc.voxel = richardson(rms_diff(force[2], force[0], use), rms_diff(force[0], force[1], use));
@@ -181,10 +248,10 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
     out.sigma_N = *e.manifest.sensor.sigma_N;
     out.sigma_source = "manifest (sensor.sigma_N)";
   } else {
-    std::size_t n = 0;
-    if (const auto s = no_contact_sigma_N(quiet, n)) {
+    std::size_t quiet_n = 0;
+    if (const auto s = no_contact_sigma_N(quiet, quiet_n)) {
       out.sigma_N = *s;
-      out.sigma_source = fmt::format("estimated from {} no-contact samples (1.4826·MAD)", n);
+      out.sigma_source = fmt::format("estimated from {} no-contact samples (1.4826·MAD)", quiet_n);
     } else {
       out.sigma_source = "unknown (no sensor.sigma_N, too few no-contact samples)";
     }

@@ -59,6 +59,28 @@ def test_study_levels_richardson_and_verdict(synthetic):
     assert q.returncode == 0 and "is below the sensor noise (10 N)" in q.stdout, q.stdout + q.stderr
 
 
+def without_wall(study):
+    for r in study["recordings"]:
+        for lv in r["levels"]:
+            assert lv.pop("wall_s") > 0
+    return study
+
+
+def test_replays_run_at_once_give_the_study_one_at_a_time_gives(synthetic):
+    """--threads (default 2) runs the 12 replays (3 recordings × 4 levels) several at once;
+    each is independent, so every figure but the wall times is the same, bit for bit."""
+    d = synthetic
+    studies = {}
+    for threads in ("1", "3"):
+        p = verify(d, "--out", d / f"v{threads}.json", "--threads", threads)
+        assert p.returncode == 0, p.stdout + p.stderr
+        studies[threads] = without_wall(json.loads((d / f"v{threads}.json").read_text()))
+    assert studies["1"] == studies["3"]
+    assert [r["id"] for r in studies["3"]["recordings"]] == ["plunge", "sweep", "polish"]
+    p = verify(d, "--threads", 0)
+    assert p.returncode == 2 and "--threads" in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
+
+
 def test_verify_refuses_bad_input_and_keeps_existing_output(synthetic):
     d = synthetic
     (d / "keep.json").write_text("mine")

@@ -68,6 +68,9 @@ struct ConvergenceStudy {
 struct VerifyOptions {
   double step_s = 0;                  // base step Δt; 0 = the replay's default (half the median sample period)
   std::optional<double> sigma_N;      // absent: the manifest's sensor.sigma_N, else estimated
+  // Replays run at once (each recording at each level is independent; at most one at
+  // l/2, whose volume holds 8× the voxels). The study does not depend on it.
+  int threads = 1;
 };
 
 // Replays every recording four times. InputError as for the replay.
