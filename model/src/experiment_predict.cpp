@@ -189,12 +189,19 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
   out.recordings.resize(n);
   ExperimentProgress shared(e, options.progress);
   std::mutex removed_mutex;
+  // Longest recording first: one started last would leave the other workers idle.
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return e.recordings[a].t_s.size() > e.recordings[b].t_s.size();
+  });
   std::atomic<std::size_t> next{0};
   std::atomic<bool> failed{false};
   std::vector<std::exception_ptr> errors(n);
   auto work = [&](std::size_t w) {
     std::map<std::string, Volume>& volumes = (options.removed_bone || w == 0) ? scanned : own[w - 1];
-    for (std::size_t i = next++; i < n && !failed; i = next++) {
+    for (std::size_t q = next++; q < n && !failed; q = next++) {
+      const std::size_t i = order[q];
       const AlignedRecording& r = e.recordings[i];
       try {
         const std::unique_ptr<Progress> progress = shared.child(i, r.id);
@@ -220,7 +227,8 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
   for (std::size_t w = 1; w < workers; ++w) threads.emplace_back(work, w);
   work(0);
   for (auto& t : threads) t.join();
-  // The first failing recording in manifest order, whichever worker met it first.
+  // The first failing recording in manifest order of those replayed (the workers stop
+  // taking recordings after a failure).
   for (const auto& err : errors)
     if (err) std::rethrow_exception(err);
   if (options.removed_bone)

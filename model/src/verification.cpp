@@ -194,7 +194,7 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
     work();
     for (auto& t : threads) t.join();
   }
-  for (const auto& err : errors)  // the first failing replay in recording and level order
+  for (const auto& err : errors)  // the first failing replay, in recording and level order, of those run
     if (err) std::rethrow_exception(err);
 
   std::vector<std::vector<glm::dvec3>> quiet;  // measured force without contact, per recording
