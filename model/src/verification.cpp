@@ -25,6 +25,7 @@ struct Level {
   double step;   // × Δt
 };
 constexpr std::array<Level, 4> kLevels{{{"l", 0, 1.0}, {"l/2", 2, 1.0}, {"2l", -2, 1.0}, {"dt/2", 0, 0.5}}};
+constexpr std::size_t kFine = 1;  // kLevels' l/2
 
 double rms_diff(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b,
                 const std::vector<std::uint8_t>& use) {
@@ -122,6 +123,9 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
     for (const auto& [id, name] : s.classes) out.classes[id] = name;
   }
   const std::size_t n = e.recordings.size(), L = kLevels.size();
+  auto sample_at = [&](const AlignedRecording& r, const Level& lv) -> const ds::SampleVolume& {
+    return samples.at(r.sample_id)[lv.voxel == 0 ? 0 : lv.voxel > 0 ? 1 : 2];
+  };
   std::vector<double> dt(n);
   for (std::size_t i = 0; i < n; ++i)
     dt[i] = options.step_s > 0 ? options.step_s : default_step_s(e.recordings[i].t_s);
@@ -130,10 +134,10 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
   // one at l/2 (its volume holds 8× the voxels, and it is the longest: the l/2 replays
   // are queued first so that they run back to back beside the others).
   std::vector<std::pair<std::size_t, std::size_t>> jobs;  // (recording, level)
-  for (std::size_t i = 0; i < n; ++i) jobs.emplace_back(i, 1);
+  for (std::size_t i = 0; i < n; ++i) jobs.emplace_back(i, kFine);
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t k = 0; k < L; ++k)
-      if (k != 1) jobs.emplace_back(i, k);
+      if (k != kFine) jobs.emplace_back(i, k);
   std::vector<RecordingPrediction> pred(n * L);
   std::vector<double> wall(n * L, 0.0);
   std::vector<std::exception_ptr> errors(n * L);
@@ -150,7 +154,7 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
       for (std::size_t j = 0; j < jobs.size(); ++j) {
         if (taken[j]) continue;
         ++left;
-        if (jobs[j].second == 1 && fine_busy) continue;
+        if (jobs[j].second == kFine && fine_busy) continue;
         q = j;
         break;
       }
@@ -161,11 +165,11 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
       }
       taken[q] = 1;
       const auto [i, k] = jobs[q];
-      const bool fine = k == 1;
+      const bool fine = k == kFine;
       fine_busy |= fine;
       const AlignedRecording& r = e.recordings[i];
       const Level& lv = kLevels[k];
-      const auto& s = samples.at(r.sample_id)[lv.voxel == 0 ? 0 : lv.voxel > 0 ? 1 : 2];
+      const ds::SampleVolume& s = sample_at(r, lv);
       if (progress)
         progress->update(double(done) / double(jobs.size()),
                          fmt::format("{}: {} (voxel {:.4g} mm, step {:.4g} µs)", r.id, lv.name, s.voxel_mm,
@@ -211,7 +215,7 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
       const RecordingPrediction& p = pred[i * L + k];
       LevelReplay lr;
       lr.level = lv.name;
-      lr.voxel_mm = samples.at(r.sample_id)[lv.voxel == 0 ? 0 : lv.voxel > 0 ? 1 : 2].voxel_mm;
+      lr.voxel_mm = sample_at(r, lv).voxel_mm;
       lr.step_s = dt[i] * lv.step;
       lr.removed_mm3 = p.removed_mm3;
       lr.wall_s = wall[i * L + k];
