@@ -36,6 +36,7 @@ ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double 
   };
   double h = std::clamp(opt.first_step, 0.001, 1.0);
   for (int k = 0; k < opt.max_points; ++k) {
+    if (opt.cheaper_found && opt.cheaper_found->load()) return side;  // a refit follows
     bool last = false;
     if (h >= room) {
       h = room;
@@ -66,6 +67,7 @@ ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double 
       prof.found_lower = true;
       prof.lower_at = at;
       prof.lower_cost = cost_hat + d;
+      if (opt.cheaper_found) *opt.cheaper_found = true;
     }
     if (d >= threshold) {
       h_out = h;

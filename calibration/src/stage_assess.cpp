@@ -1,6 +1,7 @@
 // Stage "assess": profile likelihoods, verdicts and the covariance of what is identifiable.
 // A profile point cheaper than the optimum sends the fit back to `refine` from there.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <exception>
 #include <mutex>
@@ -49,12 +50,15 @@ std::vector<Profile> run_profiles(Run& run, const Flags& pre) {
   std::size_t next = 0, done = 0;
   std::mutex mu;
   std::exception_ptr error;
+  // While a restart is left, a cheaper point ends every profile: the fit restarts from it
+  // and profiles again (assess).
+  std::atomic<bool> cheaper{false};
   auto worker = [&] {
     for (;;) {
       std::size_t k;
       {
         std::lock_guard lk(mu);
-        if (next >= entries.size() || error) return;
+        if (next >= entries.size() || error || cheaper) return;
         k = next++;
       }
       try {
@@ -67,6 +71,7 @@ std::vector<Profile> run_profiles(Run& run, const Flags& pre) {
         po.first_step = std::isfinite(se) && se > 0 ? 1.96 * se : 0.1;
         po.valley = valley_slopes(cov, i, L.size());
         po.threads = run.opt.threads;  // the replay pool bounds the CPUs; the last profile uses both
+        if (run.restarts < kMaxRestarts) po.cheaper_found = &cheaper;
         Profile p = profile_parameter(*run.obj, run.x, run.fit.final_cost, run.w_all, i,
                                       run.threshold, pre.held, po);
         std::lock_guard lk(mu);

@@ -423,3 +423,45 @@ TEST(CalibrationCore, ProfileCrossingsMatchABruteForceProfile) {
   std::cout << single << " of " << sides << " sides closed with one point\n";
   EXPECT_EQ(single, sides) << "where the covariance predicts the crossing, a side costs one point";
 }
+
+// A profile started from a point that is not the optimum (compact C1 moved off it) finds
+// a cheaper point at once. With a shared flag the walk reports it and stops: the fit
+// restarts from there (assess), so the rest of the profile, and every other profile
+// sharing the flag, would be thrown away. Without the flag the walk goes on.
+TEST(CalibrationCore, ACheaperProfilePointStopsEveryProfileSharingTheFlag) {
+  auto s = make(true, true, 6);
+  bc::Objective obj(*s.layout, ptrs(s), settings(true));
+  bc::SolveOptions tight;
+  tight.max_iterations = 200;
+  tight.function_tolerance = 1e-12;
+  const auto fit = obj.solve(s.layout->initial(), s.w, tight);
+  ASSERT_TRUE(fit.usable);
+  std::size_t alpha = 0, c1 = 0;
+  for (const auto& p : s.layout->physics())
+    if (p.index >= 0 && p.label == 1) (p.kind == bc::PhysKind::kAlpha ? alpha : c1) = std::size_t(p.index);
+  std::vector<double> off = fit.x;
+  off[c1] += 0.05;
+  const double cost_off = obj.evaluate(off, s.w).cost;
+  const double thr = 0.5 * bc::kChi2_1_95;
+  ASSERT_GT(cost_off - fit.final_cost, 10 * thr) << "the moved point must be clearly above the optimum";
+
+  bc::ProfileOptions free_walk;
+  const auto full = bc::profile_parameter(obj, off, cost_off, s.w, alpha, thr, {}, free_walk);
+  ASSERT_TRUE(full.found_lower);
+  EXPECT_LT(full.lower_cost, cost_off - 0.25 * thr);
+
+  std::atomic<bool> cheaper{false};
+  bc::ProfileOptions shared;
+  shared.cheaper_found = &cheaper;
+  const auto stopped = bc::profile_parameter(obj, off, cost_off, s.w, alpha, thr, {}, shared);
+  EXPECT_TRUE(cheaper.load());
+  ASSERT_TRUE(stopped.found_lower);
+  EXPECT_LT(stopped.lower_cost, cost_off - 0.25 * thr);
+  const std::size_t n_full = full.lower.points.size() + full.upper.points.size();
+  const std::size_t n_stopped = stopped.lower.points.size() + stopped.upper.points.size();
+  EXPECT_EQ(n_stopped, 1u) << "the walk stops at the first cheaper point";
+  EXPECT_GT(n_full, n_stopped);
+  // Another profile sharing the flag (as the other worker's) stops before its first point.
+  const auto other = bc::profile_parameter(obj, off, cost_off, s.w, c1, thr, {}, shared);
+  EXPECT_EQ(other.lower.points.size() + other.upper.points.size(), 0u);
+}

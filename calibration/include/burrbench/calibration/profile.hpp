@@ -4,6 +4,7 @@
 // until the cost has risen by the threshold (χ²₁(0.95)/2 × residual variance, in cost
 // units) or the bound is reached. The crossing gives the interval, which may be open on
 // one or both sides; the shape gives the verdict.
+#include <atomic>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -48,6 +49,11 @@ struct ProfileOptions {
   // linearised profile puts them instead of where the previous point left them.
   std::vector<double> valley;
   int threads = 1;  // Ceres threads per re-optimisation (see SolveOptions::threads)
+  // Shared by the profiles of one fit (null: none). A walk that finds a point cheaper
+  // than the optimum (Profile::found_lower) sets it, and every walk sharing it stops at
+  // its next point: the caller refits from that point and profiles again, so the rest of
+  // these profiles would be thrown away. Leave it null when no refit follows.
+  std::atomic<bool>* cheaper_found = nullptr;
 };
 
 // `cost_hat`: the cost at x_hat; `hold`: entries held during the re-optimisations besides
