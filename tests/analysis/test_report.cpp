@@ -1,7 +1,6 @@
 // The report as a reader gets it: `burrbench report` on an analysis directory written by
 // the real writer, then loaded in headless Chromium (tests/analysis/browser_check.py).
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <regex>

@@ -366,6 +366,17 @@ TEST(CalibrationCore, AlphaWithoutErosionIsNotIdentifiable) {
   }
 }
 
+namespace {
+// A solve run to convergence: the reference optimum (and brute-force profile points) the
+// profile tests compare against.
+bc::SolveOptions to_convergence() {
+  bc::SolveOptions o;
+  o.max_iterations = 200;
+  o.function_tolerance = 1e-12;
+  return o;
+}
+}  // namespace
+
 // The profile's crossings against a brute-force profile: on each side, ln θ is bisected
 // for a cost rise of exactly the threshold, every other parameter re-optimised to
 // convergence at each trial. The walk's points (one per side where the covariance
@@ -373,9 +384,7 @@ TEST(CalibrationCore, AlphaWithoutErosionIsNotIdentifiable) {
 TEST(CalibrationCore, ProfileCrossingsMatchABruteForceProfile) {
   auto s = make(true, true, 6);
   bc::Objective obj(*s.layout, ptrs(s), settings(true));
-  bc::SolveOptions tight;
-  tight.max_iterations = 200;
-  tight.function_tolerance = 1e-12;
+  const bc::SolveOptions tight = to_convergence();
   const auto fit = obj.solve(s.layout->initial(), s.w, tight);
   ASSERT_TRUE(fit.usable);
   const auto cov = obj.covariance(fit.x, s.w, {});
@@ -431,9 +440,7 @@ TEST(CalibrationCore, ProfileCrossingsMatchABruteForceProfile) {
 TEST(CalibrationCore, ACheaperProfilePointStopsEveryProfileSharingTheFlag) {
   auto s = make(true, true, 6);
   bc::Objective obj(*s.layout, ptrs(s), settings(true));
-  bc::SolveOptions tight;
-  tight.max_iterations = 200;
-  tight.function_tolerance = 1e-12;
+  const bc::SolveOptions tight = to_convergence();
   const auto fit = obj.solve(s.layout->initial(), s.w, tight);
   ASSERT_TRUE(fit.usable);
   std::size_t alpha = 0, c1 = 0;
