@@ -71,6 +71,21 @@ TEST(ReplayMemory, AJacobianAtAPointAlreadyReplayedIsNotReplayedAgain) {
   m.predict(point(16), {cols[0]}, other);
   EXPECT_GT(other.replays, 0u);
   EXPECT_EQ(m.remembered(), 2u);
+  // Values at other points (a solve's trial points) do not push out a Jacobian: four
+  // values are kept beside the last two Jacobians, the oldest value going first.
+  for (double c1 : {17.0, 17.5, 18.0, 18.5}) {
+    m.predict(point(c1), {}, other);
+    EXPECT_GT(other.replays, 0u) << c1;
+  }
+  m.predict(point(16), {cols[0]}, other);
+  EXPECT_EQ(other.replays, 0u) << "values pushed out the last Jacobian";
+  m.predict(point(16.5), cols, other);
+  EXPECT_EQ(other.replays, 0u) << "values pushed out the Jacobian before it";
+  m.predict(point(17.0), {}, other);
+  EXPECT_EQ(other.replays, 0u);
+  m.predict(point(19.0), {}, other);
+  m.predict(point(17.0), {}, other);
+  EXPECT_GT(other.replays, 0u) << "a fifth value kept";
   // Changing how derivatives are taken forgets: the next prediction is a fresh replay, and
   // equal to the first (a replay is deterministic).
   m.set_derivatives(bc::Derivatives::kFiniteDifferences);

@@ -124,13 +124,15 @@ class ReplayRecordingModel final : public RecordingModel {
   // solve of a calibration starts where the one before ended (refine after the search, the
   // second refine pass, the covariance at the optimum): the Jacobian there was already
   // replayed. One solve's own repeats are caught by its cost's cache (objective.cpp).
+  // Those with columns and the values alone are kept apart (replay_model.cpp).
   struct Remembered {
     std::vector<double> key;
     std::vector<Column> columns;
     std::shared_ptr<const Prediction> prediction;
   };
   mutable std::mutex memory_mu_;
-  mutable std::deque<Remembered> memory_;  // most recent first
+  mutable std::deque<Remembered> memory_columns_;         // with columns, most recent first
+  mutable std::deque<Remembered> memory_values_;  // without columns, most recent first
   mutable std::atomic<std::uint64_t> remembered_{0};
 };
 
