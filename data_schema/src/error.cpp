@@ -20,7 +20,9 @@ InputError::InputError(std::string file, std::string field, std::string expected
                        std::string got)
     : std::runtime_error(compose(file, field, expected, got)),
       file_(std::move(file)),
-      field_(std::move(field)) {}
+      field_(std::move(field)),
+      expected_(std::move(expected)),
+      got_(std::move(got)) {}
 
 namespace {
 thread_local std::string g_reading, g_failed_reading;

@@ -195,13 +195,15 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
     return e.recordings[a].t_s.size() > e.recordings[b].t_s.size();
   });
-  std::atomic<std::size_t> next{0};
-  std::atomic<bool> failed{false};
+  // A failure reports the first failing recording in manifest order, as one thread would:
+  // after it, only recordings listed before it still replay.
+  std::atomic<std::size_t> next{0}, first_failed{n};
   std::vector<std::exception_ptr> errors(n);
   auto work = [&](std::size_t w) {
     std::map<std::string, Volume>& volumes = (options.removed_bone || w == 0) ? scanned : own[w - 1];
-    for (std::size_t q = next++; q < n && !failed; q = next++) {
+    for (std::size_t q = next++; q < n; q = next++) {
       const std::size_t i = order[q];
+      if (i > first_failed) continue;
       const AlignedRecording& r = e.recordings[i];
       try {
         const std::unique_ptr<Progress> progress = shared.child(i, r.id);
@@ -217,20 +219,21 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
           out.recordings[i] = predict(r, volumes.at(r.sample_id), params, options, progress.get(), true);
         }
         if (const auto* ref = e.manifest.recording(r.id)) out.recordings[i].role = data_schema::to_string(ref->role);
+      } catch (const InputError& err) {
+        errors[i] = std::make_exception_ptr(err.in("recording " + r.id));
       } catch (...) {
         errors[i] = std::current_exception();
-        failed = true;
       }
+      if (errors[i])
+        for (std::size_t f = first_failed; i < f && !first_failed.compare_exchange_weak(f, i);) {
+        }
     }
   };
   std::vector<std::thread> threads;
   for (std::size_t w = 1; w < workers; ++w) threads.emplace_back(work, w);
   work(0);
   for (auto& t : threads) t.join();
-  // The first failing recording in manifest order of those replayed (the workers stop
-  // taking recordings after a failure).
-  for (const auto& err : errors)
-    if (err) std::rethrow_exception(err);
+  if (first_failed < n) std::rethrow_exception(errors[first_failed]);
   if (options.removed_bone)
     for (const auto& sref : e.manifest.samples)
       if (removed.count(sref.id))

@@ -144,15 +144,20 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
   std::vector<std::uint8_t> taken(jobs.size(), 0);
   std::mutex mu;
   std::condition_variable cv;
-  bool fine_busy = false, failed = false;
-  std::size_t done = 0;
+  bool fine_busy = false;
+  // A failure reports the first failing replay in recording and level order, as one thread
+  // would: after it, only the replays before it in that order still run.
+  std::size_t done = 0, first_failed = n * L;
   auto work = [&] {
     std::unique_lock<std::mutex> lock(mu);
     for (;;) {
-      if (failed) return;
       std::size_t q = jobs.size(), left = 0;
       for (std::size_t j = 0; j < jobs.size(); ++j) {
         if (taken[j]) continue;
+        if (jobs[j].first * L + jobs[j].second > first_failed) {
+          taken[j] = 1;
+          continue;
+        }
         ++left;
         if (jobs[j].second == kFine && fine_busy) continue;
         q = j;
@@ -182,11 +187,13 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
         const auto t0 = std::chrono::steady_clock::now();
         pred[i * L + k] = predict(r, vol, params, po);
         wall[i * L + k] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      } catch (const InputError& err) {
+        errors[i * L + k] = std::make_exception_ptr(err.in(fmt::format("recording {} at {}", r.id, lv.name)));
       } catch (...) {
         errors[i * L + k] = std::current_exception();
       }
       lock.lock();
-      if (errors[i * L + k]) failed = true;
+      if (errors[i * L + k]) first_failed = std::min(first_failed, i * L + k);
       if (fine) fine_busy = false;
       ++done;
       cv.notify_all();
@@ -198,8 +205,7 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
     work();
     for (auto& t : threads) t.join();
   }
-  for (const auto& err : errors)  // the first failing replay, in recording and level order, of those run
-    if (err) std::rethrow_exception(err);
+  if (first_failed < n * L) std::rethrow_exception(errors[first_failed]);
 
   std::vector<std::vector<glm::dvec3>> quiet;  // measured force without contact, per recording
   for (std::size_t i = 0; i < n; ++i) {

@@ -145,3 +145,22 @@ def test_threads_out_of_range_is_one_line_and_exit_2(runs, tmp_path, verb):
     assert p.returncode == 2, p.stderr
     assert len(p.stderr.strip().splitlines()) == 1 and "--threads" in p.stderr, p.stderr
     assert not (tmp_path / "x").exists()
+
+
+def test_a_failing_replay_names_the_first_recording_listed_whatever_the_threads(runs, tmp_path):
+    """A step too small for any recording fails every replay. The error names the first
+    recording in the manifest, as one replay after the other would, with one thread or
+    three (the longest recording starts first), and writes nothing."""
+    import tomllib
+    first = tomllib.loads((runs / "experiment.toml").read_text())["recordings"][0]["id"]
+    errors = {}
+    for threads in ("1", "3"):
+        out = tmp_path / f"x{threads}.h5"
+        p = subprocess.run([BURRBENCH, "replay", runs / "experiment.toml", "--params", runs / "params_true.toml",
+                            "--out", out, "--threads", threads, "--step-us", "1e-9"],
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 2, p.stderr
+        errors[threads] = p.stderr.strip().splitlines()[-1]
+        assert f"(recording {first})" in errors[threads] and "step" in errors[threads], errors[threads]
+        assert not out.exists()
+    assert errors["1"] == errors["3"]

@@ -81,6 +81,22 @@ def test_replays_run_at_once_give_the_study_one_at_a_time_gives(synthetic):
     assert p.returncode == 2 and "--threads" in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
 
 
+def test_a_failing_replay_names_the_first_recording_and_level_whatever_the_threads(synthetic):
+    """A step too small for any replay fails all 12. The error names the first in recording
+    and level order (plunge at l), as one replay after the other would, though the l/2
+    replays start first; exit 2 and no study written."""
+    d = synthetic
+    lines = {}
+    for threads in ("1", "3"):
+        out = d / f"failed{threads}.json"
+        p = verify(d, "--out", out, "--threads", threads, "--step-us", "1e-9")
+        assert p.returncode == 2, p.stdout + p.stderr
+        lines[threads] = p.stderr.strip().splitlines()[-1]
+        assert "(recording plunge at l)" in lines[threads], lines[threads]
+        assert not out.exists()
+    assert lines["1"] == lines["3"]
+
+
 def test_verify_refuses_bad_input_and_keeps_existing_output(synthetic):
     d = synthetic
     (d / "keep.json").write_text("mine")

@@ -13,9 +13,13 @@ class InputError : public std::runtime_error {
   InputError(std::string file, std::string field, std::string expected, std::string got = {});
   const std::string& file() const { return file_; }
   const std::string& field() const { return field_; }
+  const std::string& expected() const { return expected_; }
+  const std::string& got() const { return got_; }
+  // The same error about one part of a larger input: "<file>: <field> (<part>): …".
+  InputError in(const std::string& part) const { return {file_, field_ + " (" + part + ")", expected_, got_}; }
 
  private:
-  std::string file_, field_;
+  std::string file_, field_, expected_, got_;
 };
 
 class InvariantError : public std::logic_error {
