@@ -418,6 +418,11 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
   ceres::Solver::Summary summary;
   ceres::Solve(so, &bp.problem, &summary);
   out.iterations = std::uint64_t(summary.iterations.size());
+  // Ceres marks iteration 0 (the start) successful too.
+  out.steps_taken = std::uint64_t(std::count_if(summary.iterations.begin(), summary.iterations.end(),
+                                                [](const ceres::IterationSummary& it) {
+                                                  return it.iteration > 0 && it.step_is_successful;
+                                                }));
   out.initial_cost = summary.initial_cost;
   out.final_cost = summary.final_cost;
   out.termination = ceres::TerminationTypeToString(summary.termination_type) +

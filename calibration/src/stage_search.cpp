@@ -89,14 +89,18 @@ void refine(Run& run) {
   const std::vector<double> from = run.x.empty() ? run.search.ends.front().end : run.x;
   auto fit = run.obj->solve(from, run.w_all, so);
   // A second pass with a fresh trust region: the first can stop early in the long α–μ
-  // valley once its region has shrunk.
-  SolveOptions again = so;
-  again.max_iterations = std::max(5, run.opt.max_iterations / 3);
-  auto second = run.obj->solve(fit.x, run.w_all, again);
-  if (second.usable && second.final_cost <= fit.final_cost) {
-    second.initial_cost = fit.initial_cost;
-    second.iterations += fit.iterations;
-    fit = second;
+  // valley once its region has shrunk. When the first took no step, it ended where it
+  // began, with the same fresh region: the second would only repeat it.
+  if (fit.steps_taken > 0) {
+    SolveOptions again = so;
+    again.max_iterations = std::max(5, run.opt.max_iterations / 3);
+    auto second = run.obj->solve(fit.x, run.w_all, again);
+    if (second.usable && second.final_cost <= fit.final_cost) {
+      second.initial_cost = fit.initial_cost;
+      second.iterations += fit.iterations;
+      second.steps_taken += fit.steps_taken;
+      fit = second;
+    }
   }
   run.fit = fit;
   run.x = fit.x;

@@ -377,6 +377,23 @@ bc::SolveOptions to_convergence() {
 }
 }  // namespace
 
+// refine runs its second pass (a fresh trust region) only after the first took a step: a
+// solve that took none ended where it began, and a second pass would repeat it exactly.
+// Ceres marks its iteration 0 successful too; steps_taken must not count it.
+TEST(CalibrationCore, ASolveCountsTheStepsItTookNotItsStart) {
+  auto s = make(true, true, 3);
+  bc::Objective obj(*s.layout, ptrs(s), settings());
+  const auto fit = obj.solve(s.layout->initial(), s.w, to_convergence());
+  ASSERT_TRUE(fit.usable);
+  EXPECT_GT(fit.steps_taken, 3u);
+  EXPECT_LE(fit.steps_taken, fit.iterations);
+  const auto again = obj.solve(fit.x, s.w, {});  // converged far beyond its tolerance
+  ASSERT_TRUE(again.usable);
+  EXPECT_EQ(again.steps_taken, 0u) << again.termination;
+  EXPECT_EQ(again.x, fit.x);
+  EXPECT_EQ(again.final_cost, again.initial_cost);
+}
+
 // The profile's crossings against a brute-force profile: on each side, ln θ is bisected
 // for a cost rise of exactly the threshold, every other parameter re-optimised to
 // convergence at each trial. The walk's points (one per side where the covariance

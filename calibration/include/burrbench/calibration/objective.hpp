@@ -69,6 +69,7 @@ struct PrefitOptions {
 struct SolveOutcome {
   std::vector<double> x;
   std::uint64_t iterations = 0;
+  std::uint64_t steps_taken = 0;  // accepted steps (0: x is the start)
   double initial_cost = 0, final_cost = 0;
   std::string termination;
   bool usable = false;
