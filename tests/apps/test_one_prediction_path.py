@@ -5,6 +5,7 @@ the file, and the CSVs and analysis input beside it are exports of that one pred
 import csv
 import json
 import subprocess
+import tomllib
 
 import h5py
 import numpy as np
@@ -151,7 +152,6 @@ def test_a_failing_replay_names_the_first_recording_listed_whatever_the_threads(
     """A step too small for any recording fails every replay. The error names the first
     recording in the manifest, as one replay after the other would, with one thread or
     three (the longest recording starts first), and writes nothing."""
-    import tomllib
     first = tomllib.loads((runs / "experiment.toml").read_text())["recordings"][0]["id"]
     errors = {}
     for threads in ("1", "3"):
