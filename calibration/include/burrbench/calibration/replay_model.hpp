@@ -131,8 +131,8 @@ class ReplayRecordingModel final : public RecordingModel {
     std::shared_ptr<const Prediction> prediction;
   };
   mutable std::mutex memory_mu_;
-  mutable std::deque<Remembered> memory_columns_;         // with columns, most recent first
-  mutable std::deque<Remembered> memory_values_;  // without columns, most recent first
+  mutable std::deque<Remembered> memory_columns_;  // with columns, most recent first
+  mutable std::deque<Remembered> memory_values_;   // without columns, most recent first
   mutable std::atomic<std::uint64_t> remembered_{0};
 };
 
