@@ -375,15 +375,25 @@ bc::SolveOptions to_convergence() {
   o.function_tolerance = 1e-12;
   return o;
 }
+
+// Both classes touched and eroding (make), fitted to convergence from the layout's start.
+struct Converged {
+  Setup s;
+  bc::Objective obj;
+  bc::SolveOutcome fit;
+  Converged(unsigned seed, bool plain)
+      : s(make(true, true, seed)),
+        obj(*s.layout, ptrs(s), settings(plain)),
+        fit(obj.solve(s.layout->initial(), s.w, to_convergence())) {}
+};
 }  // namespace
 
 // refine runs its second pass (a fresh trust region) only after the first took a step: a
 // solve that took none ended where it began, and a second pass would repeat it exactly.
 // Ceres marks its iteration 0 successful too; steps_taken must not count it.
 TEST(CalibrationCore, ASolveCountsTheStepsItTookNotItsStart) {
-  auto s = make(true, true, 3);
-  bc::Objective obj(*s.layout, ptrs(s), settings());
-  const auto fit = obj.solve(s.layout->initial(), s.w, to_convergence());
+  Converged c(3, false);
+  const auto& [s, obj, fit] = c;
   ASSERT_TRUE(fit.usable);
   EXPECT_GT(fit.steps_taken, 3u);
   EXPECT_LE(fit.steps_taken, fit.iterations);
@@ -399,10 +409,8 @@ TEST(CalibrationCore, ASolveCountsTheStepsItTookNotItsStart) {
 // convergence at each trial. The walk's points (one per side where the covariance
 // predicts the crossing, closed by a short extrapolation) must land on it.
 TEST(CalibrationCore, ProfileCrossingsMatchABruteForceProfile) {
-  auto s = make(true, true, 6);
-  bc::Objective obj(*s.layout, ptrs(s), settings(true));
-  const bc::SolveOptions tight = to_convergence();
-  const auto fit = obj.solve(s.layout->initial(), s.w, tight);
+  Converged c(6, true);
+  const auto& [s, obj, fit] = c;
   ASSERT_TRUE(fit.usable);
   const auto cov = obj.covariance(fit.x, s.w, {});
   ASSERT_TRUE(cov.ok);
@@ -421,7 +429,7 @@ TEST(CalibrationCore, ProfileCrossingsMatchABruteForceProfile) {
     auto delta = [&](double h) {
       std::vector<double> x = fit.x;
       x[i] += h;
-      bc::SolveOptions o = tight;
+      bc::SolveOptions o = to_convergence();
       o.hold.assign(x.size(), false);
       o.hold[i] = true;
       const auto r = obj.solve(x, s.w, o);
@@ -455,10 +463,8 @@ TEST(CalibrationCore, ProfileCrossingsMatchABruteForceProfile) {
 // restarts from there (assess), so the rest of the profile, and every other profile
 // sharing the flag, would be thrown away. Without the flag the walk goes on.
 TEST(CalibrationCore, ACheaperProfilePointStopsEveryProfileSharingTheFlag) {
-  auto s = make(true, true, 6);
-  bc::Objective obj(*s.layout, ptrs(s), settings(true));
-  const bc::SolveOptions tight = to_convergence();
-  const auto fit = obj.solve(s.layout->initial(), s.w, tight);
+  Converged c(6, true);
+  const auto& [s, obj, fit] = c;
   ASSERT_TRUE(fit.usable);
   std::size_t alpha = 0, c1 = 0;
   for (const auto& p : s.layout->physics())
