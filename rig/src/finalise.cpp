@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -49,13 +51,103 @@ SessionHeader header_from_json(const std::string& text, const std::string& file)
 
 namespace {
 
-// FIFO device time: t = a + b·counter. b is the least-squares slope of the polls'
-// midpoints against their newest record's counter (kept only within 1 % of the nominal
-// period). a is pinned by what each poll proves about its newest record: it was taken
-// before the reply came (t ≤ t_recv) and, while the device keeps sampling, at most one
-// period before the request reached the device (t > t_send − period). The intersection
-// of those bounds over all polls is narrow; a is its middle. A counter reset starts a new segment. Returns what a reader of
-// the timestamps must know: where the fit fell back (a wrong device_rate_hz shows here).
+// What one poll proves about its newest record (counter c): it was taken before the reply
+// came (t ≤ recv) and, while the device keeps sampling, at most one period before the
+// request reached the device (t > send − period). `lower` is false for a poll whose
+// newest record advanced less than the time since the previous poll explains (a device
+// that paused or stopped, e.g. a played recording at its end): it proves nothing then.
+struct PollBounds {
+  double c, send, recv;
+  bool lower;
+};
+
+// The intercepts [lo, hi] (relative to t0, counter c0) that slope b leaves to the line
+// t = t0 + a + b·(c − c0) between all the polls' bounds; empty when lo > hi.
+std::pair<double, double> intercept_bounds(const std::vector<PollBounds>& pts, double b, double c0, double t0) {
+  double lo = -1e300, hi = 1e300;
+  for (const auto& p : pts) {
+    hi = std::min(hi, (p.recv - t0) - b * (p.c - c0));
+    if (p.lower) lo = std::max(lo, (p.send - t0) - b - b * (p.c - c0));
+  }
+  return {lo, hi};
+}
+
+// The room hi − lo that slope b leaves the intercept; negative where no line of that slope
+// fits between all the bounds. It is concave in b (a minimum of lines minus a maximum of
+// lines), so golden sections and bisections over b are exact searches.
+double room(const std::vector<PollBounds>& pts, double b, double c0, double t0) {
+  const auto [lo, hi] = intercept_bounds(pts, b, c0, t0);
+  return hi - lo;
+}
+
+// The slope in [b_min, b_max] that leaves the widest room: the least-violating one when no
+// line fits.
+double widest_slope(const std::vector<PollBounds>& pts, double b_min, double b_max, double c0, double t0) {
+  const double r = 0.5 * (std::sqrt(5.0) - 1.0);
+  double x1 = b_max - r * (b_max - b_min), x2 = b_min + r * (b_max - b_min);
+  double f1 = room(pts, x1, c0, t0), f2 = room(pts, x2, c0, t0);
+  for (int it = 0; it < 100 && b_max - b_min > 1e-12 * b_max; ++it) {  // 0.618^100: far below 1 ps
+    if (f1 < f2) {
+      b_min = x1; x1 = x2; f1 = f2;
+      x2 = b_min + r * (b_max - b_min); f2 = room(pts, x2, c0, t0);
+    } else {
+      b_max = x2; x2 = x1; f2 = f1;
+      x1 = b_max - r * (b_max - b_min); f1 = room(pts, x1, c0, t0);
+    }
+  }
+  return 0.5 * (b_min + b_max);
+}
+
+// The edge of the slopes that fit, between `in` (room ≥ 0) and `out` (room < 0).
+double edge_slope(const std::vector<PollBounds>& pts, double in, double out, double c0, double t0) {
+  for (int it = 0; it < 100 && std::abs(out - in) > 1e-12 * std::abs(in); ++it) {
+    const double mid = 0.5 * (in + out);
+    (room(pts, mid, c0, t0) >= 0 ? in : out) = mid;
+  }
+  return in;
+}
+
+struct ClockLine {
+  double a, b;  // t = t0 + a + b·(c − c0), ns
+  bool fits;    // some line passes between all the bounds
+};
+
+// The lines t = t0 + a + b·(c − c0) that pass between all the polls' bounds form a convex
+// polygon in (a, b); the device's line is one of them and the data favour none over
+// another. Its centroid is their mean, so each record's time is the mean of the times
+// those lines give it. A busy host only ever delays requests and replies: delays widen the
+// polygon but never move its edges off the device's line, where a least-squares slope
+// through the polls' midpoints drifts with them (1 ms at the ends of 1.5 s under a busy
+// neighbour). When no line fits, the least-violating slope is used, pinned to the replies.
+ClockLine fit_clock_line(const std::vector<PollBounds>& pts, double b_min, double b_max, double c0, double t0) {
+  const double best = widest_slope(pts, b_min, b_max, c0, t0);
+  if (room(pts, best, c0, t0) < 0) return {intercept_bounds(pts, best, c0, t0).second, best, false};
+  const double b_lo = room(pts, b_min, c0, t0) >= 0 ? b_min : edge_slope(pts, best, b_min, c0, t0);
+  const double b_hi = room(pts, b_max, c0, t0) >= 0 ? b_max : edge_slope(pts, best, b_max, c0, t0);
+  // Area and first moments by the trapezoid rule over slices of constant b: the room and
+  // the slice's middle are piecewise linear in b, so 1024 slices are plenty.
+  constexpr int kSlices = 1024;
+  double area = 0, sum_a = 0, sum_b = 0;
+  for (int k = 0; k <= kSlices; ++k) {
+    const double b = b_lo + (b_hi - b_lo) * k / kSlices;
+    const auto [lo, hi] = intercept_bounds(pts, b, c0, t0);
+    const double w = std::max(0.0, hi - lo) * (k == 0 || k == kSlices ? 0.5 : 1.0);
+    area += w;
+    sum_a += w * 0.5 * (lo + hi);
+    sum_b += w * b;
+  }
+  if (!(area > 0)) {  // a single line fits (a polygon of no area): take it
+    const auto [lo, hi] = intercept_bounds(pts, best, c0, t0);
+    return {0.5 * (lo + hi), best, true};
+  }
+  return {sum_a / area, sum_b / area, true};
+}
+
+// FIFO device time: t = a + b·counter, per segment (a counter reset starts a new one), the
+// centroid of the lines that pass between every poll's bounds on its newest record
+// (fit_clock_line). The period b is kept only within 1 % of the nominal one; else the
+// nominal period, with the middle of the bounds it leaves. Returns what a reader of the
+// timestamps must know: where the fit fell back (a wrong device_rate_hz shows here).
 std::vector<std::string> fit_fifo_time(data_schema::Stream& s, double device_rate_hz) {
   std::vector<std::string> notes;
   const std::size_t n = s.samples();
@@ -63,47 +155,36 @@ std::vector<std::string> fit_fifo_time(data_schema::Stream& s, double device_rat
   std::size_t seg_start = 0;
   for (std::size_t i = 1; i <= n; ++i) {
     if (i < n && s.device_counter[i] > s.device_counter[i - 1]) continue;
-    struct Poll { double c, send, recv; };
-    std::vector<Poll> pts;  // newest record of each poll = last one with that t_send
+    std::vector<PollBounds> pts;  // newest record of each poll = last one with that t_send
     for (std::size_t k = seg_start; k < i; ++k)
-      if (k + 1 == i || s.t_send_ns[k + 1] != s.t_send_ns[k])
-        pts.push_back({static_cast<double>(s.device_counter[k]), static_cast<double>(s.t_send_ns[k]),
-                       static_cast<double>(s.t_recv_ns[k])});
+      if (k + 1 == i || s.t_send_ns[k + 1] != s.t_send_ns[k]) {
+        PollBounds p{static_cast<double>(s.device_counter[k]), static_cast<double>(s.t_send_ns[k]),
+                     static_cast<double>(s.t_recv_ns[k]), true};
+        // The device kept sampling between polls (2 records of slack for the trips).
+        if (!pts.empty()) p.lower = (p.c - pts.back().c) + 2.0 >= (p.send - pts.back().send) / nominal;
+        pts.push_back(p);
+      }
     const double c0 = pts.front().c, t0 = pts.front().send;
     double b = nominal;
-    if (pts.size() >= 10) {
-      double sx = 0, sy = 0, sxx = 0, sxy = 0;
-      for (const auto& p : pts) {
-        const double x = p.c - c0, y = 0.5 * (p.send + p.recv) - t0;
-        sx += x; sy += y; sxx += x * x; sxy += x * y;
-      }
-      const double m = static_cast<double>(pts.size());
-      const double den = m * sxx - sx * sx;
-      if (den > 0) {
-        const double fit = (m * sxy - sx * sy) / den;
-        if (std::abs(fit / nominal - 1.0) < 0.01) b = fit;  // clock rate within 1 %: trust it
-        else
-          notes.push_back(fmt::format("measured record period {:.6g} ms is not within 1 % of 1/device_rate_hz = "
-                                      "{:.6g} ms (is device_rate_hz right?); the nominal period is used",
-                                      fit * 1e-6, nominal * 1e-6));
+    std::optional<ClockLine> line;
+    if (pts.size() >= 10 && pts.back().c > c0) {
+      // Searched well beyond 1 % so that a wrong device_rate_hz is measured, not clipped.
+      line = fit_clock_line(pts, 0.5 * nominal, 2.0 * nominal, c0, t0);
+      if (std::abs(line->b / nominal - 1.0) < 0.01) b = line->b;  // clock rate within 1 %: trust it
+      else {
+        notes.push_back(fmt::format("measured record period {:.6g} ms is not within 1 % of 1/device_rate_hz = "
+                                    "{:.6g} ms (is device_rate_hz right?); the nominal period is used",
+                                    line->b * 1e-6, nominal * 1e-6));
+        line.reset();
       }
     }
-    double lo = -1e300, hi = 1e300;
-    for (std::size_t q = 0; q < pts.size(); ++q) {
-      const auto& p = pts[q];
-      hi = std::min(hi, (p.recv - t0) - b * (p.c - c0));
-      // The lower bound holds for a device that kept sampling: a poll whose newest record
-      // advanced less than the time since the previous poll explains (a device that
-      // paused or stopped, e.g. a played recording at its end) proves nothing about it.
-      if (q > 0 && (p.c - pts[q - 1].c) + 2.0 < (p.send - pts[q - 1].send) / b) continue;
-      lo = std::max(lo, (p.send - t0) - b - b * (p.c - c0));
-    }
+    const auto [lo, hi] = intercept_bounds(pts, b, c0, t0);
     // Within one period the bounds may touch the sampling itself (a record taken just as
     // a request arrived): pinned to the reply bound without a word. Beyond it, say so.
     if (lo > hi + b)
       notes.push_back(fmt::format("the polls' time bounds do not overlap ({:.3f} ms apart; is device_rate_hz "
                                   "right?): timestamps pinned to the latest reply bound", (lo - hi) * 1e-6));
-    const double a = t0 + (lo <= hi ? 0.5 * (lo + hi) : hi);
+    const double a = t0 + (line && line->fits ? line->a : lo <= hi ? 0.5 * (lo + hi) : hi);
     for (std::size_t k = seg_start; k < i; ++k)
       s.t_ns[k] = static_cast<std::int64_t>(std::llround(a + b * (static_cast<double>(s.device_counter[k]) - c0)));
     seg_start = i;

@@ -1,8 +1,7 @@
 """Issue 11, fault 7: a FIFO deeper than one Modbus request, read in several blocks per
 poll, loses nothing through host stalls that an 8-deep FIFO cannot survive. The stalls
 are real: the acquiring process is stopped (SIGSTOP) for 60 ms at a time."""
-# ctest: run serial (the 96-record FIFO covers 96 ms: a 60 ms stall plus a loaded
-# neighbour's scheduling delay can exceed it; a ctest -j2 here lost 10 records so once)
+# ctest: run serial (a loaded neighbour's scheduling delay adds to the stall)
 import os
 import signal
 import subprocess
@@ -16,6 +15,17 @@ from bad_input import assert_refused
 from virtual_helpers import playback_start_ns, start_virtual_rig
 
 STALL_S = 0.060
+# The device samples at 500 Hz: the 96-record FIFO spans 192 ms, the 8-record one 16 ms.
+# At 1 kHz (96 ms) a 60 ms stall left too little for the rest of a poll on this VM: the
+# time to read the 12 blocks after the stall (the oldest records come last, ~1.5 ms a
+# request on a busy host) and the VM's own freezes of tens of ms (docs/rig.md). With one
+# busy neighbour it lost records in 3 runs of 6 (and 1 of 5 clean-clone CI runs, alone).
+RATE_HZ = 500
+
+
+def fifo_map(tmp_path, name, port, out):
+    return rh.write_map(tmp_path, rh.preset(name, port).replace("device_rate_hz = 1000", f"device_rate_hz = {RATE_HZ}"),
+                        out)
 
 
 def acquire_with_stalls(tmp_path, rig_map, duration_s, stalls, out):
@@ -41,16 +51,16 @@ def acquire_with_stalls(tmp_path, rig_map, duration_s, stalls, out):
 
 def test_a_deep_fifo_read_in_blocks_survives_host_stalls(tmp_path):
     stalls = [0.8, 1.6, 2.4]
-    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "1000", "--ft-fifo-depth", "96",
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", str(RATE_HZ), "--ft-fifo-depth", "96",
                             "--stage-fifo-depth", "96"]) as (proc, host, port):
-        deep = rh.write_map(tmp_path, rh.preset("virtual-fifo-deep", port), "deep.toml")
+        deep = fifo_map(tmp_path, "virtual-fifo-deep", port, "deep.toml")
         rec = acquire_with_stalls(tmp_path, deep, 3.2, stalls, "deep.h5")
         start = playback_start_ns(proc)
-        shallow = rh.write_map(tmp_path, rh.preset("virtual-fifo", port), "shallow.toml")
+        shallow = fifo_map(tmp_path, "virtual-fifo", port, "shallow.toml")
         old = acquire_with_stalls(tmp_path, shallow, 3.2, stalls, "shallow.h5")
     ft = rec["ft_sensor"]
     k = ft["device_counter"]
-    assert k.size > 2500, k.size
+    assert k.size > 0.8 * 3.2 * RATE_HZ, k.size
     holes = [(int(a), int(b)) for a, b in zip(k[:-1], k[1:]) if b != a + 1]
     assert not holes, ("every record exactly once, in order, across the stalls", holes[:5],
                        [e[1:] for e in rec["_events"] if e[2] == "ft_sensor"][:5])
@@ -61,12 +71,12 @@ def test_a_deep_fifo_read_in_blocks_survives_host_stalls(tmp_path):
     np.testing.assert_array_equal(np.rint(stage["channels"]["position_mm"] * 1000).astype(np.int64),
                                   rh.ramp_position_um(stage["device_counter"]))
     # Device time = counter × period fitted to host time: close to when the rig took it.
-    err_ms = (ft["t_ns"] - (start + k * 1e6)) / 1e6
+    err_ms = (ft["t_ns"] - (start + k * 1e9 / RATE_HZ)) / 1e6
     assert np.median(np.abs(err_ms)) < 1.0, (np.median(np.abs(err_ms)), err_ms.min(), err_ms.max())
-    # The 8-deep FIFO (8 ms at 1 kHz) cannot hold a 60 ms stall: records are lost, each
-    # inside a recorded gap event.
+    # The 8-deep FIFO (16 ms at 500 Hz) cannot hold a 60 ms stall: records are lost (about
+    # 22 a stall), each inside a recorded gap event.
     lost = rh.assert_losses_recorded(old, "ft_sensor")
-    assert lost >= 3 * 40, lost
+    assert lost >= 3 * 15, lost
 
 
 def test_blocks_are_checked_before_connecting(tmp_path):

@@ -47,7 +47,9 @@ constexpr std::int64_t kPeriod = 1'000'000;  // the device samples at 1 kHz
 // A journal as the poller writes it: polls every 2.5 ms (jittered), the device sees each
 // request 60–140 µs after it was sent and the reply arrives 120–280 µs after sending;
 // each poll stores the records newer than the last one taken, all with that poll's times.
-fs::path simulated_journal(const std::string& name, double map_rate_hz) {
+// On a loaded host (the second second of `loaded`), requests and replies are late by up
+// to 1.5 ms and 3 ms more: delays only ever add, so they are one-sided.
+fs::path simulated_journal(const std::string& name, double map_rate_hz, bool loaded = false) {
   const auto p = fs::temp_directory_path() / fmt::format("bb_fifo_{}_{}.journal", ::getpid(), name);
   fs::remove(p);
   SessionHeader h;
@@ -56,11 +58,13 @@ fs::path simulated_journal(const std::string& name, double map_rate_hz) {
   JournalWriter w(p, to_json(h).dump());
   std::mt19937_64 rng(7);
   std::uniform_int_distribution<std::int64_t> jitter(-300'000, 300'000), arrive(60'000, 140'000),
-      reply(120'000, 280'000);
+      reply(120'000, 280'000), late_request(0, 1'500'000), late_reply(0, 3'000'000);
   std::int64_t last = -1;
   for (std::int64_t send = kT0 + 3'000'000; send < kT0 + 2'000'000'000; send += 2'500'000 + jitter(rng)) {
-    const std::int64_t newest = (send + arrive(rng) - kT0) / kPeriod;
-    const std::int64_t recv = send + reply(rng);
+    const bool busy = loaded && send > kT0 + 1'000'000'000;
+    const std::int64_t late = busy ? late_request(rng) : 0;
+    const std::int64_t newest = (send + late + arrive(rng) - kT0) / kPeriod;
+    const std::int64_t recv = send + late + reply(rng) + (busy ? late_reply(rng) : 0);
     for (std::int64_t c = last < 0 ? newest : last + 1; c <= newest; ++c) {
       JournalSample s;
       s.t_send_ns = send;
@@ -96,6 +100,23 @@ TEST(FifoTime, RecordsGetTheDeviceTimes) {
     worst_ns = std::max(worst_ns, std::abs(double(s.t_ns[k]) - truth));
   }
   // Every record, not a median: the bounds pin the offset to within the request's trip.
+  EXPECT_LT(worst_ns, 150'000) << "worst error " << worst_ns << " ns";
+  EXPECT_TRUE(events_of(rec, "clock_fit").empty());
+  fs::remove(p);
+}
+
+// A loaded host delays requests and replies, never hastens them. The polls' midpoints
+// then drift late over the session and a least-squares slope through them tilts (the
+// virtual rig under a busy neighbour: 1 ms off at the ends of 1.5 s); the bounds do not
+// move, only widen, so the slope that leaves them the most room stays on the device's.
+TEST(FifoTime, OneSidedDelaysDoNotTiltTheClock) {
+  const auto p = simulated_journal("loaded", 1000, true);
+  const auto rec = recording_from_journal(read_journal(p), p.string(), nullptr);
+  const auto& s = rec.streams.at(0);
+  ASSERT_GT(s.samples(), 1900u);
+  double worst_ns = 0;
+  for (std::size_t k = 0; k < s.samples(); ++k)
+    worst_ns = std::max(worst_ns, std::abs(double(s.t_ns[k]) - double(kT0 + s.device_counter[k] * kPeriod)));
   EXPECT_LT(worst_ns, 150'000) << "worst error " << worst_ns << " ns";
   EXPECT_TRUE(events_of(rec, "clock_fit").empty());
   fs::remove(p);
