@@ -99,7 +99,7 @@ void setup(CLI::App& root) {
   cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")
       ->capture_default_str();
   cmd->add_flag("--no-erosion", a->no_erosion, "forces only, the volume is not eroded");
-  cmd->add_option("--threads", a->threads, "recordings replayed at once")->capture_default_str()->check(CLI::Range(1, 64));
+  cmd->add_option("--threads", a->threads, "recordings replayed at once")->capture_default_str()->check(CLI::Range(1, model::kMaxThreads));
   cmd->callback([a] { run(*a); });
 }
 BURRBENCH_VERB("replay", setup);

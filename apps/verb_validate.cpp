@@ -162,7 +162,7 @@ void setup(CLI::App& root) {
                   "the fit.json the parameters came from: the report shows its intervals, correlations, search "
                   "and nuisances, and whether the criteria were fixed before it (calibrate --criteria)");
   cmd->add_option("--context-of-use", a->context, "context-of-use statement for the report");
-  cmd->add_option("--threads", a->threads, "replays run at once (recordings; in the verification, recordings and levels)")->capture_default_str()->check(CLI::Range(1, 64));
+  cmd->add_option("--threads", a->threads, "replays run at once (recordings; in the verification, recordings and levels)")->capture_default_str()->check(CLI::Range(1, model::kMaxThreads));
   cmd->add_flag("--no-tare", a->no_tare, "do not subtract the no-contact mean force (sensor bias)");
   cmd->add_flag("--no-verification", a->no_verification,
                 "skip the solution verification (replays at l/2, 2l and half the step; the report's section 3)");

@@ -91,7 +91,7 @@ void setup(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--threads", a->threads, "replays run at once (each recording at each level; at most one at l/2)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 64));
+      ->check(CLI::Range(1, model::kMaxThreads));
   cmd->callback([a] { run(*a); });
 }
 BURRBENCH_VERB("verify", setup);

@@ -14,7 +14,8 @@ namespace burrbench::calibration {
 
 void validate(const CalibrateOptions& o) {
   const std::string cl = "command line";
-  if (o.threads < 1 || o.threads > 64) throw InputError(cl, "--threads", "1..64", std::to_string(o.threads));
+  if (o.threads < 1 || o.threads > model::kMaxThreads)
+    throw InputError(cl, "--threads", fmt::format("1..{}", model::kMaxThreads), std::to_string(o.threads));
   if (o.max_iterations < 1 || o.max_iterations > 1000)
     throw InputError(cl, "--max-iterations", "1..1000", std::to_string(o.max_iterations));
   if (o.starts < 0 || o.starts > 1000)

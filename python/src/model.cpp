@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include <fmt/format.h>
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
@@ -166,7 +167,9 @@ void bind_model(py::module_& m) {
   m.def(
       "replay",
       [](const fs::path& experiment, const py::object& params, double step_us, bool erosion, int threads) {
-        if (threads < 1 || threads > 64) throw InputError("replay()", "threads", "1..64 recordings at once", std::to_string(threads));
+        if (threads < 1 || threads > model::kMaxThreads)
+          throw InputError("replay()", "threads", fmt::format("1..{} recordings at once", model::kMaxThreads),
+                           std::to_string(threads));
         const auto ps = to_parameter_set(params);
         const std::string params_name = py::isinstance<py::dict>(params)
                                             ? std::string("params (Python)")

@@ -188,11 +188,15 @@ struct PredictOptions {
   // Progress of the experiment's replays: the fraction is the experiment's, each line
   // names its recording.
   Progress* progress = nullptr;
-  // predict_experiment replays this many recordings at once. The result does not depend
-  // on it (each recording starts from its sample as scanned); each further worker holds a
-  // copy of the scanned volumes.
+  // predict_experiment replays this many recordings at once (1..kMaxThreads). The result
+  // does not depend on it (each recording starts from its sample as scanned); each further
+  // worker holds a copy of the scanned volumes.
   int threads = 1;
 };
+
+// The most replays any command runs at once (--threads): each worker holds a copy of the
+// scanned volumes, so a mistyped 1000 would exhaust memory before it saved any time.
+inline constexpr int kMaxThreads = 64;
 
 // Replays one aligned recording from the given (start-state) volume and applies the
 // options' nuisances, offsets and band. The volume is restored when `restore`, else left
