@@ -8,6 +8,7 @@
 #include <utility>
 
 #include <fmt/format.h>
+#include <glm/vec2.hpp>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/rig/decode.hpp"
@@ -51,58 +52,67 @@ SessionHeader header_from_json(const std::string& text, const std::string& file)
 
 namespace {
 
-// What one poll proves about its newest record (counter c): it was taken before the reply
-// came (t ≤ recv) and, while the device keeps sampling, at most one period before the
-// request reached the device (t > send − period). `lower` is false for a poll whose
-// newest record advanced less than the time since the previous poll explains (a device
-// that paused or stopped, e.g. a played recording at its end): it proves nothing then.
-struct PollBounds {
-  double c, send, recv;
-  bool lower;
+// What the polls prove about their newest records, as points (counter, host ns): each
+// was taken before its reply came (t ≤ recv: `upper`) and, while the device keeps
+// sampling, at most one period before its request reached the device (t > send − period:
+// `lower`, at send). Only the vertices of the upper points' lower convex hull (and of the
+// lower points' upper hull) can bound a line, so only they are kept: the fit below then
+// costs the same for an hour's polls as for a second's.
+struct ClockBounds {
+  std::vector<glm::dvec2> upper, lower;
 };
+
+// Adds p (x increasing) to a monotone-chain hull: the lower one when `below`, else the upper.
+void add_to_hull(std::vector<glm::dvec2>& h, glm::dvec2 p, bool below) {
+  while (h.size() >= 2) {
+    const glm::dvec2 a = h[h.size() - 2], b = h.back();
+    const double turn = (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);  // > 0: left turn
+    if (below ? turn > 0 : turn < 0) break;
+    h.pop_back();
+  }
+  h.push_back(p);
+}
 
 // The intercepts [lo, hi] (relative to t0, counter c0) that slope b leaves to the line
 // t = t0 + a + b·(c − c0) between all the polls' bounds; empty when lo > hi.
-std::pair<double, double> intercept_bounds(const std::vector<PollBounds>& pts, double b, double c0, double t0) {
+std::pair<double, double> intercept_bounds(const ClockBounds& B, double b, double c0, double t0) {
   double lo = -1e300, hi = 1e300;
-  for (const auto& p : pts) {
-    hi = std::min(hi, (p.recv - t0) - b * (p.c - c0));
-    if (p.lower) lo = std::max(lo, (p.send - t0) - b - b * (p.c - c0));
-  }
+  for (const auto& p : B.upper) hi = std::min(hi, (p.y - t0) - b * (p.x - c0));
+  for (const auto& p : B.lower) lo = std::max(lo, (p.y - t0) - b - b * (p.x - c0));
   return {lo, hi};
 }
 
 // The room hi − lo that slope b leaves the intercept; negative where no line of that slope
 // fits between all the bounds. It is concave in b (a minimum of lines minus a maximum of
 // lines), so golden sections and bisections over b are exact searches.
-double room(const std::vector<PollBounds>& pts, double b, double c0, double t0) {
-  const auto [lo, hi] = intercept_bounds(pts, b, c0, t0);
+double room(const ClockBounds& bounds, double b, double c0, double t0) {
+  const auto [lo, hi] = intercept_bounds(bounds, b, c0, t0);
   return hi - lo;
 }
 
 // The slope in [b_min, b_max] that leaves the widest room: the least-violating one when no
 // line fits.
-double widest_slope(const std::vector<PollBounds>& pts, double b_min, double b_max, double c0, double t0) {
+double widest_slope(const ClockBounds& bounds, double b_min, double b_max, double c0, double t0) {
   const double r = 0.5 * (std::sqrt(5.0) - 1.0);
   double x1 = b_max - r * (b_max - b_min), x2 = b_min + r * (b_max - b_min);
-  double f1 = room(pts, x1, c0, t0), f2 = room(pts, x2, c0, t0);
+  double f1 = room(bounds, x1, c0, t0), f2 = room(bounds, x2, c0, t0);
   for (int it = 0; it < 100 && b_max - b_min > 1e-12 * b_max; ++it) {  // 0.618^100: far below 1 ps
     if (f1 < f2) {
       b_min = x1; x1 = x2; f1 = f2;
-      x2 = b_min + r * (b_max - b_min); f2 = room(pts, x2, c0, t0);
+      x2 = b_min + r * (b_max - b_min); f2 = room(bounds, x2, c0, t0);
     } else {
       b_max = x2; x2 = x1; f2 = f1;
-      x1 = b_max - r * (b_max - b_min); f1 = room(pts, x1, c0, t0);
+      x1 = b_max - r * (b_max - b_min); f1 = room(bounds, x1, c0, t0);
     }
   }
   return 0.5 * (b_min + b_max);
 }
 
 // The edge of the slopes that fit, between `in` (room ≥ 0) and `out` (room < 0).
-double edge_slope(const std::vector<PollBounds>& pts, double in, double out, double c0, double t0) {
+double edge_slope(const ClockBounds& bounds, double in, double out, double c0, double t0) {
   for (int it = 0; it < 100 && std::abs(out - in) > 1e-12 * std::abs(in); ++it) {
     const double mid = 0.5 * (in + out);
-    (room(pts, mid, c0, t0) >= 0 ? in : out) = mid;
+    (room(bounds, mid, c0, t0) >= 0 ? in : out) = mid;
   }
   return in;
 }
@@ -119,25 +129,25 @@ struct ClockLine {
 // polygon but never move its edges off the device's line, where a least-squares slope
 // through the polls' midpoints drifts with them (1 ms at the ends of 1.5 s under a busy
 // neighbour). When no line fits, the least-violating slope is used, pinned to the replies.
-ClockLine fit_clock_line(const std::vector<PollBounds>& pts, double b_min, double b_max, double c0, double t0) {
-  const double best = widest_slope(pts, b_min, b_max, c0, t0);
-  if (room(pts, best, c0, t0) < 0) return {intercept_bounds(pts, best, c0, t0).second, best, false};
-  const double b_lo = room(pts, b_min, c0, t0) >= 0 ? b_min : edge_slope(pts, best, b_min, c0, t0);
-  const double b_hi = room(pts, b_max, c0, t0) >= 0 ? b_max : edge_slope(pts, best, b_max, c0, t0);
+ClockLine fit_clock_line(const ClockBounds& bounds, double b_min, double b_max, double c0, double t0) {
+  const double best = widest_slope(bounds, b_min, b_max, c0, t0);
+  if (room(bounds, best, c0, t0) < 0) return {intercept_bounds(bounds, best, c0, t0).second, best, false};
+  const double b_lo = room(bounds, b_min, c0, t0) >= 0 ? b_min : edge_slope(bounds, best, b_min, c0, t0);
+  const double b_hi = room(bounds, b_max, c0, t0) >= 0 ? b_max : edge_slope(bounds, best, b_max, c0, t0);
   // Area and first moments by the trapezoid rule over slices of constant b: the room and
   // the slice's middle are piecewise linear in b, so 1024 slices are plenty.
   constexpr int kSlices = 1024;
   double area = 0, sum_a = 0, sum_b = 0;
   for (int k = 0; k <= kSlices; ++k) {
     const double b = b_lo + (b_hi - b_lo) * k / kSlices;
-    const auto [lo, hi] = intercept_bounds(pts, b, c0, t0);
+    const auto [lo, hi] = intercept_bounds(bounds, b, c0, t0);
     const double w = std::max(0.0, hi - lo) * (k == 0 || k == kSlices ? 0.5 : 1.0);
     area += w;
     sum_a += w * 0.5 * (lo + hi);
     sum_b += w * b;
   }
   if (!(area > 0)) {  // a single line fits (a polygon of no area): take it
-    const auto [lo, hi] = intercept_bounds(pts, best, c0, t0);
+    const auto [lo, hi] = intercept_bounds(bounds, best, c0, t0);
     return {0.5 * (lo + hi), best, true};
   }
   return {sum_a / area, sum_b / area, true};
@@ -155,21 +165,26 @@ std::vector<std::string> fit_fifo_time(data_schema::Stream& s, double device_rat
   std::size_t seg_start = 0;
   for (std::size_t i = 1; i <= n; ++i) {
     if (i < n && s.device_counter[i] > s.device_counter[i - 1]) continue;
-    std::vector<PollBounds> pts;  // newest record of each poll = last one with that t_send
-    for (std::size_t k = seg_start; k < i; ++k)
-      if (k + 1 == i || s.t_send_ns[k + 1] != s.t_send_ns[k]) {
-        PollBounds p{static_cast<double>(s.device_counter[k]), static_cast<double>(s.t_send_ns[k]),
-                     static_cast<double>(s.t_recv_ns[k]), true};
-        // The device kept sampling between polls (2 records of slack for the trips).
-        if (!pts.empty()) p.lower = (p.c - pts.back().c) + 2.0 >= (p.send - pts.back().send) / nominal;
-        pts.push_back(p);
-      }
-    const double c0 = pts.front().c, t0 = pts.front().send;
+    // The newest record of each poll (the last one with its t_send); counters increase.
+    ClockBounds bounds;
+    std::size_t polls = 0;
+    double c0 = 0, t0 = 0, c_prev = 0, send_prev = 0;
+    for (std::size_t k = seg_start; k < i; ++k) {
+      if (k + 1 != i && s.t_send_ns[k + 1] == s.t_send_ns[k]) continue;
+      const double c = static_cast<double>(s.device_counter[k]), send = static_cast<double>(s.t_send_ns[k]);
+      if (polls++ == 0) c0 = c, t0 = send;
+      add_to_hull(bounds.upper, {c, static_cast<double>(s.t_recv_ns[k])}, true);
+      // A poll whose newest record advanced less than the time since the previous poll
+      // explains (a device that paused or stopped, e.g. a played recording at its end)
+      // proves no lower bound (2 records of slack for the trips).
+      if (polls == 1 || (c - c_prev) + 2.0 >= (send - send_prev) / nominal) add_to_hull(bounds.lower, {c, send}, false);
+      c_prev = c, send_prev = send;
+    }
     double b = nominal;
     std::optional<ClockLine> line;
-    if (pts.size() >= 10 && pts.back().c > c0) {
+    if (polls >= 10 && c_prev > c0) {
       // Searched well beyond 1 % so that a wrong device_rate_hz is measured, not clipped.
-      line = fit_clock_line(pts, 0.5 * nominal, 2.0 * nominal, c0, t0);
+      line = fit_clock_line(bounds, 0.5 * nominal, 2.0 * nominal, c0, t0);
       if (std::abs(line->b / nominal - 1.0) < 0.01) b = line->b;  // clock rate within 1 %: trust it
       else {
         notes.push_back(fmt::format("measured record period {:.6g} ms is not within 1 % of 1/device_rate_hz = "
@@ -178,7 +193,7 @@ std::vector<std::string> fit_fifo_time(data_schema::Stream& s, double device_rat
         line.reset();
       }
     }
-    const auto [lo, hi] = intercept_bounds(pts, b, c0, t0);
+    const auto [lo, hi] = intercept_bounds(bounds, b, c0, t0);
     // Within one period the bounds may touch the sampling itself (a record taken just as
     // a request arrived): pinned to the reply bound without a word. Beyond it, say so.
     if (lo > hi + b)
