@@ -75,10 +75,10 @@ void add_to_hull(std::vector<glm::dvec2>& h, glm::dvec2 p, bool below) {
 
 // The intercepts [lo, hi] (relative to t0, counter c0) that slope b leaves to the line
 // t = t0 + a + b·(c − c0) between all the polls' bounds; empty when lo > hi.
-std::pair<double, double> intercept_bounds(const ClockBounds& B, double b, double c0, double t0) {
+std::pair<double, double> intercept_bounds(const ClockBounds& bounds, double b, double c0, double t0) {
   double lo = -1e300, hi = 1e300;
-  for (const auto& p : B.upper) hi = std::min(hi, (p.y - t0) - b * (p.x - c0));
-  for (const auto& p : B.lower) lo = std::max(lo, (p.y - t0) - b - b * (p.x - c0));
+  for (const auto& p : bounds.upper) hi = std::min(hi, (p.y - t0) - b * (p.x - c0));
+  for (const auto& p : bounds.lower) lo = std::max(lo, (p.y - t0) - b - b * (p.x - c0));
   return {lo, hi};
 }
 
@@ -118,7 +118,7 @@ double edge_slope(const ClockBounds& bounds, double in, double out, double c0, d
 }
 
 struct ClockLine {
-  double a, b;  // t = t0 + a + b·(c − c0), ns
+  double a, b;  // t = t0 + a + b·(c − c0), ns (a: NaN when no line fits)
   bool fits;    // some line passes between all the bounds
 };
 
@@ -131,7 +131,7 @@ struct ClockLine {
 // neighbour). When no line fits, the least-violating slope is used, pinned to the replies.
 ClockLine fit_clock_line(const ClockBounds& bounds, double b_min, double b_max, double c0, double t0) {
   const double best = widest_slope(bounds, b_min, b_max, c0, t0);
-  if (room(bounds, best, c0, t0) < 0) return {intercept_bounds(bounds, best, c0, t0).second, best, false};
+  if (room(bounds, best, c0, t0) < 0) return {NAN, best, false};  // the caller pins it to the replies
   const double b_lo = room(bounds, b_min, c0, t0) >= 0 ? b_min : edge_slope(bounds, best, b_min, c0, t0);
   const double b_hi = room(bounds, b_max, c0, t0) >= 0 ? b_max : edge_slope(bounds, best, b_max, c0, t0);
   // Area and first moments by the trapezoid rule over slices of constant b: the room and

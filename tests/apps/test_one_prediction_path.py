@@ -138,11 +138,14 @@ def test_recordings_replayed_at_once_predict_what_one_at_a_time_predicts(runs, t
         assert one_removed[sid]["removed_volume_mm3"] == three_removed[sid]["removed_volume_mm3"] > 0
 
 
-@pytest.mark.parametrize("verb", ["replay", "validate"])
-def test_threads_out_of_range_is_one_line_and_exit_2(runs, tmp_path, verb):
-    extra = ["--criteria", CRITERIA] if verb == "validate" else []
-    p = subprocess.run([BURRBENCH, verb, runs / "experiment.toml", "--params", runs / "params_true.toml",
-                        "--out", tmp_path / "x", "--threads", "0", *extra], capture_output=True, text=True, timeout=60)
+@pytest.mark.parametrize("threads", ["0", "65"])  # 1..model::kMaxThreads (64)
+@pytest.mark.parametrize("verb", ["replay", "validate", "verify", "calibrate"])
+def test_threads_out_of_range_is_one_line_and_exit_2(runs, tmp_path, verb, threads):
+    extra = {"validate": ["--criteria", CRITERIA], "calibrate": []}.get(verb, ["--params", runs / "params_true.toml"])
+    if verb == "validate":
+        extra += ["--params", runs / "params_true.toml"]
+    p = subprocess.run([BURRBENCH, verb, runs / "experiment.toml", "--out", tmp_path / "x", "--threads", threads,
+                        *extra], capture_output=True, text=True, timeout=60)
     assert p.returncode == 2, p.stderr
     assert len(p.stderr.strip().splitlines()) == 1 and "--threads" in p.stderr, p.stderr
     assert not (tmp_path / "x").exists()
