@@ -18,14 +18,16 @@ STALL_S = 0.060
 # The device samples at 500 Hz: the 96-record FIFO spans 192 ms, the 8-record one 16 ms.
 # At 1 kHz (96 ms) a 60 ms stall left too little for the rest of a poll on this VM: the
 # time to read the 12 blocks after the stall (the oldest records come last, ~1.5 ms a
-# request on a busy host) and the VM's own freezes of tens of ms (docs/rig.md). With one
-# busy neighbour it lost records in 3 runs of 6 (and 1 of 5 clean-clone CI runs, alone).
+# request on a busy host) and the VM's own freezes of tens of ms (docs/rig.md). It lost
+# records in 1 of 8 runs beside one busy process, 3 of 6 beside two, and 1 of 5 clean-clone
+# CI runs (alone).
 RATE_HZ = 500
 
 
 def fifo_map(tmp_path, name, port, out):
-    return rh.write_map(tmp_path, rh.preset(name, port).replace("device_rate_hz = 1000", f"device_rate_hz = {RATE_HZ}"),
-                        out)
+    text = rh.preset(name, port)
+    assert text.count("device_rate_hz = 1000") == 2, f"{name}: its FIFOs no longer say device_rate_hz = 1000"
+    return rh.write_map(tmp_path, text.replace("device_rate_hz = 1000", f"device_rate_hz = {RATE_HZ}"), out)
 
 
 def acquire_with_stalls(tmp_path, rig_map, duration_s, stalls, out):
