@@ -5,19 +5,13 @@
 #include <numbers>
 #include <string>
 
-#include <unistd.h>
-
 #include "burrbench/analysis/analysis_input.hpp"
+#include "temp_dir.hpp"
 
 namespace burrbench::testing {
 
-inline std::filesystem::path temp_dir(const std::string& name) {
-  auto d = std::filesystem::temp_directory_path() /
-           ("burrbench-analysis-" + name + "-" + std::to_string(::getpid()));
-  std::filesystem::remove_all(d);
-  std::filesystem::create_directories(d);
-  return d;
-}
+// Removed with its contents when the test ends.
+inline test::TempDir temp_dir(const std::string& name) { return test::TempDir("burrbench-analysis-" + name); }
 
 // Two recordings at 100 Hz, 2 s each: "R1" calibrate with segments plunge [0,1) and
 // sweep [1,2); "R2" held out. Measured force: a smooth drilling-like profile; predicted:

@@ -1,5 +1,5 @@
 #pragma once
-// Shared bits of the test_formats_* tests: a temporary folder, file bytes, and an
+// Shared bits of the test_formats_* tests: a temporary folder (temp_dir.hpp), file bytes, and an
 // assertion that a call throws InputError whose message contains given fragments.
 #include <gtest/gtest.h>
 #include <stdlib.h>
@@ -13,25 +13,9 @@
 #include <string>
 
 #include "burrbench/data_schema/error.hpp"
+#include "temp_dir.hpp"
 
 namespace burrbench::test {
-
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (std::filesystem::temp_directory_path() / "bb-formats-XXXXXX").string();
-    path_ = mkdtemp(tmpl.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
 
 inline std::string file_bytes(const std::filesystem::path& p) {
   std::ifstream in(p, std::ios::binary);
