@@ -11,6 +11,7 @@
 #include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/model/experiment.hpp"
 #include "output_paths.hpp"
+#include "step_option.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -26,8 +27,7 @@ struct Args {
 };
 
 void run(const Args& a) {
-  if (!(a.step_us >= 0))
-    throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
+  apps::check_step_us(a.step_us);
   const auto t0 = std::chrono::steady_clock::now();
   const model::Experiment e = model::load_experiment(a.experiment);
   const auto params = data_schema::read_params(a.params);
@@ -55,7 +55,8 @@ void run(const Args& a) {
 
   TerminalProgress progress("replay");
   opt.progress = &progress;
-  const auto prediction = model::predict_experiment(e, mp, opt);
+  const auto prediction = apps::with_step_option(
+      a.step_us, [&] { return model::predict_experiment(e, mp, opt); });
   const auto& preds = prediction.recordings;
   std::size_t samples = 0, buried = 0;
   std::array<double, model::kMaxClasses> removed{};

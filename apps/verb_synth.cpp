@@ -14,6 +14,7 @@
 #include "burrbench/data_schema/sample_volume.hpp"
 #include "burrbench/model/synth.hpp"
 #include "output_paths.hpp"
+#include "step_option.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -44,8 +45,7 @@ void run(const Args& a) {
     throw InputError("command line", "--torque-bias-Nmm", "three numbers x,y,z (N·mm)");
   for (auto [v, name] : {std::pair{a.torque_noise_Nmm, "--torque-noise-Nmm"}, {a.spindle_noise_Nmm, "--spindle-noise-Nmm"}})
     if (!(v >= 0) || !std::isfinite(v)) throw InputError("command line", name, "a finite σ ≥ 0 (N·mm)", fmt::format("{}", v));
-  if (!(a.step_us >= 0))
-    throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
+  apps::check_step_us(a.step_us);
   refuse_overwriting_inputs(a);
   const auto sample = data_schema::read_sample(a.sample);
   const auto protocol = model::read_protocol(a.protocol);
@@ -64,7 +64,8 @@ void run(const Args& a) {
   const Provenance prov = make_provenance({a.sample, a.protocol, a.params});
   TerminalProgress progress("synth");
   const auto t0 = std::chrono::steady_clock::now();
-  auto res = model::synthesize(sample, protocol, params, o, prov, &progress);
+  auto res = apps::with_step_option(
+      a.step_us, [&] { return model::synthesize(sample, protocol, params, o, prov, &progress); });
   res.recording.meta.sample_id = fs::path(a.sample).stem().string();
   data_schema::write_recording(a.out, res.recording);
   const auto truth = model::truth_json(res, sample, protocol, params, o, prov);

@@ -12,6 +12,7 @@
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/model/verification.hpp"
 #include "output_paths.hpp"
+#include "step_option.hpp"
 #include "verb_registry.hpp"
 
 namespace {
@@ -26,8 +27,7 @@ struct Args {
 };
 
 void run(const Args& a) {
-  if (!(a.step_us >= 0))
-    throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
+  apps::check_step_us(a.step_us);
   if (!(a.sigma_N >= 0))
     throw InputError("command line", "--sigma-N", "a noise level ≥ 0 N (0 = the manifest's or estimated)");
   const model::Experiment e = model::load_experiment(a.experiment);
@@ -47,7 +47,8 @@ void run(const Args& a) {
   if (a.sigma_N > 0) opt.sigma_N = a.sigma_N;
   opt.threads = a.threads;
   TerminalProgress progress("verify");
-  const auto study = model::verify_convergence(e, mp, opt, &progress);
+  const auto study = apps::with_step_option(
+      a.step_us, [&] { return model::verify_convergence(e, mp, opt, &progress); });
 
   std::cout << "solution verification: change against (l, dt); RMS per axis over the used samples\n";
   for (const auto& r : study.recordings) {

@@ -152,8 +152,8 @@ def test_threads_out_of_range_is_one_line_and_exit_2(runs, tmp_path, verb, threa
 
 
 def test_a_failing_replay_names_the_first_recording_listed_whatever_the_threads(runs, tmp_path):
-    """A step too small for any recording fails every replay. The error names the first
-    recording in the manifest, as one replay after the other would, with one thread or
+    """A step too small for any recording fails every replay. The error names --step-us and
+    the first recording in the manifest, as one replay after the other would, with one thread or
     three (the longest recording starts first), and writes nothing."""
     first = tomllib.loads((runs / "experiment.toml").read_text())["recordings"][0]["id"]
     errors = {}
@@ -164,6 +164,8 @@ def test_a_failing_replay_names_the_first_recording_listed_whatever_the_threads(
                            capture_output=True, text=True, timeout=120)
         assert p.returncode == 2, p.stderr
         errors[threads] = p.stderr.strip().splitlines()[-1]
-        assert f"(recording {first})" in errors[threads] and "step" in errors[threads], errors[threads]
+        # Named as the user typed it, not as the model's field step_s in seconds.
+        assert errors[threads].startswith(f"burrbench: command line: --step-us (recording {first}): "), errors[threads]
+        assert "got 1e-09 µs" in errors[threads] and "step_s" not in errors[threads], errors[threads]
         assert not out.exists()
     assert errors["1"] == errors["3"]

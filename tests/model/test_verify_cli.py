@@ -92,7 +92,7 @@ def test_a_failing_replay_names_the_first_recording_and_level_whatever_the_threa
         p = verify(d, "--out", out, "--threads", threads, "--step-us", "1e-9")
         assert p.returncode == 2, p.stdout + p.stderr
         lines[threads] = p.stderr.strip().splitlines()[-1]
-        assert "(recording plunge at l)" in lines[threads], lines[threads]
+        assert "--step-us (recording plunge at l)" in lines[threads], lines[threads]
         assert not out.exists()
     assert lines["1"] == lines["3"]
 
