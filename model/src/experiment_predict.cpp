@@ -4,18 +4,17 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <exception>
 #include <fstream>
 #include <map>
 #include <mutex>
-#include <thread>
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
 #include "burrbench/model/sensitivity.hpp"
+#include "job_queue.hpp"
 
 namespace burrbench::model {
 
@@ -195,45 +194,28 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
     return e.recordings[a].t_s.size() > e.recordings[b].t_s.size();
   });
-  // A failure reports the first failing recording in manifest order, as one thread would:
-  // after it, only recordings listed before it still replay.
-  std::atomic<std::size_t> next{0}, first_failed{n};
-  std::vector<std::exception_ptr> errors(n);
-  auto work = [&](std::size_t w) {
+  // A failure reports the first failing recording in manifest order, as one thread would.
+  detail::run_job_queue(n, order, int(workers), [&](std::size_t w, std::size_t i) {
     std::map<std::string, Volume>& volumes = (options.removed_bone || w == 0) ? scanned : own[w - 1];
-    for (std::size_t q = next++; q < n; q = next++) {
-      const std::size_t i = order[q];
-      if (i > first_failed) continue;
-      const AlignedRecording& r = e.recordings[i];
-      try {
-        const std::unique_ptr<Progress> progress = shared.child(i, r.id);
-        const Volume& as_scanned = volumes.at(r.sample_id);
-        if (options.removed_bone) {
-          Volume vol = as_scanned;  // left eroded: its difference to the scan is the removed bone
-          out.recordings[i] = predict(r, vol, params, options, progress.get(), false);
-          const std::lock_guard<std::mutex> lock(removed_mutex);
-          auto& rem = removed[r.sample_id];
-          for (std::size_t v = 0; v < rem.size(); ++v)
-            rem[v] = std::max(rem[v], float(as_scanned.chi(v) - vol.chi(v)));
-        } else {
-          out.recordings[i] = predict(r, volumes.at(r.sample_id), params, options, progress.get(), true);
-        }
-        if (const auto* ref = e.manifest.recording(r.id)) out.recordings[i].role = data_schema::to_string(ref->role);
-      } catch (const InputError& err) {
-        errors[i] = std::make_exception_ptr(err.in("recording " + r.id));
-      } catch (...) {
-        errors[i] = std::current_exception();
+    const AlignedRecording& r = e.recordings[i];
+    try {
+      const std::unique_ptr<Progress> progress = shared.child(i, r.id);
+      const Volume& as_scanned = volumes.at(r.sample_id);
+      if (options.removed_bone) {
+        Volume vol = as_scanned;  // left eroded: its difference to the scan is the removed bone
+        out.recordings[i] = predict(r, vol, params, options, progress.get(), false);
+        const std::lock_guard<std::mutex> lock(removed_mutex);
+        auto& rem = removed[r.sample_id];
+        for (std::size_t v = 0; v < rem.size(); ++v)
+          rem[v] = std::max(rem[v], float(as_scanned.chi(v) - vol.chi(v)));
+      } else {
+        out.recordings[i] = predict(r, volumes.at(r.sample_id), params, options, progress.get(), true);
       }
-      if (errors[i])
-        for (std::size_t f = first_failed; i < f && !first_failed.compare_exchange_weak(f, i);) {
-        }
+      if (const auto* ref = e.manifest.recording(r.id)) out.recordings[i].role = data_schema::to_string(ref->role);
+    } catch (const InputError& err) {
+      throw err.in("recording " + r.id);
     }
-  };
-  std::vector<std::thread> threads;
-  for (std::size_t w = 1; w < workers; ++w) threads.emplace_back(work, w);
-  work(0);
-  for (auto& t : threads) t.join();
-  if (first_failed < n) std::rethrow_exception(errors[first_failed]);
+  });
   if (options.removed_bone)
     for (const auto& sref : e.manifest.samples)
       if (removed.count(sref.id))

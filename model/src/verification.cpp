@@ -2,10 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
-#include <condition_variable>
-#include <exception>
 #include <mutex>
-#include <thread>
 
 #include <fmt/format.h>
 
@@ -13,6 +10,7 @@
 #include "burrbench/data_schema/import/volume.hpp"
 #include "burrbench/model/replay.hpp"
 #include "burrbench/model/volume.hpp"
+#include "job_queue.hpp"
 
 namespace burrbench::model {
 namespace {
@@ -133,79 +131,44 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
   // Every (recording, level) replay is independent: `threads` of them run at once, at most
   // one at l/2 (its volume holds 8× the voxels, and it is the longest: the l/2 replays
   // are queued first so that they run back to back beside the others).
-  std::vector<std::pair<std::size_t, std::size_t>> jobs;  // (recording, level)
-  for (std::size_t i = 0; i < n; ++i) jobs.emplace_back(i, kFine);
+  std::vector<std::size_t> jobs;  // recording i at level k: i·L + k
+  for (std::size_t i = 0; i < n; ++i) jobs.push_back(i * L + kFine);
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t k = 0; k < L; ++k)
-      if (k != kFine) jobs.emplace_back(i, k);
+      if (k != kFine) jobs.push_back(i * L + k);
   std::vector<RecordingPrediction> pred(n * L);
   std::vector<double> wall(n * L, 0.0);
-  std::vector<std::exception_ptr> errors(n * L);
-  std::vector<std::uint8_t> taken(jobs.size(), 0);
-  std::mutex mu;
-  std::condition_variable cv;
-  bool fine_busy = false;
+  std::mutex mu;  // the progress line and its count of finished replays
+  std::size_t finished = 0;
   // A failure reports the first failing replay in recording and level order, as one thread
-  // would: after it, only the replays before it in that order still run.
-  std::size_t done = 0, first_failed = n * L;
-  auto work = [&] {
-    std::unique_lock<std::mutex> lock(mu);
-    for (;;) {
-      std::size_t q = jobs.size(), left = 0;
-      for (std::size_t j = 0; j < jobs.size(); ++j) {
-        if (taken[j]) continue;
-        if (jobs[j].first * L + jobs[j].second > first_failed) {
-          taken[j] = 1;
-          continue;
+  // would.
+  detail::run_job_queue(
+      n * L, jobs, options.threads,
+      [&](std::size_t, std::size_t j) {
+        const std::size_t i = j / L, k = j % L;
+        const AlignedRecording& r = e.recordings[i];
+        const Level& lv = kLevels[k];
+        const ds::SampleVolume& s = sample_at(r, lv);
+        if (progress) {
+          const std::lock_guard<std::mutex> lock(mu);
+          progress->update(double(finished) / double(jobs.size()),
+                           fmt::format("{}: {} (voxel {:.4g} mm, step {:.4g} µs)", r.id, lv.name, s.voxel_mm,
+                                       1e6 * dt[i] * lv.step));
         }
-        ++left;
-        if (jobs[j].second == kFine && fine_busy) continue;
-        q = j;
-        break;
-      }
-      if (left == 0) return;
-      if (q == jobs.size()) {  // only l/2 replays left, and one is running
-        cv.wait(lock);
-        continue;
-      }
-      taken[q] = 1;
-      const auto [i, k] = jobs[q];
-      const bool fine = k == kFine;
-      fine_busy |= fine;
-      const AlignedRecording& r = e.recordings[i];
-      const Level& lv = kLevels[k];
-      const ds::SampleVolume& s = sample_at(r, lv);
-      if (progress)
-        progress->update(double(done) / double(jobs.size()),
-                         fmt::format("{}: {} (voxel {:.4g} mm, step {:.4g} µs)", r.id, lv.name, s.voxel_mm,
-                                     1e6 * dt[i] * lv.step));
-      lock.unlock();
-      try {
-        Volume vol = Volume::from_sample(s);
-        PredictOptions po;
-        po.replay.step_s = dt[i] * lv.step;
-        const auto t0 = std::chrono::steady_clock::now();
-        pred[i * L + k] = predict(r, vol, params, po);
-        wall[i * L + k] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      } catch (const InputError& err) {
-        errors[i * L + k] = std::make_exception_ptr(err.in(fmt::format("recording {} at {}", r.id, lv.name)));
-      } catch (...) {
-        errors[i * L + k] = std::current_exception();
-      }
-      lock.lock();
-      if (errors[i * L + k]) first_failed = std::min(first_failed, i * L + k);
-      if (fine) fine_busy = false;
-      ++done;
-      cv.notify_all();
-    }
-  };
-  {
-    std::vector<std::thread> threads;
-    for (int t = 1; t < std::min<int>(options.threads, int(jobs.size())); ++t) threads.emplace_back(work);
-    work();
-    for (auto& t : threads) t.join();
-  }
-  if (first_failed < n * L) std::rethrow_exception(errors[first_failed]);
+        try {
+          Volume vol = Volume::from_sample(s);
+          PredictOptions po;
+          po.replay.step_s = dt[i] * lv.step;
+          const auto t0 = std::chrono::steady_clock::now();
+          pred[j] = predict(r, vol, params, po);
+          wall[j] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          const std::lock_guard<std::mutex> lock(mu);
+          ++finished;
+        } catch (const InputError& err) {
+          throw err.in(fmt::format("recording {} at {}", r.id, lv.name));
+        }
+      },
+      [&](std::size_t j) { return j % L == kFine; });
 
   std::vector<std::vector<glm::dvec3>> quiet;  // measured force without contact, per recording
   for (std::size_t i = 0; i < n; ++i) {
