@@ -216,19 +216,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
   };
   for (const auto& r : L.recordings()) {
     auto add = [&](const char* name, const char* unit, int i, double fixed_value) {
-      data_schema::FitNuisance n;
-      n.recording_id = r.recording_id;
-      n.name = name;
-      n.unit = unit;
-      n.fixed = i < 0;
-      n.estimate = i < 0 ? fixed_value : x[std::size_t(i)];
-      if (i >= 0) {
-        const double se = std::sqrt(std::max(0.0, var(pos(std::size_t(i)))));
-        n.std_error = se;
-        n.ci95_low = n.estimate - kZ95 * se;
-        n.ci95_high = n.estimate + kZ95 * se;
-      }
-      rep.nuisance.push_back(std::move(n));
+      add_to(r.recording_id, name, unit, i, fixed_value);
     };
     add("bias_x", "N", r.bias, 0.0);
     add("bias_y", "N", r.bias < 0 ? -1 : r.bias + 1, 0.0);
