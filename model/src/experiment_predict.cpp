@@ -14,7 +14,7 @@
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
 #include "burrbench/model/sensitivity.hpp"
-#include "job_queue.hpp"
+#include "burrbench/model/job_queue.hpp"
 
 namespace burrbench::model {
 
@@ -195,7 +195,7 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
     return e.recordings[a].t_s.size() > e.recordings[b].t_s.size();
   });
   // A failure reports the first failing recording in manifest order, as one thread would.
-  detail::run_job_queue(n, order, int(workers), [&](std::size_t w, std::size_t i) {
+  run_job_queue(n, order, int(workers), [&](std::size_t w, std::size_t i) {
     std::map<std::string, Volume>& volumes = (options.removed_bone || w == 0) ? scanned : own[w - 1];
     const AlignedRecording& r = e.recordings[i];
     try {

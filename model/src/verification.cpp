@@ -10,7 +10,7 @@
 #include "burrbench/data_schema/import/volume.hpp"
 #include "burrbench/model/replay.hpp"
 #include "burrbench/model/volume.hpp"
-#include "job_queue.hpp"
+#include "burrbench/model/job_queue.hpp"
 
 namespace burrbench::model {
 namespace {
@@ -142,7 +142,7 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
   std::size_t finished = 0;
   // A failure reports the first failing replay in recording and level order, as one thread
   // would.
-  detail::run_job_queue(
+  run_job_queue(
       n * L, jobs, options.threads,
       [&](std::size_t, std::size_t j) {
         const std::size_t i = j / L, k = j % L;

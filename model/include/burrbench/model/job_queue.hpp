@@ -11,7 +11,7 @@
 #include <thread>
 #include <vector>
 
-namespace burrbench::model::detail {
+namespace burrbench::model {
 
 // Runs job(worker, i) for every i in `queue` (indices below `count`, taken in queue order)
 // on min(threads, queue size) workers; worker 0 is the calling thread. At most one job with
@@ -77,4 +77,4 @@ inline void run_job_queue(std::size_t count, const std::vector<std::size_t>& que
   if (first_failed < count) std::rethrow_exception(errors[first_failed]);
 }
 
-}  // namespace burrbench::model::detail
+}  // namespace burrbench::model
