@@ -48,10 +48,11 @@ TEST(JobQueue, EveryJobRunsOnceOnAtMostTheAskedWorkersInQueueOrder) {
     EXPECT_EQ(runs, std::vector<int>(5, 1)) << threads << " threads";
     EXPECT_LE(peak.load(), std::min(threads, 5));
     for (std::size_t w : workers) EXPECT_LT(w, std::size_t(std::min(threads, 5)));
-    if (threads == 1)
+    // (With more workers the jobs are taken in order too, but may record their start in
+    // another: nothing to assert there.)
+    if (threads == 1) {
       EXPECT_EQ(started, queue) << "one worker takes the queue in order";
-    else
-      EXPECT_EQ(started.front(), 4u);
+    }
   }
 }
 
