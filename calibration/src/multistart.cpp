@@ -1,16 +1,15 @@
 #include "burrbench/calibration/multistart.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
 #include <functional>
 #include <mutex>
 #include <numeric>
 #include <random>
-#include <thread>
 
 #include <fmt/format.h>
+
+#include "burrbench/model/job_queue.hpp"
 
 namespace burrbench::calibration {
 
@@ -56,29 +55,14 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
   out.tolerance = tolerance;
   out.ends.resize(starts.size());
   std::mutex mu;
-  std::exception_ptr error;
   std::size_t done = 0;
   const std::size_t total = starts.size();
-  // Runs job(i) for i in [0, n) on opt.concurrent threads; the first error is rethrown.
+  // Runs job(i) for i in [0, n) on opt.concurrent threads; an error is rethrown once all
+  // have ended, the lowest i's (as one thread would meet it).
   auto parallel = [&](std::size_t n, const std::function<void(std::size_t)>& job) {
-    std::atomic<std::size_t> next{0};
-    auto worker = [&] {
-      for (;;) {
-        const std::size_t i = next++;
-        if (i >= n) return;
-        try {
-          job(i);
-        } catch (...) {
-          std::lock_guard lk(mu);
-          if (!error) error = std::current_exception();
-          next = n;
-        }
-      }
-    };
-    std::vector<std::thread> threads;
-    for (int t = 0; t < std::max(1, opt.concurrent); ++t) threads.emplace_back(worker);
-    for (auto& t : threads) t.join();
-    if (error) std::rethrow_exception(error);
+    std::vector<std::size_t> queue(n);
+    std::iota(queue.begin(), queue.end(), std::size_t(0));
+    model::run_job_queue(n, queue, opt.concurrent, [&](std::size_t, std::size_t i) { job(i); });
   };
   std::size_t of = total;
   auto report = [&](const char* what, double cost) {
