@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <exception>
+#include <numeric>
 #include <mutex>
-#include <thread>
 
 #include <fmt/format.h>
 
+#include "burrbench/model/job_queue.hpp"
 #include "pipeline.hpp"
 
 namespace burrbench::calibration::detail {
@@ -47,47 +47,32 @@ std::vector<Profile> run_profiles(Run& run, const Flags& pre) {
   for (const auto& p : L.physics())
     if (p.index >= 0 && !pre.held[std::size_t(p.index)]) entries.push_back(std::size_t(p.index));
   std::vector<Profile> out(entries.size());
-  std::size_t next = 0, done = 0;
+  std::size_t done = 0;
   std::mutex mu;
-  std::exception_ptr error;
   // While a restart is left, a cheaper point ends every profile: the fit restarts from it
-  // and profiles again (assess).
+  // and profiles again (assess), so the profiles not begun by then are not begun.
   std::atomic<bool> cheaper{false};
-  auto worker = [&] {
-    for (;;) {
-      std::size_t k;
-      {
-        std::lock_guard lk(mu);
-        if (next >= entries.size() || error || cheaper) return;
-        k = next++;
-      }
-      try {
-        const std::size_t i = entries[k];
-        double se = NAN;
-        for (std::size_t a = 0; a < cov.indices.size(); ++a)
-          if (cov.ok && cov.indices[a] == i) se = std::sqrt(std::max(0.0, cov.cov[a * cov.indices.size() + a]));
-        ProfileOptions po;
-        po.max_points = run.opt.profile_points;
-        po.first_step = std::isfinite(se) && se > 0 ? 1.96 * se : 0.1;
-        po.valley = valley_slopes(cov, i, L.size());
-        po.threads = run.opt.threads;  // the replay pool bounds the CPUs; the last profile uses both
-        if (run.restarts < kMaxRestarts) po.cheaper_found = &cheaper;
-        Profile p = profile_parameter(*run.obj, run.x, run.fit.final_cost, run.w_all, i,
-                                      run.threshold, pre.held, po);
-        std::lock_guard lk(mu);
-        out[k] = std::move(p);
-        ++done;
-        run.say(fmt::format("profile {}/{}: {}", done, entries.size(), L.name(i)));
-      } catch (...) {
-        std::lock_guard lk(mu);
-        if (!error) error = std::current_exception();
-      }
-    }
-  };
-  std::vector<std::thread> threads;
-  for (int t = 0; t < std::max(1, run.opt.threads); ++t) threads.emplace_back(worker);
-  for (auto& t : threads) t.join();
-  if (error) std::rethrow_exception(error);
+  std::vector<std::size_t> queue(entries.size());
+  std::iota(queue.begin(), queue.end(), std::size_t(0));
+  model::run_job_queue(entries.size(), queue, run.opt.threads, [&](std::size_t, std::size_t k) {
+    if (cheaper) return;
+    const std::size_t i = entries[k];
+    double se = NAN;
+    for (std::size_t a = 0; a < cov.indices.size(); ++a)
+      if (cov.ok && cov.indices[a] == i) se = std::sqrt(std::max(0.0, cov.cov[a * cov.indices.size() + a]));
+    ProfileOptions po;
+    po.max_points = run.opt.profile_points;
+    po.first_step = std::isfinite(se) && se > 0 ? 1.96 * se : 0.1;
+    po.valley = valley_slopes(cov, i, L.size());
+    po.threads = run.opt.threads;  // the replay pool bounds the CPUs; the last profile uses both
+    if (run.restarts < kMaxRestarts) po.cheaper_found = &cheaper;
+    Profile p = profile_parameter(*run.obj, run.x, run.fit.final_cost, run.w_all, i, run.threshold,
+                                  pre.held, po);
+    std::lock_guard lk(mu);
+    out[k] = std::move(p);
+    ++done;
+    run.say(fmt::format("profile {}/{}: {}", done, entries.size(), L.name(i)));
+  });
   // Correlations of the free physics parameters (for the warnings below).
   const std::size_t m = cov.indices.size();
   if (cov.ok)
