@@ -1,7 +1,8 @@
 #pragma once
 // Independent jobs on a few worker threads, reporting a failure as one thread would.
-// Used by predict_experiment (one job per recording) and verify_convergence (one per
-// recording and level).
+// Used by predict_experiment (one job per recording), verify_convergence (one per
+// recording and level) and the calibration's multistart (one per start) and profiles (one
+// per parameter).
 #include <algorithm>
 #include <condition_variable>
 #include <cstdint>
