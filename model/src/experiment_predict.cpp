@@ -13,8 +13,8 @@
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
-#include "burrbench/model/sensitivity.hpp"
 #include "burrbench/model/job_queue.hpp"
+#include "burrbench/model/sensitivity.hpp"
 
 namespace burrbench::model {
 

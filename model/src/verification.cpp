@@ -8,9 +8,9 @@
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/import/volume.hpp"
+#include "burrbench/model/job_queue.hpp"
 #include "burrbench/model/replay.hpp"
 #include "burrbench/model/volume.hpp"
-#include "burrbench/model/job_queue.hpp"
 
 namespace burrbench::model {
 namespace {
