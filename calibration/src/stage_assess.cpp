@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <numeric>
 #include <mutex>
+#include <numeric>
 
 #include <fmt/format.h>
 

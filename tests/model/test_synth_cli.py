@@ -352,3 +352,18 @@ def test_replay_prints_and_stores_the_registration(exp, tmp_path):
         h = f["recordings/given"].attrs
         assert h["registration_method"].decode() == "vol_from_rig"
         assert "registration_rms_mm" not in h and "tre_path_rms_mm" not in h
+
+
+def test_a_step_the_replay_refuses_is_named_as_the_option_typed(exp, tmp_path):
+    """synth takes --step-us in µs; the replay's own limit (10⁹ internal steps) and a
+    non-finite step are both reported under --step-us, never as the model's step_s in
+    seconds, and nothing is written."""
+    for step, fragments in (("1e-9", ("--step-us", "at most 1e9 internal steps", "1e-09 µs")),
+                            ("inf", ("--step-us", "a step ≥ 0", "inf"))):
+        out = tmp_path / f"r{step}.h5"
+        p = run("synth", "--sample", exp / "sample.h5", "--protocol", PROTOCOLS / "plunge.toml",
+                "--params", exp / "params_true.toml", "--out", out, "--truth", str(out) + ".json",
+                "--step-us", step, check=False)
+        assert_refused(p.returncode, p.stderr, "command line", *fragments)
+        assert "step_s" not in p.stderr, p.stderr
+        assert not out.exists() and not Path(str(out) + ".json").exists()

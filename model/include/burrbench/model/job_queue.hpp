@@ -12,6 +12,8 @@
 #include <thread>
 #include <vector>
 
+#include "burrbench/data_schema/error.hpp"
+
 namespace burrbench::model {
 
 // Runs job(worker, i) for every i in `queue` (indices below `count`, taken in queue order)
@@ -23,6 +25,7 @@ namespace burrbench::model {
 inline void run_job_queue(std::size_t count, const std::vector<std::size_t>& queue, int threads,
                           const std::function<void(std::size_t worker, std::size_t i)>& job,
                           const std::function<bool(std::size_t i)>& exclusive = nullptr) {
+  for (const std::size_t i : queue) BURRBENCH_CHECK(i < count, "run_job_queue: a job index beyond count");
   std::mutex mu;
   std::condition_variable cv;
   std::vector<std::uint8_t> taken(queue.size(), 0);
