@@ -179,11 +179,21 @@
   function searchPlots() {
     var el = document.getElementById("plot-waterfall");
     if (el && data.waterfall && data.waterfall.length) {
-      var c = data.waterfall.slice().sort(function (a, b) { return a - b; });
-      var rank = c.map(function (_, i) { return i + 1; });
-      plot(el, "Waterfall: final cost of every start", "start (sorted)", "cost", [
-        { label: "cost", stroke: MEAS[0], width: 0, points: { show: true, size: 7 } }],
-        [rank, c], function (o) { o.scales.y = { distr: 3 }; });
+      var w = data.waterfall.slice().sort(function (a, b) { return a.cost - b.cost; });
+      var rank = w.map(function (_, i) { return i + 1; });
+      // One series per ending, so that a minimum of the cost stands apart from a start that
+      // stopped short of one ("": a fit.json from before endings were stored).
+      var kinds = [["converged", "converged (a minimum)", PRED[1]], ["stopped", "stopped before converging", MEAS[0]],
+                   ["screened", "screened at its pre-fit", "#777"], ["", "cost", MEAS[0]]];
+      var s = [], cols = [rank];
+      kinds.forEach(function (k) {
+        var ys = w.map(function (e) { return (e.ending || "") === k[0] ? e.cost : null; });
+        if (!ys.some(function (y) { return y !== null; })) return;
+        s.push({ label: k[1], stroke: k[2], width: 0, points: { show: true, size: 7 } });
+        cols.push(ys);
+      });
+      plot(el, "Waterfall: final cost of every start", "start (sorted)", "cost", s, cols,
+        function (o) { o.scales.y = { distr: 3 }; });
     }
     (data.profiles || []).forEach(function (p, i) {
       var e = document.getElementById("plot-profile-" + i);

@@ -287,8 +287,11 @@ std::string parameter_section(const AnalysisInput& in, const json* fit) {
     // Global search (waterfall) and profile likelihoods, drawn by report.js.
     if (fit->contains("multistart") && fit->at("multistart").is_array() && !fit->at("multistart").empty())
       h += "<h3>Global search: waterfall</h3><p class=\"muted\">Final cost of every start, sorted "
-           "(log scale). A flat first step = the best optimum found repeatedly; distinct levels = "
-           "local optima (docs/calibration.md).</p><div class=\"plot\" id=\"plot-waterfall\"></div>";
+           "(log scale), marked by how it ended: its local solve converged (a minimum of the cost), "
+           "stopped before converging, or it was screened at its pre-fit. A flat first step = the best "
+           "optimum found repeatedly; converged starts at distinct levels = local optima; stopped and "
+           "screened starts say nothing against the optimum (docs/calibration.md).</p>"
+           "<div class=\"plot\" id=\"plot-waterfall\"></div>";
     int k = 0;
     for (const auto& p : fit->at("parameters"))
       if (p.contains("profile") && p.at("profile").is_array() && !p.at("profile").empty()) {
@@ -738,7 +741,8 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
     json costs = json::array();
     if (fit.contains("multistart") && fit.at("multistart").is_array())
       for (const auto& e : fit.at("multistart"))
-        if (e.contains("cost") && e.at("cost").is_number()) costs.push_back(e.at("cost"));
+        if (e.contains("cost") && e.at("cost").is_number())
+          costs.push_back({{"cost", e.at("cost")}, {"ending", e.value("ending", std::string())}});
     data["waterfall"] = costs;
     json profiles = json::array();
     const double thr = fit.contains("settings") && fit.at("settings").contains("profiles")

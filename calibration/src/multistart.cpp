@@ -48,6 +48,44 @@ bool hopeless_start(const std::vector<double>& costs, int max_iterations, double
   return best_case > reference;
 }
 
+const char* to_string(StartEnd::Ending e) {
+  switch (e) {
+    case StartEnd::Ending::kScreened: return "screened";
+    case StartEnd::Ending::kConverged: return "converged";
+    case StartEnd::Ending::kStopped: return "stopped";
+  }
+  return "?";
+}
+
+SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double tolerance) {
+  SearchTally t;
+  for (const auto& e : ends) {
+    if (!e.usable) continue;
+    if (e.cost <= best_cost + tolerance) {
+      ++t.reached;
+    } else {
+      t.higher_optima += e.ending == StartEnd::Ending::kConverged;
+      t.stopped_short += e.ending == StartEnd::Ending::kStopped;
+    }
+  }
+  return t;
+}
+
+std::string lone_optimum_warning(const SearchTally& t, int starts, int solved) {
+  if (solved <= 1 || t.reached > 1) return "";
+  // Why the others did not reach it decides what can be said: a start that converged above
+  // it found another minimum; one that stopped short found nothing.
+  std::string why;
+  if (t.higher_optima > 0)
+    why = fmt::format("; {} other start(s) converged to higher minima, so the cost has several", t.higher_optima);
+  if (t.stopped_short > 0)
+    why += fmt::format("; {} other start(s) stopped above it before converging (abandoned as hopeless or out "
+                       "of --start-iterations) and neither confirm nor contradict it",
+                       t.stopped_short);
+  return fmt::format("the best optimum was reached by only {} of {} starts{}: it may not be the global one "
+                     "(more starts: --starts)", t.reached, starts, why);
+}
+
 MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector<double>>& starts,
                              const SampleWeights& w, const MultistartOptions& opt,
                              double tolerance) {
@@ -113,7 +151,11 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
         return hopeless_start(costs, opt.iterations, reference);
       };
     const SolveOutcome r = obj.solve(e.end, w, full);
-    if (!r.usable) return;
+    if (!r.usable) {  // its end stays the pre-fit's
+      e.ending = StartEnd::Ending::kStopped;
+      e.termination = "local solve failed (" + r.termination + "); kept at its pre-fit";
+      return;
+    }
     e.end = r.x;
     e.cost = r.final_cost;
     e.iterations += r.iterations;
@@ -122,13 +164,14 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
                                       "even at twice its recent rate of descent",
                                       r.final_cost, reference)
                         : r.termination;
+    e.ending = r.converged ? StartEnd::Ending::kConverged : StartEnd::Ending::kStopped;
     e.usable = true;
     report("local solve", e.cost);
   });
   std::stable_sort(out.ends.begin(), out.ends.end(),
                    [](const StartEnd& a, const StartEnd& b) { return a.cost < b.cost; });
   const double best = out.ends.empty() ? INFINITY : out.ends.front().cost;
-  for (const auto& e : out.ends) out.reached_best += e.usable && e.cost <= best + tolerance;
+  out.reached_best = tally(out.ends, best, tolerance).reached;
   return out;
 }
 

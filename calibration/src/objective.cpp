@@ -429,6 +429,7 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
                     std::string(": ") + summary.message;
   out.usable = summary.IsSolutionUsable();
   out.stopped_early = cb.stopped;
+  out.converged = summary.termination_type == ceres::CONVERGENCE;
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

@@ -144,13 +144,9 @@ void assess(Run& run) {
 
   // "Best optimum reached by k of N": ends within the profile threshold of the optimum.
   run.search.tolerance = run.threshold;
-  run.search.reached_best = 0;
-  for (const auto& e : run.search.ends)
-    run.search.reached_best += e.usable && e.cost <= run.fit.final_cost + run.threshold;
-  if (run.search.solved > 1 && run.search.reached_best <= 1)
-    run.warnings.push_back(fmt::format("the best optimum was reached by only {} of {} starts: it may "
-                                       "not be the global one (more starts: --starts)",
-                                       run.search.reached_best, run.starts));
+  const SearchTally t = tally(run.search.ends, run.fit.final_cost, run.threshold);
+  run.search.reached_best = t.reached;
+  if (auto w = lone_optimum_warning(t, run.starts, run.search.solved); !w.empty()) run.warnings.push_back(std::move(w));
 
   run.verdict.assign(L.size(), "");
   for (const auto& p : L.physics())

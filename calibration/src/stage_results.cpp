@@ -71,6 +71,7 @@ CalibrationOutput results(Run& run) {
                               {"cost", std::isfinite(e.cost) ? nlohmann::json(e.cost) : nlohmann::json(nullptr)},
                               {"iterations", e.iterations},
                               {"termination", e.termination},
+                              {"ending", to_string(e.ending)},
                               {"reached_best", e.usable && e.cost <= run.fit.final_cost + run.search.tolerance}});
 
   out.solver.iterations = run.fit.iterations;
@@ -124,11 +125,14 @@ CalibrationOutput results(Run& run) {
     deriv["sweeps"] = run.sweeps;
   }
   st["derivatives"] = deriv;
+  const SearchTally t = tally(run.search.ends, run.fit.final_cost, run.search.tolerance);
   st["global_search"] = {{"starts", run.starts},
                          {"design", "manifest start + Latin hypercube in ln(theta) over the bounds"},
                          {"start_iterations", run.opt.start_iterations},
                          {"solved_locally", run.search.solved},
                          {"reached_best", run.search.reached_best},
+                         {"higher_optima", t.higher_optima},
+                         {"stopped_short", t.stopped_short},
                          {"tolerance_cost", run.search.tolerance},
                          {"local_function_tolerance", run.search_function_tolerance},
                          {"seed", run.exp.manifest.fit.seed}};
@@ -245,8 +249,12 @@ CalibrationOutput results(Run& run) {
                                           : "");
   for (const auto* r : run.recs) s += fmt::format("  {}: {}\n", r->id, r->registration.text());
   s += reg_text;
-  s += fmt::format("global search: best optimum reached by {} of {} starts ({} solved locally after the "
-                   "pre-fit)\n", run.search.reached_best, run.starts, run.search.solved);
+  {
+    const SearchTally t = tally(run.search.ends, run.fit.final_cost, run.search.tolerance);
+    s += fmt::format("global search: best optimum reached by {} of {} starts ({} solved locally after the "
+                     "pre-fit; {} converged to higher minima, {} stopped above it before converging)\n",
+                     run.search.reached_best, run.starts, run.search.solved, t.higher_optima, t.stopped_short);
+  }
   s += fmt::format("solver: {} iterations, cost {:.6g} → {:.6g}, {} replays ({} derivatives), {}\n",
                    run.fit.iterations, run.fit.initial_cost, run.fit.final_cost, out.solver.replays,
                    to_string(run.opt.derivatives), run.fit.termination);

@@ -123,6 +123,39 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   EXPECT_NEAR(fit.residuals_summary.sigma_N, s.noise_N, 0.2 * s.noise_N);  // estimated σ
   EXPECT_FALSE(fit.cross_validation.empty());
   for (const auto& cv : fit.cross_validation) EXPECT_TRUE(cv.metrics["held_out"]["rmse_xyz_N"].is_number());
+  // Every start says how it ended, as its termination does, and the starts above the best
+  // optimum are told apart: a converged one is another minimum, a stopped one is not.
+  const auto& gs = fit.settings["global_search"];
+  int above_converged = 0, above_stopped = 0, reached = 0;
+  for (const auto& e : fit.multistart) {
+    const std::string ending = e["ending"].get<std::string>(), term = e["termination"].get<std::string>();
+    if (term.rfind("CONVERGENCE", 0) == 0) {
+      EXPECT_EQ(ending, "converged") << term;
+    } else if (term.rfind("screened", 0) == 0) {
+      EXPECT_EQ(ending, "screened") << term;
+    } else {
+      EXPECT_EQ(ending, "stopped") << term;
+    }
+    if (e["reached_best"].get<bool>()) {
+      ++reached;
+    } else {
+      above_converged += ending == "converged";
+      above_stopped += ending == "stopped";
+    }
+  }
+  EXPECT_EQ(reached, gs["reached_best"].get<int>());
+  EXPECT_EQ(above_converged, gs["higher_optima"].get<int>());
+  EXPECT_EQ(above_stopped, gs["stopped_short"].get<int>());
+  std::string lone;  // the warning of a best optimum reached once says why the others did not
+  for (const auto& w : fit.settings["warnings"])
+    if (w.get<std::string>().find("reached by only") != std::string::npos) lone = w.get<std::string>();
+  EXPECT_EQ(!lone.empty(), reached <= 1 && gs["solved_locally"].get<int>() > 1) << lone;
+  if (!lone.empty()) {
+    EXPECT_EQ(lone.find("converged to higher minima") != std::string::npos, above_converged > 0) << lone;
+    EXPECT_EQ(lone.find("stopped above it before converging") != std::string::npos, above_stopped > 0) << lone;
+  }
+  std::printf("global search: reached by %d of %zu; above it %d converged, %d stopped\n", reached,
+              fit.multistart.size(), above_converged, above_stopped);
   // params.toml: the estimates, readable by a simulator release.
   const auto ps = ds::read_params(dir / "out" / "params.toml");
   EXPECT_DOUBLE_EQ(ps.classes.at(1).c1_N_per_mm2, param(fit, 1, "c1").estimate);
@@ -149,6 +182,14 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   EXPECT_TRUE(browser["console_errors"].empty()) << browser["console_errors"].dump();
   const std::string dom = browser["dom"].get<std::string>();
   EXPECT_NE(dom.find("id=\"plot-waterfall\" data-rendered=\"1\""), std::string::npos);
+  // Its legend names each way the starts ended.
+  for (const auto& e : fit.multistart) {
+    const std::string ending = e["ending"].get<std::string>();
+    const std::string label = ending == "converged" ? "converged (a minimum)"
+                              : ending == "stopped" ? "stopped before converging"
+                                                    : "screened at its pre-fit";
+    EXPECT_NE(dom.find("<div class=\"u-label\">" + label + "</div>"), std::string::npos) << label;
+  }
   for (int k = 0; k < 6; ++k)
     EXPECT_NE(dom.find(fmt::format("id=\"plot-profile-{}\" data-rendered=\"1\"", k)), std::string::npos) << k;
   EXPECT_NE(dom.find("held at the optimum"), std::string::npos);

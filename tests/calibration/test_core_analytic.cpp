@@ -128,6 +128,42 @@ TEST(CalibrationCore, HopelessStartsAreThoseThatCannotReachTheBestPrefit) {
   EXPECT_FALSE(bc::hopeless_start({66248, 66217, 66216, 66214}, 12, INFINITY));
 }
 
+// "Reached by k of N", and why the others were not: only a start whose local solve
+// converged above the best is another minimum; one that stopped short is not, nor is a
+// start screened at its pre-fit or one that could not be evaluated.
+TEST(CalibrationCore, TheSearchTallyTellsOtherMinimaFromStartsThatStoppedShort) {
+  using E = bc::StartEnd::Ending;
+  auto end = [](double cost, E how, bool usable = true) {
+    bc::StartEnd e;
+    e.cost = cost;
+    e.ending = how;
+    e.usable = usable;
+    return e;
+  };
+  const std::vector<bc::StartEnd> ends{end(100.0, E::kConverged), end(101.5, E::kStopped),
+                                       end(100.9, E::kScreened),  end(250.0, E::kConverged),
+                                       end(260.0, E::kConverged), end(300.0, E::kStopped),
+                                       end(400.0, E::kScreened),  end(90.0, E::kConverged, false)};
+  const auto t = bc::tally(ends, 100.0, 2.0);
+  EXPECT_EQ(t.reached, 3);  // within 2 of 100, whatever their ending; the unusable one is not
+  EXPECT_EQ(t.higher_optima, 2);
+  EXPECT_EQ(t.stopped_short, 1);
+  const auto tight = bc::tally(ends, 100.0, 0.5);
+  EXPECT_EQ(tight.reached, 1);
+  EXPECT_EQ(tight.stopped_short, 2);
+  EXPECT_STREQ(bc::to_string(E::kStopped), "stopped");
+  // Reached more than once, or only one start solved: no warning.
+  EXPECT_EQ(bc::lone_optimum_warning(t, 8, 4), "");
+  EXPECT_EQ(bc::lone_optimum_warning(tight, 8, 1), "");
+  const std::string w = bc::lone_optimum_warning(tight, 8, 4);
+  EXPECT_NE(w.find("reached by only 1 of 8 starts; 2 other start(s) converged to higher minima"), std::string::npos) << w;
+  EXPECT_NE(w.find("; 2 other start(s) stopped above it before converging"), std::string::npos) << w;
+  bc::SearchTally only_stopped{1, 0, 3};
+  const std::string w2 = bc::lone_optimum_warning(only_stopped, 4, 4);
+  EXPECT_EQ(w2.find("higher minima"), std::string::npos) << w2;
+  EXPECT_NE(w2.find("reached by only 1 of 4 starts; 3 other start(s) stopped"), std::string::npos) << w2;
+}
+
 // Abandoning hopeless local solves saves their iterations and never changes the best end.
 TEST(CalibrationCore, AbandoningHopelessStartsKeepsTheBestOptimum) {
   auto s = make(true, true, 5);
@@ -149,7 +185,10 @@ TEST(CalibrationCore, AbandoningHopelessStartsKeepsTheBestOptimum) {
   int abandoned = 0;
   for (const auto& e : a.ends) {
     it_a += e.iterations;
+    EXPECT_EQ(e.ending == bc::StartEnd::Ending::kConverged, e.termination.rfind("CONVERGENCE", 0) == 0)
+        << e.termination;
     if (e.termination.rfind("abandoned", 0) != 0) continue;
+    EXPECT_EQ(e.ending, bc::StartEnd::Ending::kStopped);
     ++abandoned;
     EXPECT_GT(e.cost, lowest_prefit) << e.index;
   }

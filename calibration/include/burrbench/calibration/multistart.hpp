@@ -27,7 +27,25 @@ struct StartEnd {
   std::uint64_t iterations = 0;
   std::string termination;
   bool usable = false;
+  // How it ended: at its pre-fit (not among the starts solved locally), its local solve
+  // converging, or its local solve stopping before that (abandoned as hopeless, out of
+  // iterations, failed).
+  enum class Ending { kScreened, kConverged, kStopped } ending = Ending::kScreened;
 };
+const char* to_string(StartEnd::Ending e);  // "screened", "converged", "stopped"
+
+// The ends of a search measured against its best optimum (cost `best_cost`; ends within
+// `tolerance` of it reach it). Only a converged end above it is another minimum of the
+// cost; an end that stopped short of converging says nothing against the optimum.
+struct SearchTally {
+  int reached = 0;        // usable ends within tolerance of best_cost
+  int higher_optima = 0;  // local solves that converged above it
+  int stopped_short = 0;  // local solves that stopped above it before converging
+};
+SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double tolerance);
+// The warning for a best optimum reached by at most one of `starts` when more than one was
+// solved locally, saying why the others did not reach it; empty when none is due.
+std::string lone_optimum_warning(const SearchTally& t, int starts, int solved);
 
 struct MultistartOptions {
   PrefitOptions prefit;       // C1, μ and the linear nuisances at held geometry (threads: set here)

@@ -74,6 +74,7 @@ struct SolveOutcome {
   std::string termination;
   bool usable = false;
   bool stopped_early = false;  // SolveOptions::stop_early ended it
+  bool converged = false;      // Ceres's CONVERGENCE (not an iteration limit or a stop)
   double wall_s = 0;
 };
 
