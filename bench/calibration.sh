@@ -32,6 +32,7 @@ reps=${2:-20}
 B="$build/apps/burrbench"
 G="$build/bench/bench_calibration_reference"
 PY=/usr/bin/python3
+here=$(cd "$(dirname "$0")" && pwd)
 # NO_BUILD=1: BUILD_DIR holds apps/burrbench and bench/bench_calibration_reference only
 # (a copy, so that the build tree can change while a long run goes on).
 [[ -n ${NO_BUILD:-} ]] || cmake --build "$build" --target burrbench bench_calibration_reference -j 2 > /dev/null
@@ -94,24 +95,7 @@ coverage() {  # MODE ("" or registration)
     if ! "$B" calibrate --experiment "$ms" --out "$work/cov$seed/out" --no-cross-validation --starts 16 > /dev/null 2>&1; then
       total=$((total+6)); rm -rf "$work/cov$seed"; continue  # a failed fit covers nothing
     fi
-    read -r h ch t i <<<"$($PY - "$work/cov$seed/out/fit.json" "$work/cov$seed/truth.toml" <<'PY'
-import json, sys, tomllib
-f = json.load(open(sys.argv[1])); truth = tomllib.load(open(sys.argv[2], "rb"))["classes"]
-key = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}
-h = ch = t = i = 0
-for p in f["parameters"]:
-    if p["fixed"]:
-        continue
-    tv = truth[p["class_name"]][key[p["name"]]]
-    t += 1
-    lo = p["profile_ci95_low"] if p["profile_ci95_low"] is not None else 0.0
-    hi = p["profile_ci95_high"] if p["profile_ci95_high"] is not None else float("inf")
-    h += lo <= tv <= hi   # an open side holds the truth on that side
-    i += p["identifiable"]
-    ch += bool(p["identifiable"]) and p["ci95_low"] <= tv <= p["ci95_high"]
-print(h, ch, t, i)
-PY
-)"
+    read -r h ch t i <<<"$($PY "$here/fit_vs_truth.py" coverage "$work/cov$seed/out/fit.json" "$work/cov$seed/truth.toml")"
     hits=$((hits+h)); chits=$((chits+ch)); total=$((total+t)); idf=$((idf+i))
     echo "  coverage ${1:-reference} seed $seed: $h/$t held ($i identifiable)" >&2
     rm -rf "$work/cov$seed"
@@ -125,28 +109,7 @@ mismatch() {
     ms=$("$G" "$work/mm$seed" "$B" "$seed" "${COVERAGE_TIME_SCALE:-0.5}" fine)
     read -r a _ <<<"$(calib "$work/mm$seed/def" "$ms" --starts 16)"
     read -r b _ <<<"$(calib "$work/mm$seed/c2f" "$ms" --starts 16 --coarse-to-fine)"
-    read -r h l w t <<<"$($PY - "$work/mm$seed/def/fit.json" "$work/mm$seed/truth.toml" <<'PY'
-import json, sys, tomllib
-f = json.load(open(sys.argv[1])); truth = tomllib.load(open(sys.argv[2], "rb"))["classes"]
-key = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}
-h = l = w = t = 0
-for p in f["parameters"]:
-    if p["fixed"]:
-        continue
-    tv = truth[p["class_name"]][key[p["name"]]]
-    t += 1
-    lo = p["profile_ci95_low"] if p["profile_ci95_low"] is not None else 0.0
-    hi = p["profile_ci95_high"] if p["profile_ci95_high"] is not None else float("inf")
-    d = p.get("discretization") or {}
-    if d.get("limited"):
-        l += 1
-        lo, hi = d["ci95_low"], d["ci95_high"]
-    inside = lo <= tv <= hi
-    h += inside
-    w += (not inside) and p["identifiable"] and not d.get("limited")
-print(h, l, w, t)
-PY
-)"
+    read -r h l w t <<<"$($PY "$here/fit_vs_truth.py" mismatch "$work/mm$seed/def/fit.json" "$work/mm$seed/truth.toml")"
     hits=$((hits+h)); lim=$((lim+l)); wrong=$((wrong+w)); total=$((total+t))
     wd=$($PY -c "print(round($wd + $a, 1))"); wc=$($PY -c "print(round($wc + $b, 1))")
     echo "  mismatch seed $seed: $h/$t held ($l limited by discretization, $w confidently wrong); $a s, coarse-to-fine $b s" >&2

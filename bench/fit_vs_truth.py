@@ -1,0 +1,58 @@
+"""Scores a calibration's fit.json against the truth.toml its data were made with, for
+bench/calibration.sh. Prints one line of counts over the free physics constants.
+
+  coverage FIT TRUTH: "held covariance_held total identifiable" — profile intervals (an
+      open side holds the truth on that side) and covariance intervals of identifiable ones;
+  mismatch FIT TRUTH: "held limited wrong total" — a constant limited by discretization
+      error counts with its widened interval; "wrong": outside, identifiable, not limited.
+"""
+import json
+import sys
+import tomllib
+
+KEY = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}
+
+
+def free_constants(fit_path, truth_path):
+    """(parameter, true value, profile interval low, high) of every free physics constant."""
+    fit = json.load(open(fit_path))
+    truth = tomllib.load(open(truth_path, "rb"))["classes"]
+    for p in fit["parameters"]:
+        if p["fixed"]:
+            continue
+        lo = p["profile_ci95_low"] if p["profile_ci95_low"] is not None else 0.0
+        hi = p["profile_ci95_high"] if p["profile_ci95_high"] is not None else float("inf")
+        yield p, truth[p["class_name"]][KEY[p["name"]]], lo, hi
+
+
+def coverage(fit_path, truth_path):
+    held = chheld = total = ident = 0
+    for p, tv, lo, hi in free_constants(fit_path, truth_path):
+        total += 1
+        held += lo <= tv <= hi
+        ident += bool(p["identifiable"])
+        chheld += bool(p["identifiable"]) and p["ci95_low"] <= tv <= p["ci95_high"]
+    return held, chheld, total, ident
+
+
+def mismatch(fit_path, truth_path):
+    held = limited = wrong = total = 0
+    for p, tv, lo, hi in free_constants(fit_path, truth_path):
+        total += 1
+        d = p.get("discretization") or {}
+        if d.get("limited"):
+            limited += 1
+            # No widened interval (the coarse refit ran into a bound): open, as the warning says.
+            lo = d["ci95_low"] if d.get("ci95_low") is not None else 0.0
+            hi = d["ci95_high"] if d.get("ci95_high") is not None else float("inf")
+        inside = lo <= tv <= hi
+        held += inside
+        wrong += (not inside) and bool(p["identifiable"]) and not d.get("limited")
+    return held, limited, wrong, total
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 4 or sys.argv[1] not in ("coverage", "mismatch"):
+        sys.exit("usage: fit_vs_truth.py coverage|mismatch FIT.json TRUTH.toml")
+    score = coverage if sys.argv[1] == "coverage" else mismatch
+    print(*score(sys.argv[2], sys.argv[3]))
