@@ -57,12 +57,20 @@ const char* to_string(StartEnd::Ending e) {
   return "?";
 }
 
-SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double tolerance) {
+SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double tolerance,
+                  const std::vector<std::pair<double, double>>& box) {
   SearchTally t;
   for (const auto& e : ends) {
     if (!e.usable) continue;
     if (e.cost <= best_cost + tolerance) {
       ++t.reached;
+      continue;
+    }
+    bool inside = !box.empty() && box.size() == e.end.size();
+    for (std::size_t i = 0; inside && i < box.size(); ++i)
+      inside = box[i].first <= e.end[i] && e.end[i] <= box[i].second;
+    if (inside) {
+      ++t.near;
     } else {
       t.higher_optima += e.ending == StartEnd::Ending::kConverged;
       t.stopped_short += e.ending == StartEnd::Ending::kStopped;
@@ -72,12 +80,16 @@ SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double to
 }
 
 std::string lone_optimum_warning(const SearchTally& t, int starts, int solved) {
-  if (solved <= 1 || t.reached > 1) return "";
-  // Why the others did not reach it decides what can be said: a start that converged above
-  // it found another minimum; one that stopped short found nothing.
+  // A start ending inside the optimum's intervals found its neighbourhood too: a second find.
+  if (solved <= 1 || t.reached + t.near > 1) return "";
+  // Why the others did not reach it decides what can be said: only a start that converged
+  // away from it found another minimum.
   std::string why;
+  if (t.near > 0)
+    why = fmt::format("; {} ended just above it with every constant inside its 95 % intervals", t.near);
   if (t.higher_optima > 0)
-    why = fmt::format("; {} other start(s) converged to higher minima, so the cost has several", t.higher_optima);
+    why += fmt::format("; {} other start(s) converged to higher minima outside its 95 % intervals, so the cost "
+                       "has several", t.higher_optima);
   if (t.stopped_short > 0)
     why += fmt::format("; {} other start(s) stopped above it before converging (abandoned as hopeless or out "
                        "of --start-iterations) and neither confirm nor contradict it",

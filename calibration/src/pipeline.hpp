@@ -84,6 +84,7 @@ struct Run {
   std::vector<std::string> verdict;  // per x entry (physics only)
   std::map<std::size_t, std::string> imprecise_reason;  // x entry → why "imprecise"
   std::vector<std::string> warnings;
+  SearchTally tally;  // the search's ends against the optimum and its intervals
 
   // coarse level (coarse-to-fine, discretization check); built on first use
   std::unique_ptr<CoarseLevel> coarse;

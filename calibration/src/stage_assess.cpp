@@ -144,9 +144,7 @@ void assess(Run& run) {
 
   // "Best optimum reached by k of N": ends within the profile threshold of the optimum.
   run.search.tolerance = run.threshold;
-  const SearchTally t = tally(run.search.ends, run.fit.final_cost, run.threshold);
-  run.search.reached_best = t.reached;
-  if (auto w = lone_optimum_warning(t, run.starts, run.search.solved); !w.empty()) run.warnings.push_back(std::move(w));
+  run.search.reached_best = tally(run.search.ends, run.fit.final_cost, run.threshold).reached;
 
   run.verdict.assign(L.size(), "");
   for (const auto& p : L.physics())
@@ -228,6 +226,19 @@ void assess(Run& run) {
         fp.profile_ci95_high = pr.upper.closed ? std::exp(pr.upper.crossing) : NAN;
       }
   }
+  // "Reached by k of N", and where the others ended: inside the optimum's 95 % intervals
+  // (profile, else covariance; an open side is unbounded) or away from it.
+  std::vector<std::pair<double, double>> box(L.size(), {-INFINITY, INFINITY});
+  for (const auto& fp : run.unc.parameters)
+    for (const auto& q : L.physics())
+      if (q.index >= 0 && q.label == fp.class_id && to_string(q.kind) == fp.name) {
+        const bool prof = std::isfinite(fp.profile_ci95_low) || std::isfinite(fp.profile_ci95_high);
+        const double lo = prof ? fp.profile_ci95_low : fp.ci95_low, hi = prof ? fp.profile_ci95_high : fp.ci95_high;
+        box[std::size_t(q.index)] = {lo > 0 ? std::log(lo) : -INFINITY, hi > 0 ? std::log(hi) : INFINITY};
+      }
+  run.tally = tally(run.search.ends, run.fit.final_cost, run.threshold, box);
+  if (auto w = lone_optimum_warning(run.tally, run.starts, run.search.solved); !w.empty())
+    run.warnings.push_back(std::move(w));
   run.out.parameters = run.unc.parameters;
   run.out.nuisance = run.unc.nuisance;
   run.out.covariance = run.unc.covariance;

@@ -125,12 +125,13 @@ CalibrationOutput results(Run& run) {
     deriv["sweeps"] = run.sweeps;
   }
   st["derivatives"] = deriv;
-  const SearchTally t = tally(run.search.ends, run.fit.final_cost, run.search.tolerance);
+  const SearchTally& t = run.tally;
   st["global_search"] = {{"starts", run.starts},
                          {"design", "manifest start + Latin hypercube in ln(theta) over the bounds"},
                          {"start_iterations", run.opt.start_iterations},
                          {"solved_locally", run.search.solved},
                          {"reached_best", run.search.reached_best},
+                         {"near_best", t.near},
                          {"higher_optima", t.higher_optima},
                          {"stopped_short", t.stopped_short},
                          {"tolerance_cost", run.search.tolerance},
@@ -249,12 +250,11 @@ CalibrationOutput results(Run& run) {
                                           : "");
   for (const auto* r : run.recs) s += fmt::format("  {}: {}\n", r->id, r->registration.text());
   s += reg_text;
-  {
-    const SearchTally t = tally(run.search.ends, run.fit.final_cost, run.search.tolerance);
-    s += fmt::format("global search: best optimum reached by {} of {} starts ({} solved locally after the "
-                     "pre-fit; {} converged to higher minima, {} stopped above it before converging)\n",
-                     run.search.reached_best, run.starts, run.search.solved, t.higher_optima, t.stopped_short);
-  }
+  s += fmt::format("global search: best optimum reached by {} of {} starts{} ({} solved locally after the "
+                   "pre-fit; above it: {} converged to other minima, {} stopped before converging)\n",
+                   run.search.reached_best, run.starts,
+                   run.tally.near > 0 ? fmt::format(", {} more ended inside its 95 % intervals", run.tally.near) : "",
+                   run.search.solved, run.tally.higher_optima, run.tally.stopped_short);
   s += fmt::format("solver: {} iterations, cost {:.6g} → {:.6g}, {} replays ({} derivatives), {}\n",
                    run.fit.iterations, run.fit.initial_cost, run.fit.final_cost, out.solver.replays,
                    to_string(run.opt.derivatives), run.fit.termination);

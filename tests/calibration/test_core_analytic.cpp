@@ -151,6 +151,24 @@ TEST(CalibrationCore, TheSearchTallyTellsOtherMinimaFromStartsThatStoppedShort) 
   const auto tight = bc::tally(ends, 100.0, 0.5);
   EXPECT_EQ(tight.reached, 1);
   EXPECT_EQ(tight.stopped_short, 2);
+  // With the optimum's intervals: an end above it inside them ended in its neighbourhood,
+  // whatever its ending; outside any one of them it is counted by its ending.
+  std::vector<bc::StartEnd> placed = ends;
+  const std::vector<double> at{0.0, 1.0}, in{0.05, 0.9}, out{0.05, 1.5};
+  for (std::size_t k = 0; k < placed.size(); ++k) placed[k].end = k == 1 || k == 3 ? in : k == 0 ? at : out;
+  const std::vector<std::pair<double, double>> box{{-0.1, 0.1}, {0.8, 1.2}};
+  const auto boxed = bc::tally(placed, 100.0, 0.5, box);
+  EXPECT_EQ(boxed.reached, 1);
+  EXPECT_EQ(boxed.near, 2);  // the stopped one at 101.5 and the converged one at 250
+  EXPECT_EQ(boxed.higher_optima, 1);
+  EXPECT_EQ(boxed.stopped_short, 1);
+  EXPECT_EQ(bc::lone_optimum_warning(boxed, 8, 4), "") << "found twice: once reached, once inside its intervals";
+  placed[1].end = out;
+  placed[3].end = out;
+  const auto apart = bc::tally(placed, 100.0, 0.5, box);
+  EXPECT_EQ(apart.near, 0);
+  EXPECT_EQ(apart.higher_optima, 2);
+  EXPECT_EQ(apart.stopped_short, 2);
   EXPECT_STREQ(bc::to_string(E::kStopped), "stopped");
   // Reached more than once, or only one start solved: no warning.
   EXPECT_EQ(bc::lone_optimum_warning(t, 8, 4), "");
@@ -158,7 +176,7 @@ TEST(CalibrationCore, TheSearchTallyTellsOtherMinimaFromStartsThatStoppedShort) 
   const std::string w = bc::lone_optimum_warning(tight, 8, 4);
   EXPECT_NE(w.find("reached by only 1 of 8 starts; 2 other start(s) converged to higher minima"), std::string::npos) << w;
   EXPECT_NE(w.find("; 2 other start(s) stopped above it before converging"), std::string::npos) << w;
-  bc::SearchTally only_stopped{1, 0, 3};
+  bc::SearchTally only_stopped{1, 0, 0, 3};
   const std::string w2 = bc::lone_optimum_warning(only_stopped, 4, 4);
   EXPECT_EQ(w2.find("higher minima"), std::string::npos) << w2;
   EXPECT_NE(w2.find("reached by only 1 of 4 starts; 3 other start(s) stopped"), std::string::npos) << w2;

@@ -7,6 +7,7 @@
 // sorted by cost they are the waterfall plot.
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "burrbench/calibration/objective.hpp"
@@ -35,16 +36,19 @@ struct StartEnd {
 const char* to_string(StartEnd::Ending e);  // "screened", "converged", "stopped"
 
 // The ends of a search measured against its best optimum (cost `best_cost`; ends within
-// `tolerance` of it reach it). Only a converged end above it is another minimum of the
-// cost; an end that stopped short of converging says nothing against the optimum.
+// `tolerance` of it reach it). An end above it whose every entry lies inside `box` (per x
+// entry, the optimum's 95 % interval [lo, hi]; ±∞ where open or not a physics constant;
+// empty: not known) ended in the optimum's neighbourhood, short of its bottom. Of the
+// others, only one whose local solve converged is another minimum of the cost; one that
+// stopped short of converging says nothing against the optimum.
 struct SearchTally {
   int reached = 0;        // usable ends within tolerance of best_cost
-  int higher_optima = 0;  // local solves that converged above it
-  int stopped_short = 0;  // local solves that stopped above it before converging
+  int near = 0;           // above it, every entry inside the box
+  int higher_optima = 0;  // above it and outside the box, local solve converged
+  int stopped_short = 0;  // above it and outside the box, local solve stopped before converging
 };
-SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double tolerance);
-// The warning for a best optimum reached by at most one of `starts` when more than one was
-// solved locally, saying why the others did not reach it; empty when none is due.
+SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double tolerance,
+                  const std::vector<std::pair<double, double>>& box = {});
 std::string lone_optimum_warning(const SearchTally& t, int starts, int solved);
 
 struct MultistartOptions {
