@@ -13,7 +13,7 @@
 #     noise (a rig frame rotated 37°; REPS seeds of fiducial and sensor noise, issue 17).
 #  6. the discretization mismatch of issue 18 over MISMATCH_REPS seeds (default 10): data
 #     made at 0.1 mm, calibrated on the sample at 0.05 mm; coverage of the intervals where
-#     a constant limited by discretization error counts with its widened interval, the
+#     a constant limited by discretization error counts with its widened interval (open when it has none), the
 #     constants reported confidently wrong (outside, not limited), and the wall time at
 #     0.05 mm with and without --coarse-to-fine (ratio of the sums).
 #  7. the moments and the spindle's load (issue 13): one reference experiment (seed 1,

@@ -4,7 +4,8 @@ bench/calibration.sh. Prints one line of counts over the free physics constants.
   coverage FIT TRUTH: "held covariance_held total identifiable" — profile intervals (an
       open side holds the truth on that side) and covariance intervals of identifiable ones;
   mismatch FIT TRUTH: "held limited wrong total" — a constant limited by discretization
-      error counts with its widened interval; "wrong": outside, identifiable, not limited.
+      error counts with its widened interval (open where the coarse refit ran into a bound
+      and gave none); "wrong": outside, identifiable, not limited.
 """
 import json
 import sys

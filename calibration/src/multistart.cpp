@@ -62,7 +62,7 @@ SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double to
   SearchTally t;
   for (const auto& e : ends) {
     if (!e.usable) continue;
-    if (e.cost <= best_cost + tolerance) {
+    if (reaches_best(e, best_cost, tolerance)) {
       ++t.reached;
       continue;
     }

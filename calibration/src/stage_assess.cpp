@@ -142,9 +142,8 @@ void assess(Run& run) {
     run.fit.iterations += previous.iterations;
   }
 
-  // "Best optimum reached by k of N": ends within the profile threshold of the optimum.
+  // "Best optimum reached by k of N" (below): ends within the profile threshold of it.
   run.search.tolerance = run.threshold;
-  run.search.reached_best = tally(run.search.ends, run.fit.final_cost, run.threshold).reached;
 
   run.verdict.assign(L.size(), "");
   for (const auto& p : L.physics())
@@ -209,6 +208,9 @@ void assess(Run& run) {
   }
   run.unc = assess_uncertainty(*run.obj, run.x, run.w_all, run.ev, flags, !run.opt.profiles,
                                run.inflation);
+  // Where the search's ends lie against the optimum's 95 % intervals (profile, else
+  // covariance; an open side is unbounded), per x entry; nuisances are not boxed.
+  std::vector<std::pair<double, double>> box(L.size(), {-INFINITY, INFINITY});
   for (auto& fp : run.unc.parameters) {
     const PhysicsParam* p = nullptr;
     for (const auto& q : L.physics())
@@ -225,18 +227,12 @@ void assess(Run& run) {
         fp.profile_ci95_low = pr.lower.closed ? std::exp(pr.lower.crossing) : NAN;
         fp.profile_ci95_high = pr.upper.closed ? std::exp(pr.upper.crossing) : NAN;
       }
+    const bool prof = std::isfinite(fp.profile_ci95_low) || std::isfinite(fp.profile_ci95_high);
+    const double lo = prof ? fp.profile_ci95_low : fp.ci95_low, hi = prof ? fp.profile_ci95_high : fp.ci95_high;
+    box[i] = {lo > 0 ? std::log(lo) : -INFINITY, hi > 0 ? std::log(hi) : INFINITY};
   }
-  // "Reached by k of N", and where the others ended: inside the optimum's 95 % intervals
-  // (profile, else covariance; an open side is unbounded) or away from it.
-  std::vector<std::pair<double, double>> box(L.size(), {-INFINITY, INFINITY});
-  for (const auto& fp : run.unc.parameters)
-    for (const auto& q : L.physics())
-      if (q.index >= 0 && q.label == fp.class_id && to_string(q.kind) == fp.name) {
-        const bool prof = std::isfinite(fp.profile_ci95_low) || std::isfinite(fp.profile_ci95_high);
-        const double lo = prof ? fp.profile_ci95_low : fp.ci95_low, hi = prof ? fp.profile_ci95_high : fp.ci95_high;
-        box[std::size_t(q.index)] = {lo > 0 ? std::log(lo) : -INFINITY, hi > 0 ? std::log(hi) : INFINITY};
-      }
   run.tally = tally(run.search.ends, run.fit.final_cost, run.threshold, box);
+  run.search.reached_best = run.tally.reached;
   if (auto w = lone_optimum_warning(run.tally, run.starts, run.search.solved); !w.empty())
     run.warnings.push_back(std::move(w));
   run.out.parameters = run.unc.parameters;

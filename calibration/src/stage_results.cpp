@@ -72,7 +72,7 @@ CalibrationOutput results(Run& run) {
                               {"iterations", e.iterations},
                               {"termination", e.termination},
                               {"ending", to_string(e.ending)},
-                              {"reached_best", e.usable && e.cost <= run.fit.final_cost + run.search.tolerance}});
+                              {"reached_best", reaches_best(e, run.fit.final_cost, run.search.tolerance)}});
 
   out.solver.iterations = run.fit.iterations;
   out.solver.initial_cost = run.fit.initial_cost;

@@ -47,6 +47,9 @@ struct SearchTally {
   int higher_optima = 0;  // above it and outside the box, local solve converged
   int stopped_short = 0;  // above it and outside the box, local solve stopped before converging
 };
+inline bool reaches_best(const StartEnd& e, double best_cost, double tolerance) {
+  return e.usable && e.cost <= best_cost + tolerance;
+}
 SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double tolerance,
                   const std::vector<std::pair<double, double>>& box = {});
 std::string lone_optimum_warning(const SearchTally& t, int starts, int solved);
