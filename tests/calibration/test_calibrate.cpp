@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -61,6 +63,41 @@ Run calibrate(const fs::path& manifest, const fs::path& out, const std::string& 
 
 // The reference experiment at time scale 3, one start: its long plunge is where the
 // sensitivities diverge at a coarser voxel.
+// `burrbench report` of a calibrate directory, loaded in headless Chromium: the rendered
+// DOM (fails the test on a console error).
+std::string report_dom(const fs::path& out, const fs::path& rep, const fs::path& chromium) {
+  fs::create_directories(rep.parent_path());
+  const std::string cmd = fmt::format("'{}' report '{}' --out '{}' > /dev/null 2>&1", cli(), out.string(), rep.string());
+  if (std::system(cmd.c_str()) != 0) {
+    ADD_FAILURE() << cmd;
+    return {};
+  }
+  const fs::path bc = rep.parent_path() / "browser.json";
+  const std::string check = fmt::format("/usr/bin/python3 '{}/tests/analysis/browser_check.py' '{}' '{}' > '{}' 2>/dev/null",
+                                        std::string(BURRBENCH_SOURCE_DIR), rep.string(), chromium.string(), bc.string());
+  if (std::system(check.c_str()) != 0) {
+    ADD_FAILURE() << check;
+    return {};
+  }
+  std::ifstream bf(bc);
+  const auto browser = nlohmann::json::parse(bf);
+  EXPECT_TRUE(browser["console_errors"].empty()) << browser["console_errors"].dump();
+  return browser["dom"].get<std::string>();
+}
+
+// The series names in the waterfall plot's legend, in order.
+std::vector<std::string> waterfall_legend(const std::string& dom) {
+  const std::size_t from = dom.find("id=\"plot-waterfall\""), to = dom.find("</table>", from);
+  std::vector<std::string> out;
+  if (from == std::string::npos || to == std::string::npos) return out;
+  const std::string tag = "<div class=\"u-label\">";
+  for (std::size_t p = dom.find(tag, from); p < to; p = dom.find(tag, p)) {
+    p += tag.size();
+    out.push_back(dom.substr(p, dom.find('<', p) - p));
+  }
+  return out;
+}
+
 fs::path long_reference(const fs::path& dir) {
   ReferenceSpec s;
   s.time_scale = 3;
@@ -176,32 +213,38 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   // `report` of the calibrate directory shows what the fit held: its per-axis rows of
   // "calibrate / all" reproduce fit.json's RMSE and R² over x, y, z to 1e-6 relative.
   const fs::path rep = dir / "rep" / "report.html";
-  fs::create_directories(rep.parent_path());
-  const std::string cmd = fmt::format("'{}' report '{}' --out '{}' > /dev/null 2>&1", cli(),
-                                      (dir / "out").string(), rep.string());
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const std::string dom = report_dom(dir / "out", rep, dir / "chromium");
   EXPECT_NEAR(pooled_calibrate_rmse_N(rep.parent_path() / "metrics.json") / fit.metrics["calibration"]["rmse_xyz_N"].get<double>(),
               1.0, 1e-6);
   EXPECT_NEAR((1 - pooled_calibrate_r2_xyz(rep.parent_path() / "metrics.json")) / (1 - fit.metrics["calibration"]["r2_xyz"].get<double>()),
               1.0, 1e-6);
   // The report draws the waterfall and every profile in a real browser (headless Chromium).
-  const std::string src = BURRBENCH_SOURCE_DIR;
-  const fs::path bc = dir / "browser.json";
-  const std::string check = fmt::format("/usr/bin/python3 '{}/tests/analysis/browser_check.py' '{}' '{}' > '{}' 2>/dev/null",
-                                        src, rep.string(), (dir / "chromium").string(), bc.string());
-  ASSERT_EQ(std::system(check.c_str()), 0) << check;
-  std::ifstream bf(bc);
-  const auto browser = nlohmann::json::parse(bf);
-  EXPECT_TRUE(browser["console_errors"].empty()) << browser["console_errors"].dump();
-  const std::string dom = browser["dom"].get<std::string>();
   EXPECT_NE(dom.find("id=\"plot-waterfall\" data-rendered=\"1\""), std::string::npos);
   // Its legend names each way the starts ended.
-  for (const auto& e : fit.multistart) {
-    const std::string ending = e["ending"].get<std::string>();
-    const std::string label = ending == "converged" ? "converged (a minimum)"
-                              : ending == "stopped" ? "stopped before converging"
-                                                    : "screened at its pre-fit";
-    EXPECT_NE(dom.find("<div class=\"u-label\">" + label + "</div>"), std::string::npos) << label;
+  std::vector<std::string> legend{"start (sorted)"};
+  for (const std::string ending : {"converged", "stopped", "screened"}) {
+    bool any = false;
+    for (const auto& e : fit.multistart) any = any || e["ending"].get<std::string>() == ending;
+    if (any)
+      legend.push_back(ending == "converged" ? "converged (a minimum)"
+                       : ending == "stopped" ? "stopped before converging"
+                                             : "screened at its pre-fit");
+  }
+  EXPECT_EQ(waterfall_legend(dom), legend);
+  // A fit.json written before the starts' endings were stored draws them as one series.
+  {
+    const fs::path old = dir / "old";
+    fs::copy(dir / "out", old, fs::copy_options::recursive);
+    nlohmann::json j;
+    {
+      std::ifstream f(old / "fit.json");
+      j = nlohmann::json::parse(f);
+    }
+    for (auto& e : j["multistart"]) e.erase("ending");
+    std::ofstream(old / "fit.json") << j.dump(1);
+    const std::string old_dom = report_dom(old, dir / "rep_old" / "report.html", dir / "chromium_old");
+    EXPECT_NE(old_dom.find("id=\"plot-waterfall\" data-rendered=\"1\""), std::string::npos);
+    EXPECT_EQ(waterfall_legend(old_dom), (std::vector<std::string>{"start (sorted)", "cost"}));
   }
   for (int k = 0; k < 6; ++k)
     EXPECT_NE(dom.find(fmt::format("id=\"plot-profile-{}\" data-rendered=\"1\"", k)), std::string::npos) << k;
