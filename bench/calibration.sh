@@ -20,7 +20,8 @@
 #     time scale CHANNELS_TIME_SCALE, default 1) whose recordings carry them, calibrated
 #     with the force alone and with [fit] channels = force, torque, spindle: each
 #     constant's profile interval width (hi/lo) and error before and after, and the
-#     trabecular C1–α correlation.
+#     trabecular C1–α correlation; and the coverage of the 95 % intervals of such fits over
+#     REPS seeds (time scale 0.5, default calibration).
 # The test manifests ask for 4 starts; every run here passes --starts 16, the default.
 # Environment: COVERAGE_TIME_SCALE (default 0.5); SKIP_TIMING=1 runs only the coverages;
 # COVERAGE=reference|registration|mismatch|channels runs one of the four (default all);
@@ -150,12 +151,12 @@ print(f"  trabecular C1-alpha correlation: {corr(a)} -> {corr(b)}")
 PY
 }
 
-hits=0 chits=0 total=0 idf=0 rhits=0 rchits=0 rtotal=0 ridf=0 mhits=0 mlim=0 mwrong=0 mtotal=0 mwd=0 mwc=0 chan=-
+hits=0 chits=0 total=0 idf=0 rhits=0 rchits=0 rtotal=0 ridf=0 whits=0 wchits=0 wtotal=0 widf=0 mhits=0 mlim=0 mwrong=0 mtotal=0 mwd=0 mwc=0 chan=-
 run_part() { [[ ${COVERAGE:-all} == all || ${COVERAGE:-all} == "$1" ]]; }
 run_part reference && read -r hits chits total idf <<<"$(coverage "")"
 run_part registration && read -r rhits rchits rtotal ridf <<<"$(coverage registration)"
 run_part mismatch && read -r mhits mlim mwrong mtotal mwd mwc <<<"$(mismatch)"
-run_part channels && chan=$(channels)
+run_part channels && chan=$(channels) && read -r whits wchits wtotal widf <<<"$(coverage wrench)"
 
 # "p % (hits/total)", or "-" for a coverage that was not run.
 cover() { if (( $2 == 0 )); then echo -; else $PY -c "print(f'{100*$1/$2:.1f} % ($1/$2)')"; fi; }
@@ -180,5 +181,8 @@ printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$ridf/$rtot
 printf '%-62s %-22s %-10s %s\n' "data at 0.1 mm fitted at 0.05 mm: coverage, ${MISMATCH_REPS:-10} seeds" "$(cover $mhits $mtotal)" ">= 90 %" "$(covered $mhits $mtotal)"
 printf '%-62s %-22s %-10s %s\n' "  limited by discretization / confidently wrong" "$mlim / $mwrong of $mtotal" "- / 0" "$( (( mtotal == 0 )) && echo - || ok "$mwrong == 0")"
 printf '%-62s %-22s %-10s %s\n' "  wall at 0.05 mm: default / --coarse-to-fine (sum)" "$mwd s / $mwc s ($($PY -c "print(f'{$mwd/max($mwc,1e-9):.2f}')")x)" report -
+printf '%-62s %-22s %-10s %s\n' "force, moments and spindle load: profile coverage, $reps seeds" "$(cover $whits $wtotal)" ">= 90 %" "$(covered $whits $wtotal)"
+printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(cover $wchits $wtotal)" - -
+printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$widf/$wtotal" - -
 printf '%s\n' "force alone -> force, moments and spindle load (profile interval width hi/lo, error against the truth):"
 printf '%s\n' "$chan"
