@@ -61,8 +61,6 @@ Run calibrate(const fs::path& manifest, const fs::path& out, const std::string& 
                    out.string() + ".stderr");
 }
 
-// The reference experiment at time scale 3, one start: its long plunge is where the
-// sensitivities diverge at a coarser voxel.
 // `burrbench report` of a calibrate directory, loaded in headless Chromium: the rendered
 // DOM (fails the test on a console error).
 std::string report_dom(const fs::path& out, const fs::path& rep, const fs::path& chromium) {
@@ -98,6 +96,8 @@ std::vector<std::string> waterfall_legend(const std::string& dom) {
   return out;
 }
 
+// The reference experiment at time scale 3, one start: its long plunge is where the
+// sensitivities diverge at a coarser voxel.
 fs::path long_reference(const fs::path& dir) {
   ReferenceSpec s;
   s.time_scale = 3;
