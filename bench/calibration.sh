@@ -90,15 +90,15 @@ fi
 
 # Coverage over seeds: prints "hits covariance_hits total identifiable".
 coverage() {  # MODE ("" or registration)
-  local hits=0 chits=0 total=0 idf=0 seed ms h ch t i
+  local hits=0 chits=0 total=0 idf=0 seed ms h ch t i miss
   for seed in $(seq 1 "$reps"); do
     ms=$("$G" "$work/cov$seed" "$B" "$seed" "${COVERAGE_TIME_SCALE:-0.5}" $1)
     if ! "$B" calibrate --experiment "$ms" --out "$work/cov$seed/out" --no-cross-validation --starts 16 > /dev/null 2>&1; then
       total=$((total+6)); rm -rf "$work/cov$seed"; continue  # a failed fit covers nothing
     fi
-    read -r h ch t i <<<"$($PY "$here/fit_vs_truth.py" coverage "$work/cov$seed/out/fit.json" "$work/cov$seed/truth.toml")"
+    read -r h ch t i miss <<<"$($PY "$here/fit_vs_truth.py" coverage "$work/cov$seed/out/fit.json" "$work/cov$seed/truth.toml")"
     hits=$((hits+h)); chits=$((chits+ch)); total=$((total+t)); idf=$((idf+i))
-    echo "  coverage ${1:-reference} seed $seed: $h/$t held ($i identifiable)" >&2
+    echo "  coverage ${1:-reference} seed $seed: $h/$t held ($i identifiable; missed: $miss)" >&2
     rm -rf "$work/cov$seed"
   done
   echo "$hits $chits $total $idf"

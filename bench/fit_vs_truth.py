@@ -1,8 +1,9 @@
 """Scores a calibration's fit.json against the truth.toml its data were made with, for
 bench/calibration.sh. Prints one line of counts over the free physics constants.
 
-  coverage FIT TRUTH: "held covariance_held total identifiable" — profile intervals (an
-      open side holds the truth on that side) and covariance intervals of identifiable ones;
+  coverage FIT TRUTH: "held covariance_held total identifiable missed" — profile intervals
+      (an open side holds the truth on that side) and covariance intervals of identifiable
+      ones; missed: the constants whose profile interval missed, comma-separated, or "-";
   mismatch FIT TRUTH: "held limited wrong total" — a constant limited by discretization
       error counts with its widened interval (open where the coarse refit ran into a bound
       and gave none); "wrong": outside, identifiable, not limited.
@@ -28,12 +29,15 @@ def free_constants(fit_path, truth_path):
 
 def coverage(fit_path, truth_path):
     held = chheld = total = ident = 0
+    missed = []
     for p, tv, lo, hi in free_constants(fit_path, truth_path):
         total += 1
         held += lo <= tv <= hi
+        if not lo <= tv <= hi:
+            missed.append(f"{p['class_name']}.{p['name']}")
         ident += bool(p["identifiable"])
         chheld += bool(p["identifiable"]) and p["ci95_low"] <= tv <= p["ci95_high"]
-    return held, chheld, total, ident
+    return held, chheld, total, ident, ",".join(missed) or "-"
 
 
 def mismatch(fit_path, truth_path):
