@@ -100,6 +100,10 @@ struct Run {
   void say(const std::string& s) const {
     if (opt.progress) opt.progress->update(-1, s);
   }
+  // The next stage: its line is always shown, and the updates after it name it.
+  void stage(const std::string& name, const std::string& detail) const {
+    if (opt.progress) opt.progress->stage(name, detail);
+  }
 };
 
 Metrics metrics(const Objective& obj, const Evaluation& ev, const std::vector<double>& x,

@@ -120,7 +120,7 @@ void assess(Run& run) {
     run.profiles.clear();
     run.warnings.clear();
     if (!run.opt.profiles) break;
-    run.say("profiles: re-optimising along each physics parameter");
+    run.stage("profiles", "re-optimising along each physics parameter");
     run.profiles = run_profiles(run, flags);
     const Profile* cheaper = nullptr;
     for (const auto& p : run.profiles)
@@ -132,8 +132,8 @@ void assess(Run& run) {
                                            cheaper->lower_cost, run.fit.final_cost, run.restarts));
       break;
     }
-    run.say(fmt::format("profile of {} found a cheaper point (cost {:.6g} < {:.6g}): refitting "
-                        "from there", L.name(cheaper->entry), cheaper->lower_cost, run.fit.final_cost));
+    run.stage("refit", fmt::format("the profile of {} found a cheaper point (cost {:.6g} < {:.6g}): refitting "
+                                   "from there", L.name(cheaper->entry), cheaper->lower_cost, run.fit.final_cost));
     run.x = cheaper->lower_at;
     ++run.restarts;
     const auto previous = run.fit;

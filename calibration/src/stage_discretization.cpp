@@ -39,7 +39,7 @@ CoarseLevel& coarse_level(Run& run) {
 void coarse_search(Run& run) {
   if (!run.opt.coarse_to_fine) return;
   CoarseLevel& c = coarse_level(run);
-  run.say(fmt::format("coarse to fine: global search at voxel {:.4g} mm", c.voxel_mm));
+  run.stage("coarse to fine", fmt::format("global search at voxel {:.4g} mm", c.voxel_mm));
   const auto before = c.obj->replays();
   std::swap(run.obj, c.obj);  // the search stages use run.obj
   try {
@@ -53,7 +53,7 @@ void coarse_search(Run& run) {
   run.replays_before += c.obj->replays() - before;
   run.coarse_cost = run.fit.final_cost;
   const std::vector<double> x_coarse = run.x;
-  run.say(fmt::format("coarse to fine: refining at voxel {:.4g} mm", c.fine_voxel_mm));
+  run.stage("coarse to fine", fmt::format("refining at voxel {:.4g} mm", c.fine_voxel_mm));
   refine(run);
   // The search's ends were scored at 2l: move them by the best start's shift so that
   // "reached by k of N" and the check of equally good ends compare like with like.
@@ -68,7 +68,7 @@ void discretization_check(Run& run) {
   if (!run.opt.discretization_check) return;
   const Layout& L = *run.layout;
   CoarseLevel& c = coarse_level(run);
-  run.say(fmt::format("discretization check: refitting at voxel {:.4g} mm", c.voxel_mm));
+  run.stage("discretization check", fmt::format("refitting at voxel {:.4g} mm", c.voxel_mm));
   SolveOptions so;
   so.max_iterations = run.opt.max_iterations;
   so.threads = run.opt.threads;

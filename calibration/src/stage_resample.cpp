@@ -59,6 +59,8 @@ void bootstrap(Run& run) {
     std::map<std::string, std::vector<double>> boot;  // physics name → replicate estimates
     std::mt19937_64 rng(run.exp.manifest.fit.seed);
     std::uniform_int_distribution<std::size_t> pick(0, blocks.size() - 1);
+    run.stage("bootstrap", fmt::format("{} refits on resampled blocks (≤ {:.3g} s)", run.opt.bootstrap,
+                                       run.opt.bootstrap_block_s));
     for (int b = 0; b < run.opt.bootstrap; ++b) {
       run.say(fmt::format("bootstrap {}/{}", b + 1, run.opt.bootstrap));
       SampleWeights wb;
@@ -124,7 +126,7 @@ void cross_validate(Run& run) {
       }
   }
   for (const auto& f : folds) {
-    run.say(fmt::format("cross-validation: without {}", f.name));
+    run.stage("cross-validation", fmt::format("without {}", f.name));
     SolveOptions sf;
     sf.max_iterations = 6;
     sf.hold = run.unc.held;

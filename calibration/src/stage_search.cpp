@@ -12,6 +12,7 @@ namespace burrbench::calibration::detail {
 
 void choose_steps(Run& run) {
   if (run.opt.derivatives != Derivatives::kFiniteDifferences) return;
+  run.stage("steps", "difference steps from cost sweeps at the start");
   const Layout& L = *run.layout;
   const Objective& obj = *run.obj;
   // Swept at the manifest's start after its cheap pre-fit (C1, μ, bias at held geometry).
@@ -56,7 +57,7 @@ void global_search(Run& run) {
   run.starts = run.opt.starts > 0 ? run.opt.starts : run.exp.manifest.fit.multistart;
   if (!any_free) run.starts = 1;
   const auto points = latin_hypercube_starts(L, L.initial(), run.starts, run.exp.manifest.fit.seed);
-  run.say(fmt::format("global search: {} starts (Latin hypercube in ln θ)", points.size()));
+  run.stage("global search", fmt::format("{} starts (Latin hypercube in ln θ)", points.size()));
   MultistartOptions mo;
   mo.iterations = run.opt.start_iterations;
   mo.solved = run.opt.solve_starts;
@@ -81,7 +82,7 @@ void global_search(Run& run) {
 }
 
 void refine(Run& run) {
-  run.say("refine: the best start to convergence");
+  run.stage("refine", "the best start to convergence");
   SolveOptions so;
   so.max_iterations = run.opt.max_iterations;
   so.progress = run.opt.progress;

@@ -11,15 +11,19 @@ TerminalProgress::TerminalProgress(std::string label, std::FILE* out)
   start_ = last_ = std::chrono::steady_clock::now();
 }
 
+double TerminalProgress::elapsed_s(std::chrono::steady_clock::time_point now) const {
+  return std::chrono::duration<double>(now - start_).count();
+}
+
 void TerminalProgress::update(double fraction, const std::string& line) {
   const auto now = std::chrono::steady_clock::now();
   const auto every = tty_ ? std::chrono::milliseconds(100) : std::chrono::milliseconds(5000);
   if (printed_ && now - last_ < every) return;
   last_ = now;
   printed_ = true;
-  const double elapsed_s = std::chrono::duration<double>(now - start_).count();
   std::string pct = fraction >= 0 ? fmt::format("{:5.1f}% ", 100.0 * fraction) : std::string();
-  std::string text = fmt::format("{}: {}{} [{:.1f} s]", label_, pct, line, elapsed_s);
+  const std::string who = stage_.empty() ? label_ : fmt::format("{} [{}]", label_, stage_);
+  std::string text = fmt::format("{}: {}{} [{:.1f} s]", who, pct, line, elapsed_s(now));
   if (tty_) {
     fmt::print(out_, "\r\033[K{}", text);
   } else {
@@ -28,11 +32,22 @@ void TerminalProgress::update(double fraction, const std::string& line) {
   std::fflush(out_);
 }
 
+void TerminalProgress::stage(const std::string& name, const std::string& detail) {
+  const auto now = std::chrono::steady_clock::now();
+  stage_ = name;
+  const std::string text = fmt::format("{}: {}{}{} [{:.1f} s]", label_, name, detail.empty() ? "" : ": ", detail,
+                                       elapsed_s(now));
+  // On a terminal the stage's line stays (newline) and the status line goes on below it.
+  fmt::print(out_, "{}{}\n", tty_ && printed_ ? "\r\033[K" : "", text);
+  std::fflush(out_);
+  last_ = now;
+  printed_ = false;  // the next update is shown at once, under its stage
+}
+
 void TerminalProgress::finish(const std::string& summary_line) {
-  const double elapsed_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const auto now = std::chrono::steady_clock::now();
   if (tty_ && printed_) fmt::print(out_, "\r\033[K");
-  fmt::print(out_, "{}: {} [{:.1f} s]\n", label_, summary_line, elapsed_s);
+  fmt::print(out_, "{}: {} [{:.1f} s]\n", label_, summary_line, elapsed_s(now));
   std::fflush(out_);
 }
 

@@ -119,6 +119,14 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   const fs::path manifest = make_reference_experiment(dir, s, cli());
   const auto r = calibrate(manifest, dir / "out");
   ASSERT_EQ(r.code, 0) << r.err;
+  // Its log (stderr, not a terminal) names every stage it went through, in order, however
+  // thinly it shows the updates between them.
+  std::size_t at = 0;
+  for (const char* st : {"calibrate: global search: ", "calibrate: refine: ", "calibrate: profiles: ",
+                         "calibrate: discretization check: ", "calibrate: cross-validation: "}) {
+    at = r.err.find(st, at);
+    EXPECT_NE(at, std::string::npos) << st << " in\n" << r.err;
+  }
   const ds::FitResult fit = ds::read_fit(dir / "out" / "fit.json");
   const std::array<std::array<double, 3>, 3> truth{{{0, 0, 0}, {s.alpha1, s.c1_1, s.mu1}, {s.alpha2, s.c1_2, s.mu2}}};
   for (int k : {1, 2}) {

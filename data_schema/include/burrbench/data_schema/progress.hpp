@@ -12,19 +12,30 @@ class Progress {
   virtual ~Progress() = default;
   // fraction in [0,1] or < 0 when unknown; line is a short status ("iter 4 cost 1.2e3").
   virtual void update(double fraction, const std::string& line) = 0;
+  // A long operation's next stage ("refine", "profiles"): what the updates after it belong
+  // to. `detail` says what the stage does. By default an ordinary update.
+  virtual void stage(const std::string& name, const std::string& detail) {
+    update(-1, detail.empty() ? name : name + ": " + detail);
+  }
   virtual void finish(const std::string& summary_line) = 0;
 };
 
 // Rewrites one status line on a terminal (stderr) at most every 100 ms; when stderr is
-// not a terminal it prints a plain line at most every 5 s so logs stay readable.
+// not a terminal it prints a plain line at most every 5 s so logs stay readable. A stage
+// is never dropped by that limit: it gets a line of its own (kept on a terminal, above the
+// status line), and the updates after it name it ("calibrate [refine]: iter 3 …"), so a
+// glance at the screen or the log tells which fit an iteration belongs to.
 class TerminalProgress final : public Progress {
  public:
   explicit TerminalProgress(std::string label, std::FILE* out = stderr);
   void update(double fraction, const std::string& line) override;
+  void stage(const std::string& name, const std::string& detail) override;
   void finish(const std::string& summary_line) override;
 
  private:
+  double elapsed_s(std::chrono::steady_clock::time_point now) const;
   std::string label_;
+  std::string stage_;  // the current stage's name ("" before the first)
   std::FILE* out_;
   bool tty_;
   std::chrono::steady_clock::time_point start_, last_;
