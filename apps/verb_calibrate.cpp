@@ -86,8 +86,10 @@ void run(const Args& a) {
   }
   folder.commit();
   const fs::path fit = folder.target() / "fit.json", params = folder.target() / "params.toml";
-  progress.finish(fmt::format("{} iterations, {} replays, {:.1f} s", res.fit.solver.iterations,
-                              res.fit.solver.replays, res.fit.solver.wall_s));
+  // Replays and time are the whole calibration's; the iterations the optimum's refinement's
+  // (fit.json solver.iterations), not the starts', profiles' or checks' solves.
+  progress.finish(fmt::format("done: {} replays in {:.1f} s (refinement of the optimum: {} iterations)",
+                              res.fit.solver.replays, res.fit.solver.wall_s, res.fit.solver.iterations));
   std::cout << res.summary
             << fmt::format("wrote {} and {} (with prediction.h5 at the optimum and the analysis input for `burrbench report {}`)\n", fit.string(),
                            params.string(), folder.target().string());

@@ -82,7 +82,7 @@ void global_search(Run& run) {
 }
 
 void refine(Run& run) {
-  run.stage("refine", "the best start to convergence");
+  run.stage("refine", "the best point so far to convergence");
   SolveOptions so;
   so.max_iterations = run.opt.max_iterations;
   so.progress = run.opt.progress;
