@@ -88,8 +88,9 @@ PY
 )
 fi
 
-# Coverage over seeds: prints "hits covariance_hits total identifiable".
-coverage() {  # MODE ("" or registration)
+# Coverage over seeds: prints "hits covariance_hits total identifiable"; each seed's line
+# (stderr) names the constants whose profile interval missed.
+coverage() {  # MODE: "" (force alone), registration (fiducials) or wrench (moments, spindle load)
   local hits=0 chits=0 total=0 idf=0 seed ms h ch t i miss
   for seed in $(seq 1 "$reps"); do
     ms=$("$G" "$work/cov$seed" "$B" "$seed" "${COVERAGE_TIME_SCALE:-0.5}" $1)
