@@ -2,6 +2,7 @@
 // file. docs/calibration.md explains each step.
 #include "burrbench/calibration/calibrate.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -73,6 +74,13 @@ Metrics metrics(const Objective& obj, const Evaluation& ev, const std::vector<do
   m.rmse_xyz_N = std::sqrt(ss / (3 * n));
   m.r2_xyz = tot > 0 ? 1 - ss / tot : NAN;
   return m;
+}
+
+std::string percent(double pct, bool sign) {
+  // Two significant digits at least, one decimal at least, never an exponent.
+  const double a = std::fabs(pct);
+  const int decimals = a > 0 && std::isfinite(a) ? std::clamp(1 - int(std::floor(std::log10(a))), 1, 4) : 1;
+  return sign ? fmt::format("{:+.{}f}", pct, decimals) : fmt::format("{:.{}f}", pct, decimals);
 }
 
 }  // namespace detail

@@ -109,6 +109,10 @@ struct Run {
 Metrics metrics(const Objective& obj, const Evaluation& ev, const std::vector<double>& x,
                 const SampleWeights& w);
 
+// A percentage for a message: "0.047", "0.50", "13.6" ("+" first with `sign`). One fixed
+// decimal would print a ±0.05 % interval as ±0.0 %.
+std::string percent(double pct, bool sign = false);
+
 void select_recordings(Run& run);   // recordings, classes, layout, pool, weights, σ
 CoarseLevel& coarse_level(Run& run);  // built on first use (after choose_steps)
 // A replay-backed model of one recording with the run's derivatives, steps and channels.

@@ -170,8 +170,8 @@ void assess(Run& run) {
         const double half = 0.5 * (std::exp(pr.upper.crossing) - std::exp(pr.lower.crossing)) / std::exp(xi);
         if (asked && half > *asked) {
           v = "imprecise";
-          why = fmt::format("95 % profile interval ±{:.1f} %, wider than the ±{:.1f} % asked (fit.precision.{})",
-                            100 * half, 100 * *asked, to_string(p->kind));
+          why = fmt::format("95 % profile interval ±{} %, wider than the ±{} % asked (fit.precision.{})",
+                            percent(100 * half), percent(100 * *asked), to_string(p->kind));
         }
       } else if (pr.lower.closed || pr.upper.closed) {
         v = "practically_non_identifiable";

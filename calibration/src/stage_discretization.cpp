@@ -121,12 +121,12 @@ void discretization_check(Run& run) {
     }
     if (fp.limited_by_discretization)
       run.warnings.push_back(fmt::format(
-          "{} {}: the estimate moves {:+.1f} % when the voxels are merged ({:.4g} → {:.4g} mm), more than "
-          "half its 95 % interval (±{:.1f} %): limited by discretization error. The interval holds for a "
+          "{} {}: the estimate moves {} % when the voxels are merged ({:.4g} → {:.4g} mm), more than "
+          "half its 95 % interval (±{} %): limited by discretization error. The interval holds for a "
           "model at this voxel size; as a physical constant, or at another voxel size, read [{:.6g}, {:.6g}] {} "
           "(a finer sample narrows it; `burrbench verify`)",
-          fp.class_name, fp.name, 100 * (std::exp(fit.x[i] - run.x[i]) - 1), c.fine_voxel_mm, c.voxel_mm,
-          100 * (std::exp(half) - 1), fp.ci95_with_discretization_low, fp.ci95_with_discretization_high,
+          fp.class_name, fp.name, percent(100 * (std::exp(fit.x[i] - run.x[i]) - 1), true), c.fine_voxel_mm,
+          c.voxel_mm, percent(100 * (std::exp(half) - 1)), fp.ci95_with_discretization_low, fp.ci95_with_discretization_high,
           fp.unit));
   }
 }

@@ -6,7 +6,9 @@ constant either holds the truth in its (widened) 95 % interval or is reported as
 by discretization error, with an interval widened by that error that holds the truth
 (docs/calibration.md "Discretization check")."""
 import json
+import math
 import os
+import re
 import subprocess
 from pathlib import Path
 
@@ -54,6 +56,14 @@ def test_no_constant_is_reported_confidently_wrong(half):
         assert d["limited"], (p["class_name"], p["name"], lo, hi, truth)
         assert d["ci95_low"] <= truth <= d["ci95_high"], (p["class_name"], p["name"], d, truth)
         assert f"{p['class_name']:<12} {p['name']:<5}   LIMITED by discretization error" in out, out
+        # The warning quotes the move and the interval's half-width in % to two significant
+        # digits: a ±0.05 % interval must not read ±0.0 %.
+        m = re.search(rf"{p['class_name']} {p['name']}: the estimate moves ([-+0-9.]+) % when the voxels are "
+                      r"merged .*? half its 95 % interval \(±([0-9.]+) %\)", out)
+        assert m, out
+        half = max(math.log(hi / p["estimate"]), math.log(p["estimate"] / lo))
+        assert float(m.group(2)) == pytest.approx(100 * math.expm1(half), rel=0.06), m.group(0)
+        assert float(m.group(1)) == pytest.approx(100 * (d["coarse_estimate"] / p["estimate"] - 1), rel=0.06), m.group(0)
         limited += 1
     # The misfit shows in the residuals too (σ from the no-contact samples).
     assert fit["residuals_summary"]["rms_normalised"] > 1.2
