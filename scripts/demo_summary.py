@@ -9,7 +9,7 @@ fit = json.load(open(f"{out}/fit/fit.json"))
 truth = tomllib.load(open(truth_path, "rb"))["classes"]
 keys = {"alpha": "alpha_N_per_mm2", "c1": "c1_N_per_mm2", "mu": "mu"}
 
-print(f"report:   {out}/validate/report.html")
+print(f"{'report:':<12}{out}/validate/report.html")
 for name, cls in truth.items():
     parts = []
     for p in fit["parameters"]:
@@ -21,6 +21,6 @@ for name, cls in truth.items():
             parts.append(f"{p['name']} {p['estimate']:.4g} (truth {true:.4g}, {err:+.1f} %)")
         else:
             parts.append(f"{p['name']} not identifiable ({p.get('reason', '')})")
-    print(f"{name + ':':<11}" + "; ".join(parts))
-print(f"gate:     {'PASS' if gate == 0 else 'FAIL'} on held-out polish (examples/criteria/release.toml)")
-print(f"time:     {seconds} s after the build")
+    print(f"{name + ':':<12}" + "; ".join(parts))
+print(f"{'gate:':<12}{'PASS' if gate == 0 else 'FAIL'} on held-out polish (examples/criteria/release.toml)")
+print(f"{'time:':<12}{seconds} s after the build")

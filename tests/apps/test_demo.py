@@ -22,8 +22,11 @@ def test_demo_recovers_truth_and_writes_report(tmp_path):
                          env={**os.environ, "DEMO_OUT": str(out)},
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stdout + run.stderr
-    assert f"report:   {out}/validate/report.html" in run.stdout
-    assert "gate:     PASS" in run.stdout
+    assert f"report:     {out}/validate/report.html" in run.stdout
+    assert "gate:       PASS" in run.stdout
+    # The summary's lines align: label padded to 12, the constants after a space.
+    for cls in ("compact", "trabecular"):
+        assert f"\n{cls + ':':<12}alpha " in run.stdout, run.stdout
 
     # every session was acquired over Modbus, not copied from the synthetic file
     for rec in ("plunge", "sweep", "polish"):
