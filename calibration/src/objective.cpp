@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <mutex>
 #include <thread>
 
 #include <ceres/ceres.h>
@@ -165,7 +167,35 @@ class RecordingCost final : public ceres::CostFunction {
     prediction(params.data(), jacobians ? free_ : std::vector<bool>(blocks_.size(), false), nullptr);
   }
 
+  // An error here (a cancelled replay, or any other) must not escape on one of Ceres's
+  // threads, where nothing catches it (std::terminate). It is kept, the solve aborts at its
+  // next iteration (IterationWatch), and every call into Ceres is followed by
+  // rethrow_error(), so nothing Ceres computed from here on is used. The evaluation
+  // answers zeros rather than false: a failed evaluation at the start point makes Ceres
+  // print "Terminating: Residual and Jacobian evaluation failed" on stderr (glog).
   bool Evaluate(double const* const* params, double* residuals, double** jac) const override {
+    try {
+      return evaluate(params, residuals, jac);
+    } catch (...) {
+      {
+        std::lock_guard lk(error_mu_);
+        if (!error_) error_ = std::current_exception();
+        failed_ = true;
+      }
+      std::fill_n(residuals, num_residuals(), 0.0);
+      for (std::size_t b = 0; jac && b < blocks_.size(); ++b)
+        if (jac[b]) std::fill_n(jac[b], std::size_t(num_residuals()) * blocks_[b].size, 0.0);
+      return true;
+    }
+  }
+  bool failed() const { return failed_.load(); }
+  void rethrow_error() const {
+    std::lock_guard lk(error_mu_);
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  bool evaluate(double const* const* params, double* residuals, double** jac) const {
     // Rebuild a full x from the blocks (entries of other recordings are irrelevant here).
     const auto& L = obj_.layout();
     std::vector<double> x(L.size(), 0.0);
@@ -227,7 +257,6 @@ class RecordingCost final : public ceres::CostFunction {
     return true;
   }
 
- private:
   // The prediction at `params` with a column for every block that `with_jac` marks
   // (col_of_block: each block's first column, or −1). Ceres evaluates a point more than
   // once (the prefetch, then Evaluate; the residuals only, then with the Jacobian). A
@@ -274,6 +303,9 @@ class RecordingCost final : public ceres::CostFunction {
   std::vector<Column> cols_;
   int bias_block_ = -1, pose_block_ = -1, tbias_block_ = -1, spindle_block_ = -1;
   std::size_t rows_ = 3;  // residuals per sample
+  mutable std::mutex error_mu_;
+  mutable std::exception_ptr error_;  // the first error of an evaluation
+  mutable std::atomic<bool> failed_{false};
   // The last evaluation (Ceres evaluates one residual block on one thread at a time).
   struct Cache {
     bool valid = false;
@@ -317,6 +349,13 @@ struct BuiltProblem {
     o.evaluation_callback = &prefetch;
     return o;
   }()) {}
+  bool failed() const {
+    return std::any_of(prefetch.costs.begin(), prefetch.costs.end(), [](const RecordingCost* c) { return c->failed(); });
+  }
+  // After Ceres has returned: an evaluation's error, as if it had been thrown here.
+  void rethrow_error() const {
+    for (const RecordingCost* c : prefetch.costs) c->rethrow_error();
+  }
 };
 
 void build(const Objective& obj, std::vector<double>& x, const SampleWeights& w,
@@ -357,8 +396,10 @@ void build(const Objective& obj, std::vector<double>& x, const SampleWeights& w,
 // Per iteration: the progress line, and SolveOptions::stop_early on the costs so far.
 class IterationWatch final : public ceres::IterationCallback {
  public:
-  IterationWatch(Progress* p, int max_it, const SolveOptions& o) : p_(p), max_(max_it), o_(o) {}
+  IterationWatch(Progress* p, int max_it, const SolveOptions& o, const BuiltProblem& bp)
+      : p_(p), max_(max_it), o_(o), bp_(bp) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (bp_.failed()) return ceres::SOLVER_ABORT;  // the error is rethrown after Solve
     if (p_)
       p_->update(std::min(1.0, double(s.iteration) / max_),
                  fmt::format("iter {:3d}  cost {:.6g}  step {:.3g}  elapsed {:.1f} s", s.iteration,
@@ -376,6 +417,7 @@ class IterationWatch final : public ceres::IterationCallback {
   Progress* p_;
   int max_;
   const SolveOptions& o_;
+  const BuiltProblem& bp_;
   std::vector<double> costs_;
 };
 
@@ -413,10 +455,11 @@ SolveOutcome Objective::solve(const std::vector<double>& x0, const SampleWeights
   // calibration with 16 starts 54.3 → 37.1 s, estimates within 6·10⁻⁴ (docs/calibration.md).
   so.line_search_interpolation_type = ceres::QUADRATIC;
   so.minimizer_progress_to_stdout = false;
-  IterationWatch cb(options.progress, options.max_iterations, options);
+  IterationWatch cb(options.progress, options.max_iterations, options, bp);
   so.callbacks.push_back(&cb);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &bp.problem, &summary);
+  bp.rethrow_error();
   out.iterations = std::uint64_t(summary.iterations.size());
   // Ceres marks iteration 0 (the start) successful too.
   out.steps_taken = std::uint64_t(std::count_if(summary.iterations.begin(), summary.iterations.end(),
@@ -543,6 +586,7 @@ CovarianceOutcome Objective::covariance(const std::vector<double>& x_in, const S
   eo.num_threads = 2;
   std::vector<double> res;
   bp.problem.Evaluate(eo, &cost, &res, nullptr, &J);
+  bp.rethrow_error();
   std::uint64_t used = 0;
   for (double r : res) used += (r != 0);
   const double dof = double(used) - double(m);
@@ -594,7 +638,9 @@ CovarianceOutcome Objective::covariance(const std::vector<double>& x_in, const S
   std::vector<std::pair<const double*, const double*>> pairs;
   for (std::size_t a = 0; a < blocks.size(); ++a)
     for (std::size_t b = a; b < blocks.size(); ++b) pairs.emplace_back(blocks[a], blocks[b]);
-  if (!cov.Compute(pairs, &bp.problem)) return out;
+  const bool computed = cov.Compute(pairs, &bp.problem);
+  bp.rethrow_error();
+  if (!computed) return out;
   out.cov.assign(m * m, 0.0);
   const std::vector<const double*> cblocks(blocks.begin(), blocks.end());
   if (!cov.GetCovarianceMatrix(cblocks, out.cov.data())) return out;

@@ -102,6 +102,7 @@ struct Run {
   }
   // The next stage: its line is always shown, and the updates after it name it.
   void stage(const std::string& name, const std::string& detail) const {
+    if (opt.cancel) opt.cancel->check();
     if (opt.progress) opt.progress->stage(name, detail);
   }
 };

@@ -230,7 +230,9 @@ void select_recordings(Run& run) {
 }
 
 std::unique_ptr<ReplayRecordingModel> make_model(const Run& run, const model::AlignedRecording& r, ReplayPool& pool) {
-  auto m = std::make_unique<ReplayRecordingModel>(r, pool);
+  model::ReplayOptions ro;
+  ro.cancel = run.opt.cancel;
+  auto m = std::make_unique<ReplayRecordingModel>(r, pool, ro);
   m->set_derivatives(run.opt.derivatives);
   m->set_steps(run.steps);
   m->set_channels(run.layout->channels(), run.mfile);

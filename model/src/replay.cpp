@@ -112,6 +112,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   if (restore) vol.begin_undo();
   try {
     for (std::size_t k = 0; k < n; ++k) {
+      if (opt.cancel && k % 64 == 0) opt.cancel->check();
       if (k + 1 == n || !opt.erosion) {
         res.samples[k].contact =
             evaluate(vol, tr.centre_vol_mm[k], tr.omega_vol_rad_s[k], radius_mm, params);

@@ -1,6 +1,7 @@
 // calibrate(experiment, progress=None, **options): the CLI's calibration, returning the
 // fit (fit.json's content), the parameter set and the summary. Progress lines reach a
 // Python callable (fraction or None, line) — the lines `burrbench calibrate` prints.
+// Ctrl-C (KeyboardInterrupt) or an exception from that callable stops it within a moment.
 #include <exception>
 #include <filesystem>
 #include <mutex>
@@ -16,17 +17,19 @@
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/progress.hpp"
 #include "convert.hpp"
+#include "interruptible.hpp"
 
 namespace burrbench::python {
 namespace fs = std::filesystem;
 
 namespace {
 
-// Calls the Python callable under the GIL; the first exception it raises is kept and
-// re-raised once the calibration returns (C++ worker threads cannot carry it).
+// Calls the Python callable under the GIL; the first exception it raises stops the
+// calibration (`cancel`) and is re-raised once it has stopped (C++ worker threads cannot
+// carry it).
 class PyProgress final : public Progress {
  public:
-  explicit PyProgress(py::function f) : f_(std::move(f)) {}
+  PyProgress(py::function f, CancelToken& cancel) : f_(std::move(f)), cancel_(cancel) {}
   void update(double fraction, const std::string& line) override { call(fraction, line); }
   void finish(const std::string& summary_line) override { call(1.0, summary_line); }
   void rethrow() {
@@ -43,9 +46,11 @@ class PyProgress final : public Progress {
       f_(fraction >= 0 ? py::object(py::float_(fraction)) : py::object(py::none()), line);
     } catch (py::error_already_set&) {
       error_ = std::current_exception();
+      cancel_.request();
     }
   }
   py::function f_;
+  CancelToken& cancel_;
   std::mutex mu_;
   std::exception_ptr error_;
 };
@@ -85,15 +90,19 @@ void bind_calibration(py::module_& m) {
         calibration::CalibrateOptions o;
         for (const auto& [k, v] : options) set_option(o, py::str(k), v);
         calibration::validate(o);
+        CancelToken cancel;
+        o.cancel = &cancel;
         std::unique_ptr<PyProgress> pp;
         if (!progress.is_none()) {
-          pp = std::make_unique<PyProgress>(progress.cast<py::function>());
+          pp = std::make_unique<PyProgress>(progress.cast<py::function>(), cancel);
           o.progress = pp.get();
         }
         calibration::CalibrationOutput res;
-        {
-          py::gil_scoped_release nogil;
-          res = calibration::calibrate(experiment, o);
+        try {
+          run_interruptible(cancel, [&] { res = calibration::calibrate(experiment, o); });
+        } catch (const Cancelled&) {
+          if (pp) pp->rethrow();  // the callback's exception stopped it
+          throw;
         }
         if (pp) pp->rethrow();
         py::dict out;

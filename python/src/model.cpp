@@ -17,6 +17,7 @@
 #include "burrbench/model/model_params.hpp"
 #include "burrbench/model/volume.hpp"
 #include "convert.hpp"
+#include "interruptible.hpp"
 
 namespace burrbench::python {
 namespace fs = std::filesystem;
@@ -176,8 +177,8 @@ void bind_model(py::module_& m) {
                                             : py::str(py::module_::import("os").attr("fspath")(params)).cast<std::string>();
         std::vector<model::RecordingPrediction> preds;
         std::vector<std::string> ids;
-        {
-          py::gil_scoped_release nogil;
+        CancelToken cancel;
+        run_interruptible(cancel, [&] {
           const model::Experiment e = model::load_experiment(experiment);
           const model::ModelParams mp = model::ModelParams::from(ps);
           model::check_covers(ps, e.samples, params_name);
@@ -186,8 +187,9 @@ void bind_model(py::module_& m) {
           opt.replay.erosion = erosion;
           opt.exclude_buried = e.manifest.fit.buried == data_schema::BuriedPolicy::kExclude;
           opt.threads = threads;
+          opt.replay.cancel = &cancel;
           preds = model::predict_experiment(e, mp, opt).recordings;
-        }
+        });
         py::dict out;
         for (const auto& p : preds) out[py::str(p.recording_id)] = prediction_dict(p);
         return out;

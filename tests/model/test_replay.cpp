@@ -139,3 +139,47 @@ TEST(Replay, BadTrajectoriesAreRejected) {
   EXPECT_THROW(bm::replay(v, 0.5, params(), tr, o), burrbench::InputError);
   EXPECT_TRUE(bm::replay(v, 0.5, params(), bm::Trajectory{}).samples.empty());
 }
+
+namespace {
+// Requests the token when the replay reports sample `at` (it reports every 1024th).
+class CancelAt final : public burrbench::Progress {
+ public:
+  CancelAt(burrbench::CancelToken& t, std::size_t at) : t_(t), at_(at) {}
+  void update(double fraction, const std::string&) override {
+    if (fraction >= 0 && std::size_t(fraction * 2048.0 + 0.5) >= at_) t_.request();
+  }
+  void finish(const std::string&) override { finished = true; }
+  bool finished = false;
+
+ private:
+  burrbench::CancelToken& t_;
+  std::size_t at_;
+};
+}  // namespace
+
+// The Python module's interrupt (docs/python.md): a requested token stops the replay, which
+// throws Cancelled with the volume rolled back; an unrequested one changes nothing.
+TEST(Replay, ACancelledReplayThrowsAndRestoresTheVolume) {
+  const auto s = scenes::half_space(40, 40, 40, 0.05, {0, 0, 1}, 1.5 + 0.025 - 0.05);
+  bm::Volume v = bm::Volume::from_sample(s);
+  const auto before = raw(v);
+  const auto tr = wobble(2048, 1000.0);
+  burrbench::CancelToken token;
+  bm::ReplayOptions o;
+  o.cancel = &token;
+  const auto plain = bm::replay(v, 0.5, params(), tr);
+  const auto with_token = bm::replay(v, 0.5, params(), tr, o);
+  const auto fa = flatten(plain), fb = flatten(with_token);
+  ASSERT_EQ(fa.size(), fb.size());
+  EXPECT_EQ(std::memcmp(fa.data(), fb.data(), fa.size() * sizeof(double)), 0);
+
+  CancelAt mid(token, 1024);  // requested halfway: the replay has eroded by then
+  EXPECT_THROW(bm::replay(v, 0.5, params(), tr, o, /*restore=*/true, &mid), burrbench::Cancelled);
+  EXPECT_TRUE(token.requested());
+  EXPECT_FALSE(mid.finished);
+  EXPECT_EQ(raw(v), before);
+  EXPECT_FALSE(v.undo_active());
+  // Requested before the start: not a single step, even where the erosion would be kept.
+  EXPECT_THROW(bm::replay(v, 0.5, params(), tr, o, /*restore=*/false), burrbench::Cancelled);
+  EXPECT_EQ(raw(v), before);
+}

@@ -9,6 +9,7 @@
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/calibration/recording_model.hpp"
+#include "burrbench/data_schema/cancel.hpp"
 #include "burrbench/data_schema/progress.hpp"
 
 namespace burrbench::calibration {
@@ -36,6 +37,9 @@ struct CalibrateOptions {
   double bootstrap_block_s = 1.0;  // bootstrap blocks: used spans cut to at most this long
   bool cross_validate = true;   // leave-one-recording (or segment) out
   Progress* progress = nullptr;
+  // Requested: every replay stops within 64 samples and calibrate throws Cancelled
+  // (the Python module's interrupt; the CLI ends on a signal instead).
+  const CancelToken* cancel = nullptr;
 };
 
 // InputError naming the command-line option when a value is out of its range.

@@ -7,6 +7,7 @@
 
 #include <glm/glm.hpp>
 
+#include "burrbench/data_schema/cancel.hpp"
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/model/contact.hpp"
 #include "burrbench/model/sensitivity.hpp"
@@ -32,6 +33,8 @@ struct ReplayOptions {
   // "Directions that follow from others"); false: every direction is carried (the test of
   // those identities, and the bench's comparison).
   bool derive_directions = true;
+  // Polled every 64 samples: once requested, the replay rolls back and throws Cancelled.
+  const CancelToken* cancel = nullptr;
 };
 
 struct ReplaySample { ContactResult contact; };  // at each trajectory time
