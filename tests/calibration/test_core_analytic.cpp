@@ -1,5 +1,6 @@
 // Solver, covariance and identifiability machinery on a closed-form problem with known
 // truth (analytic_model.hpp), independent of the voxel replay.
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -9,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "analytic_model.hpp"
+#include "burrbench/data_schema/cancel.hpp"
 #include "burrbench/calibration/multistart.hpp"
 #include "burrbench/calibration/objective.hpp"
 #include "burrbench/calibration/profile.hpp"
@@ -343,6 +345,48 @@ TEST(CalibrationCore, ALoneStartIsPreFittedOnEveryThread) {
   EXPECT_TRUE(out.ends.front().usable) << out.ends.front().termination;
   EXPECT_EQ(g.gate.max_inside, 4u);
   EXPECT_EQ(g.gate.waits_timed_out, 0u);
+}
+
+// A prediction that fails mid-solve (a cancelled replay, or any error) on one of Ceres's
+// evaluation threads: nothing catches an exception there (std::terminate ended the
+// process). The solve stops and rethrows it on the caller's thread, one thread or two.
+class FailingModel final : public bc::RecordingModel {
+ public:
+  FailingModel(const bc::testing::AnalyticModel& m, std::atomic<int>& left) : m_(m), left_(left) {}
+  const std::string& id() const override { return m_.id(); }
+  std::size_t size() const override { return m_.size(); }
+  const std::vector<double>& t_s() const override { return m_.t_s(); }
+  const std::vector<glm::dvec3>& measured_sensor_N() const override { return m_.measured_sensor_N(); }
+  void predict(const bc::EvalPoint& at, const std::vector<bc::Column>& cols, bc::Prediction& out) const override {
+    if (--left_ < 0) throw burrbench::Cancelled();
+    m_.predict(at, cols, out);
+  }
+
+ private:
+  const bc::testing::AnalyticModel& m_;
+  std::atomic<int>& left_;
+};
+
+TEST(CalibrationCore, APredictionThatFailsMidSolveIsRethrownByTheSolve) {
+  GatedScene g;  // four recordings, for the prefetch on both threads
+  for (const int threads : {1, 2}) {
+    for (const int after : {0, 9}) {  // at the start point, and a few evaluations in
+      std::atomic<int> left{after};
+      std::vector<FailingModel> failing;
+      failing.reserve(g.s.models.size());
+      std::vector<const bc::RecordingModel*> models;
+      for (const auto& m : g.s.models) failing.emplace_back(m, left);
+      for (const auto& f : failing) models.push_back(&f);
+      bc::Objective obj(*g.layout, models, settings());
+      bc::SolveOptions o;
+      o.threads = threads;
+      o.max_iterations = 20;
+      EXPECT_THROW(obj.solve(g.layout->initial(), g.w, o), burrbench::Cancelled) << threads << " threads, after " << after;
+      // The same solve with predictions that do not fail ends normally.
+      left = 1 << 30;
+      EXPECT_TRUE(obj.solve(g.layout->initial(), g.w, o).usable);
+    }
+  }
 }
 
 // Correlated residuals (AR(1), ρ = 0.8: about 9× fewer independent samples than counted)
