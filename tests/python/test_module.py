@@ -116,6 +116,33 @@ def test_an_input_error_raises_with_the_cli_message(exp, tmp_path):
         burrbench.calibrate(exp / "experiment.toml", derivatives="guess")
 
 
+@pytest.mark.parametrize("option, value, message", [
+    ("threads", "2", "calibrate(): threads: expected an integer, got '2' (str)"),
+    ("starts", 2.5, "calibrate(): starts: expected an integer, got 2.5 (float)"),
+    ("starts", True, "calibrate(): starts: expected an integer, got True (bool)"),
+    ("threads", 2**40, "calibrate(): threads: expected an integer, got 1099511627776 (int)"),
+    ("profiles", "no", "calibrate(): profiles: expected True or False, got 'no' (str)"),
+    ("profiles", 0, "calibrate(): profiles: expected True or False, got 0 (int)"),
+    ("bootstrap_block_s", "1", "calibrate(): bootstrap_block_s: expected a number, got '1' (str)"),
+    ("derivatives", 3, 'calibrate(): derivatives: expected "sensitivities" or "fd", got 3 (int)'),
+    ("threads", 0, "calibrate(): threads: expected 1..64, got 0"),
+    ("max_iterations", 0, "calibrate(): max_iterations: expected 1..1000, got 0"),
+    ("progress", 5, "calibrate(): progress: expected a callable progress(fraction, line), or None, got 5 (int)"),
+])
+def test_a_bad_calibrate_option_is_named_with_what_was_expected(exp, option, value, message):
+    # One InputError naming the Python option (not the CLI's --max-iterations) and the
+    # expected type: no pybind11 "Unable to cast", no silent 2.5 → 2 or "no" → True.
+    with pytest.raises(burrbench.InputError) as e:
+        burrbench.calibrate(exp / "experiment.toml", **{option: value})
+    assert str(e.value) == message
+
+
+def test_numpy_scalars_are_good_calibrate_options(exp):
+    out = burrbench.calibrate(exp / "experiment.toml", starts=np.int64(2), profiles=np.bool_(False),
+                              cross_validate=False, discretization_check=False, bootstrap_block_s=np.float64(1.0))
+    assert out["fit"]["settings"]["global_search"]["starts"] == 2
+
+
 def test_volume_and_contact_agree_with_the_sample_and_its_partials(exp):
     s = burrbench.read_sample(exp / "sample.h5")
     v1 = burrbench.Volume.from_sample(exp / "sample.h5")
