@@ -82,9 +82,20 @@ void bind_model(py::module_& m) {
           py::arg("path"), "From a sample file (format burrbench.sample).")
       .def_static(
           "from_arrays",
-          [](py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast> labels,
-             py::array_t<float, py::array::c_style | py::array::forcecast> chi, double voxel_mm,
-             const py::object& origin_mm, std::map<int, std::string> classes) {
+          [](const py::array& labels_in, py::array_t<float, py::array::c_style | py::array::forcecast> chi,
+             double voxel_mm, const py::object& origin_mm, std::map<int, std::string> classes) {
+            // Labels must be integers 0..255 as given: a cast to uint8 would turn 1.7 into 1
+            // and 300 into 44 without a word.
+            const char kind = labels_in.dtype().kind();
+            if (kind != 'u' && kind != 'i')
+              throw InputError("Volume.from_arrays", "labels", "an integer array (uint8: 0 = empty, 1..255 a class)",
+                               py::str(labels_in.dtype()).cast<std::string>());
+            const auto wide = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(labels_in);
+            for (py::ssize_t i = 0; i < wide.size(); ++i)
+              if (wide.data()[i] < 0 || wide.data()[i] > 255)
+                throw InputError("Volume.from_arrays", fmt::format("labels (flat index {})", i), "a label 0..255",
+                                 std::to_string(wide.data()[i]));
+            const auto labels = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>::ensure(labels_in);
             if (labels.ndim() != 3 || chi.ndim() != 3)
               throw InputError("Volume.from_arrays", "labels, chi", "3-D arrays indexed [z, y, x]");
             for (int k = 0; k < 3; ++k)

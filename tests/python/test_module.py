@@ -213,3 +213,19 @@ def test_the_example_script_runs(exp, tmp_path):
     assert p.returncode == 0, p.stderr
     assert "polish:" in p.stdout and "with mu x1.2" in p.stdout
     assert (tmp_path / "force.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("labels, message", [
+    (np.full((3, 3, 3), 1.0), "labels: expected an integer array (uint8: 0 = empty, 1..255 a class), got float64"),
+    (np.ones((3, 3, 3), bool), "labels: expected an integer array (uint8: 0 = empty, 1..255 a class), got bool"),
+    (np.full((3, 3, 3), 257, np.int32), "labels (flat index 0): expected a label 0..255, got 257"),
+    (np.full((3, 3, 3), -1, np.int16), "labels (flat index 0): expected a label 0..255, got -1"),
+])
+def test_labels_are_taken_as_given_or_refused(labels, message):
+    # A cast to uint8 would have made 257 → 1 (compact) and 1.7 → 1 without a word.
+    with pytest.raises(burrbench.InputError) as e:
+        burrbench.Volume.from_arrays(labels, np.ones((3, 3, 3), np.float32), 0.1, [0, 0, 0])
+    assert str(e.value) == "Volume.from_arrays: " + message
+    # Integer labels of any width within 0..255 are fine.
+    v = burrbench.Volume.from_arrays(np.ones((3, 3, 3), np.int64), np.ones((3, 3, 3)), 0.1, [0, 0, 0])
+    assert v.shape_zyx == (3, 3, 3)
