@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <mutex>
 
 #include <fmt/format.h>
@@ -24,6 +25,35 @@ struct Level {
 };
 constexpr std::array<Level, 4> kLevels{{{"l", 0, 1.0}, {"l/2", 2, 1.0}, {"2l", -2, 1.0}, {"dt/2", 0, 0.5}}};
 constexpr std::size_t kFine = 1;  // kLevels' l/2
+
+// The part of a sample that the burr reaches in the recordings replayed on it: the box of
+// their burr centres widened by the radius and 4 voxels (2 at the merged level), with its
+// corners on even voxel indices, so that merging by 2 groups the same voxels as on the
+// whole sample. A lab's micro-CT holds far more bone than one drilling reaches; split by 2
+// for the l/2 level, the whole of it can exceed the memory budget and costs 8× its
+// voxels in page faults alone (docs/replay.md "Solution verification").
+ds::SampleVolume within_reach(const ds::SampleVolume& s, const std::vector<const AlignedRecording*>& recs) {
+  glm::dvec3 lo_mm(INFINITY), hi_mm(-INFINITY);
+  for (const AlignedRecording* r : recs) {
+    const Trajectory tr = r->trajectory(r->lag_s, 0.0);
+    const double margin = r->radius_mm + 4 * s.voxel_mm;
+    for (const glm::dvec3& c : tr.centre_vol_mm) {
+      lo_mm = glm::min(lo_mm, c - margin);
+      hi_mm = glm::max(hi_mm, c + margin);
+    }
+  }
+  std::array<std::size_t, 3> lo{}, hi{};
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t ua = std::size_t(a), n = s.dims[ua];
+    // Voxel i covers centre ± l/2: the first that reaches lo_mm, the last that reaches hi_mm.
+    const double u0 = std::floor((lo_mm[a] - s.origin_mm[a]) / s.voxel_mm), u1 = std::ceil((hi_mm[a] - s.origin_mm[a]) / s.voxel_mm);
+    if (!std::isfinite(u0) || !std::isfinite(u1) || u1 < 0 || u0 >= double(n)) return s;  // nothing in reach: as it is
+    lo[ua] = u0 <= 0 ? 0 : std::size_t(u0) & ~std::size_t(1);
+    hi[ua] = std::min(n, (std::size_t(std::max(0.0, u1)) + 2) & ~std::size_t(1));
+  }
+  if (lo == std::array<std::size_t, 3>{} && hi == s.dims) return s;
+  return ds::import::crop_voxels(s, lo, hi);
+}
 
 double rms_diff(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b,
                 const std::vector<std::uint8_t>& use) {
@@ -113,12 +143,19 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
   BURRBENCH_CHECK(options.threads >= 1, "verify_convergence needs at least one thread");
   ConvergenceStudy out;
   // The sample at each voxel level, built once (recordings of one sample share it).
+  // Each cropped to the part its recordings reach (within_reach).
   std::map<std::string, std::array<ds::SampleVolume, 3>> samples;
   for (const auto& r : e.recordings) {
     if (samples.count(r.sample_id)) continue;
-    const auto& s = e.samples.at(r.sample_id);
-    samples[r.sample_id] = {s, ds::import::split_voxels(s, 2), ds::import::merge_voxels(s, 2)};
-    for (const auto& [id, name] : s.classes) out.classes[id] = name;
+    std::vector<const AlignedRecording*> on_it;
+    for (const auto& q : e.recordings)
+      if (q.sample_id == r.sample_id) on_it.push_back(&q);
+    const auto& whole = e.samples.at(r.sample_id);
+    ds::SampleVolume s = options.crop ? within_reach(whole, on_it) : whole;
+    out.reach.push_back({r.sample_id, whole.dims, s.dims});
+    ds::SampleVolume fine = ds::import::split_voxels(s, 2), coarse = ds::import::merge_voxels(s, 2);
+    samples[r.sample_id] = {std::move(s), std::move(fine), std::move(coarse)};
+    for (const auto& [id, name] : whole.classes) out.classes[id] = name;
   }
   const std::size_t n = e.recordings.size(), L = kLevels.size();
   auto sample_at = [&](const AlignedRecording& r, const Level& lv) -> const ds::SampleVolume& {
@@ -255,7 +292,10 @@ nlohmann::json to_json(const ConvergenceStudy& s) {
                     {"step_error_N", r.step_error_N}, {"error_N", r.error_N},
                     {"removed_error", removed}});
   }
+  nlohmann::json reach = nlohmann::json::array();
+  for (const auto& r : s.reach) reach.push_back({{"sample", r.sample_id}, {"dims", r.dims}, {"replayed_dims", r.replayed_dims}});
   return {{"recordings", recs},
+          {"reach", reach},
           {"sigma_N", num(s.sigma_N)},
           {"sigma_source", s.sigma_source},
           {"largest_error_N", s.largest_error_N},

@@ -105,3 +105,35 @@ def test_verify_refuses_bad_input_and_keeps_existing_output(synthetic):
     assert (d / "keep.json").read_text() == "mine"
     p = verify(d, "--step-us", -1)
     assert_refused(p.returncode, p.stderr, "command line", "--step-us")
+
+
+def test_the_part_within_reach_gives_the_whole_samples_figures(synthetic, tmp_path):
+    # Replays at every level use only the voxels within reach of the burr (its radius and 4
+    # voxels round every centre, corners on even voxels so that merging by 2 groups the same
+    # voxels): the same study as on the whole sample, to rounding, from fewer voxels.
+    d = synthetic
+    for name, extra in (("part", ()), ("whole", ("--whole-sample",))):
+        p = verify(d, "--out", tmp_path / f"{name}.json", *extra)
+        assert p.returncode == 0, p.stdout + p.stderr
+    part = json.loads((tmp_path / "part.json").read_text())
+    whole = json.loads((tmp_path / "whole.json").read_text())
+    (reach,) = part["reach"]
+    assert reach["dims"] == whole["reach"][0]["dims"] == whole["reach"][0]["replayed_dims"]
+    kept = math.prod(reach["replayed_dims"]) / math.prod(reach["dims"])
+    assert kept < 0.8, reach  # the synthetic drilling reaches part of its sample
+
+    def numbers(x, path=""):
+        if isinstance(x, dict):
+            for k, v in x.items():
+                if k not in ("wall_s", "reach"):
+                    yield from numbers(v, f"{path}/{k}")
+        elif isinstance(x, list):
+            for i, v in enumerate(x):
+                yield from numbers(v, f"{path}[{i}]")
+        elif isinstance(x, (int, float)) and not isinstance(x, bool):
+            yield path, x
+    a, b = dict(numbers(part)), dict(numbers(whole))
+    assert a.keys() == b.keys() and len(a) > 50
+    for k in a:
+        assert a[k] == pytest.approx(b[k], rel=1e-9, abs=1e-12), k
+    assert part["verdict"] == whole["verdict"]

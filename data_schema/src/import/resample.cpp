@@ -149,4 +149,22 @@ SampleVolume merge_voxels(const SampleVolume& in, int n) {
   return out;
 }
 
+SampleVolume crop_voxels(const SampleVolume& in, const std::array<std::size_t, 3>& lo,
+                         const std::array<std::size_t, 3>& hi) {
+  for (std::size_t a = 0; a < 3; ++a)
+    BURRBENCH_CHECK(lo[a] < hi[a] && hi[a] <= in.dims[a], "crop_voxels: a box inside the sample");
+  SampleVolume out = same_header(in);
+  out.voxel_mm = in.voxel_mm;
+  out.origin_mm = in.origin_mm + in.voxel_mm * glm::dvec3(double(lo[0]), double(lo[1]), double(lo[2]));
+  for (std::size_t a = 0; a < 3; ++a) out.dims[a] = hi[a] - lo[a];
+  allocate(out, "crop");
+  for (std::size_t z = 0; z < out.dims[2]; ++z)
+    for (std::size_t y = 0; y < out.dims[1]; ++y) {
+      const std::size_t src = in.index(lo[0], lo[1] + y, lo[2] + z), dst = out.index(0, y, z);
+      std::copy_n(in.labels.begin() + std::ptrdiff_t(src), out.dims[0], out.labels.begin() + std::ptrdiff_t(dst));
+      std::copy_n(in.fraction.begin() + std::ptrdiff_t(src), out.dims[0], out.fraction.begin() + std::ptrdiff_t(dst));
+    }
+  return out;
+}
+
 }  // namespace burrbench::data_schema::import

@@ -54,8 +54,16 @@ struct RecordingConvergence {
   std::array<RichardsonEstimate, kMaxClasses> removed{};  // removed volume per class, mm³
 };
 
+// The part of a sample the replays used: the voxels within reach of its recordings' burr
+// (VerifyOptions::crop), or all of them.
+struct SampleReach {
+  std::string sample_id;
+  std::array<std::size_t, 3> dims{}, replayed_dims{};  // x, y, z voxels at l
+};
+
 struct ConvergenceStudy {
   std::vector<RecordingConvergence> recordings;
+  std::vector<SampleReach> reach;  // per sample, in order of first use
   std::map<std::uint8_t, std::string> classes;  // labels present in the samples
   double sigma_N = NAN;                         // sensor noise per axis
   std::string sigma_source;
@@ -71,6 +79,10 @@ struct VerifyOptions {
   // Replays run at once (each recording at each level is independent; at most one at
   // l/2, whose volume holds 8× the voxels). The study does not depend on it.
   int threads = 1;
+  // Replay each sample's part within reach of its recordings' burr (its radius and 4 voxels
+  // round every centre), not all of it: the same bone where the burr goes, to rounding
+  // (the voxel centres are computed from another origin), at a fraction of the memory.
+  bool crop = true;
 };
 
 // Replays every recording four times. InputError as for the replay.

@@ -89,6 +89,11 @@ bool is_cubic(const ImageVolume& v, double rel_tol = 1e-6);
 // result would exceed the sample memory budget.
 SampleVolume split_voxels(const SampleVolume& in, int n);
 SampleVolume merge_voxels(const SampleVolume& in, int n);
+// The voxels [lo, hi) per axis (x, y, z), with their labels and χ as they are and the
+// origin moved to the first one's centre: the same bone where the box reaches. lo < hi ≤
+// dims (InvariantError otherwise).
+SampleVolume crop_voxels(const SampleVolume& in, const std::array<std::size_t, 3>& lo,
+                         const std::array<std::size_t, 3>& hi);
 
 // Writes a NRRD (attached, gzip) that 3D Slicer opens: "space: left-posterior-superior"
 // is NOT claimed; the volume frame is written as "3D-right-handed".
