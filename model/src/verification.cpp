@@ -31,7 +31,7 @@ constexpr std::size_t kFine = 1;  // kLevels' l/2
 // corners on even voxel indices, so that merging by 2 groups the same voxels as on the
 // whole sample. A lab's micro-CT holds far more bone than one drilling reaches; split by 2
 // for the l/2 level, the whole of it can exceed the memory budget and costs 8× its
-// voxels in page faults alone (docs/replay.md "Solution verification").
+// voxels in page faults alone (docs/calibration.md "Discretization").
 ds::SampleVolume within_reach(const ds::SampleVolume& s, const std::vector<const AlignedRecording*>& recs) {
   glm::dvec3 lo_mm(INFINITY), hi_mm(-INFINITY);
   for (const AlignedRecording* r : recs) {
