@@ -400,10 +400,11 @@ class IterationWatch final : public ceres::IterationCallback {
       : p_(p), max_(max_it), o_(o), bp_(bp) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
     if (bp_.failed()) return ceres::SOLVER_ABORT;  // the error is rethrown after Solve
+    // No fraction: iterations over the limit would read as the share of the work done,
+    // and most solves converge well before their limit; the count says both.
     if (p_)
-      p_->update(std::min(1.0, double(s.iteration) / max_),
-                 fmt::format("iter {:3d}  cost {:.6g}  step {:.3g}  elapsed {:.1f} s", s.iteration,
-                             s.cost, s.step_norm, s.cumulative_time_in_seconds));
+      p_->update(-1, fmt::format("iter {:3d}/{}  cost {:.6g}  step {:.3g}  elapsed {:.1f} s", s.iteration, max_,
+                                 s.cost, s.step_norm, s.cumulative_time_in_seconds));
     costs_.push_back(s.cost);
     if (o_.stop_early && o_.stop_early(costs_)) {
       stopped = true;
