@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "bone_image.hpp"
 #include "report_html.hpp"
@@ -360,6 +361,18 @@ std::string verification_section(const AnalysisInput& in, const json* fit) {
                                                                               : std::string("unknown")) +
          " (" + esc(v.value("sigma_source", std::string())) + "). Error at l: Richardson from 2l, l, l/2 with the "
          "observed order (clamped to [0.5, 4]); the step's error assumes first order (docs/calibration.md).</p>";
+    if (v.contains("reach") && v.at("reach").is_array() && !v.at("reach").empty()) {  // since the twentieth session
+      std::vector<std::string> parts;
+      auto dims = [](const json& d) {
+        return d.is_array() && d.size() == 3 ? fmt::format("{}×{}×{}", d[0].dump(), d[1].dump(), d[2].dump()) : std::string("?");
+      };
+      for (const auto& r : v.at("reach"))
+        parts.push_back(fmt::format("{} {} of its {} voxels", esc(r.value("sample", std::string())),
+                                    dims(r.value("replayed_dims", json())), dims(r.value("dims", json()))));
+      h += "<p class=\"muted\" id=\"verification-reach\">Replayed at every level: the part of each sample within "
+           "reach of the burr (its radius and 4 voxels round every centre; the same figures as the whole sample to "
+           "rounding): " + fmt::format("{}", fmt::join(parts, "; ")) + ".</p>";
+    }
     std::vector<std::string> classes;
     h += "<div class=\"scroll\"><table><tr><th>recording</th><th>level</th><th>voxel (mm)</th><th>step (µs)</th>"
          "<th>RMS change (N)</th><th>largest change (N)</th><th>peak |F| (N)</th>";

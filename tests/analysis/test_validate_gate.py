@@ -93,6 +93,11 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
         for level in ("l/2", "2l", "dt/2"):
             assert f"<td>{rec['id']}</td><td>{level}</td>" in section, (rec["id"], level)
         assert f"<b>{rec['error_N']:.3g}</b>" in section
+    # What the replays used: the part of the sample within reach of the burr, as the study says.
+    (reach,) = v["reach"]
+    assert reach["sample"] == "S1" and reach["replayed_dims"] != reach["dims"]
+    part = "×".join(map(str, reach["replayed_dims"])) + " of its " + "×".join(map(str, reach["dims"])) + " voxels"
+    assert f"S1 {part}" in section[section.index('id="verification-reach"'):]
     res = json.loads(subprocess.run([sys.executable, os.path.join(HERE, "browser_check.py"),
                                      str(out / "report.html"), str(tmp_path / "chromium")],
                                     capture_output=True, text=True, timeout=200, check=True).stdout)
