@@ -3,12 +3,7 @@
 # --cores 2` (Snakemake) against the same jobs run one after another in a shell loop:
 # wall time of each and their ratio (issue 16). Usage: study.sh BUILD_DIR
 set -euo pipefail
-build=$(cd "${1:-build}" && pwd)
-here=$(cd "$(dirname "$0")" && pwd)
-bb="$build/apps/burrbench"
-cmake --build "$build" --target burrbench -j 2 >/dev/null
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+source "$(dirname "$0")/prelude.bash"
 /usr/bin/python3 "$here/../examples/study/make.py" "$bb" "$work/study" --specimens 8 --seed 1 --starts 4 >/dev/null
 t0=$(date +%s.%N)
 "$bb" study run "$work/study/study.toml" --out "$work/snakemake" --cores 2 >/dev/null 2>&1
