@@ -173,7 +173,15 @@ TEST(Replay, ACancelledReplayThrowsAndRestoresTheVolume) {
   ASSERT_EQ(fa.size(), fb.size());
   EXPECT_EQ(std::memcmp(fa.data(), fb.data(), fa.size() * sizeof(double)), 0);
 
-  CancelAt mid(token, 1024);  // requested halfway: the replay has eroded by then
+  // The first half of the path erodes: a rollback has something to undo.
+  {
+    bm::Trajectory half = tr;
+    half.t_s.resize(1024);
+    half.centre_vol_mm.resize(1024);
+    half.omega_vol_rad_s.resize(1024);
+    ASSERT_GT(bm::replay(v, 0.5, params(), half).removed_mm3[1], 0.0);
+  }
+  CancelAt mid(token, 1024);  // requested halfway
   EXPECT_THROW(bm::replay(v, 0.5, params(), tr, o, /*restore=*/true, &mid), burrbench::Cancelled);
   EXPECT_TRUE(token.requested());
   EXPECT_FALSE(mid.finished);

@@ -33,7 +33,8 @@ struct ReplayOptions {
   // "Directions that follow from others"); false: every direction is carried (the test of
   // those identities, and the bench's comparison).
   bool derive_directions = true;
-  // Polled every 64 samples: once requested, the replay rolls back and throws Cancelled.
+  // Polled every 64 samples: once requested, the replay throws Cancelled (with `restore`,
+  // after rolling the volume back; without, the erosion so far stays, as for any error).
   const CancelToken* cancel = nullptr;
 };
 
