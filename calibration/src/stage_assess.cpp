@@ -157,8 +157,8 @@ void assess(Run& run) {
       if (xi - L.lower(i) < kBoundLog || L.upper(i) - xi < kBoundLog) {
         const bool up = L.upper(i) - xi < kBoundLog;
         v = "at_bound";
-        why = fmt::format("estimate at its {} bound ({:.4g} {}): widen it ([fit.classes.{}] {})",
-                          up ? "upper" : "lower", std::exp(xi), unit_of(p->kind), p->class_name,
+        why = fmt::format("estimate at its {} bound ({:.4g}{}): widen it ([fit.classes.{}] {})",
+                          up ? "upper" : "lower", std::exp(xi), unit_suffix(unit_of(p->kind)), p->class_name,
                           to_string(p->kind));
       } else if (pr.lower.closed && pr.upper.closed) {
         v = "identifiable";
@@ -176,10 +176,10 @@ void assess(Run& run) {
       } else if (pr.lower.closed || pr.upper.closed) {
         v = "practically_non_identifiable";
         const bool up_open = !pr.upper.closed;
-        why = fmt::format("profile flat towards its {} bound: the data give only {} limit ({} {:.4g} {})",
+        why = fmt::format("profile flat towards its {} bound: the data give only {} limit ({} {:.4g}{})",
                           up_open ? "upper" : "lower", up_open ? "a lower" : "an upper",
                           up_open ? ">=" : "<=",
-                          std::exp(up_open ? pr.lower.crossing : pr.upper.crossing), unit_of(p->kind));
+                          std::exp(up_open ? pr.lower.crossing : pr.upper.crossing), unit_suffix(unit_of(p->kind)));
       } else {
         v = "non_identifiable";
         why = "profile flat on both sides within the bounds";
@@ -191,9 +191,9 @@ void assess(Run& run) {
           if (e.usable && e.cost <= run.fit.final_cost + run.threshold &&
               (e.end[i] < pr.lower.crossing || e.end[i] > pr.upper.crossing)) {
             v = "non_identifiable";
-            why = fmt::format("start {} reached an equally good fit (cost {:.6g}) at {:.4g} {}, "
+            why = fmt::format("start {} reached an equally good fit (cost {:.6g}) at {:.4g}{}, "
                               "outside the profile interval", e.index, e.cost, std::exp(e.end[i]),
-                              unit_of(p->kind));
+                              unit_suffix(unit_of(p->kind)));
             break;
           }
       run.verdict[i] = v;

@@ -113,21 +113,21 @@ void discretization_check(Run& run) {
       fp.limited_by_discretization = true;
       fp.ci95_with_discretization_low = fp.ci95_with_discretization_high = NAN;
       run.warnings.push_back(fmt::format(
-          "{} {}: the refit at voxel {:.4g} mm ran into its bound ({:.4g} {}): at twice the voxel the model is too "
+          "{} {}: the refit at voxel {:.4g} mm ran into its bound ({:.4g}{}): at twice the voxel the model is too "
           "coarse for the check to measure the discretization error; treat the estimate as limited by it and verify "
           "on a finer sample (`burrbench verify`, `burrbench sample resample --split 2`)",
-          fp.class_name, fp.name, c.voxel_mm, fp.coarse_estimate, fp.unit));
+          fp.class_name, fp.name, c.voxel_mm, fp.coarse_estimate, unit_suffix(fp.unit)));
       continue;
     }
     if (fp.limited_by_discretization)
       run.warnings.push_back(fmt::format(
           "{} {}: the estimate moves {} % when the voxels are merged ({:.4g} → {:.4g} mm), more than "
           "half its 95 % interval (±{} %): limited by discretization error. The interval holds for a "
-          "model at this voxel size; as a physical constant, or at another voxel size, read [{:.6g}, {:.6g}] {} "
+          "model at this voxel size; as a physical constant, or at another voxel size, read [{:.6g}, {:.6g}]{} "
           "(a finer sample narrows it; `burrbench verify`)",
           fp.class_name, fp.name, percent(100 * (std::exp(fit.x[i] - run.x[i]) - 1), true), c.fine_voxel_mm,
           c.voxel_mm, percent(100 * (std::exp(half) - 1)), fp.ci95_with_discretization_low, fp.ci95_with_discretization_high,
-          fp.unit));
+          unit_suffix(fp.unit)));
   }
 }
 

@@ -268,15 +268,15 @@ CalibrationOutput results(Run& run) {
   }
   for (const auto& p : out.parameters) {
     if (p.fixed) {
-      s += fmt::format("  {:<12} {:<5} = {:.6g} {} (fixed)\n", p.class_name, p.name, p.estimate, p.unit);
+      s += fmt::format("  {:<12} {:<5} = {:.6g}{} (fixed)\n", p.class_name, p.name, p.estimate, unit_suffix(p.unit));
     } else if (!p.identifiable) {
       s += fmt::format("  {:<12} {:<5}   {} (held {:.6g}{}): {}\n", p.class_name, p.name,
                        p.verdict == "at_bound" ? "AT BOUND" : "NOT identifiable", p.held,
                        p.profile.empty() ? "" : ", profile " + interval_text(p.profile_ci95_low, p.profile_ci95_high),
                        p.reason);
     } else {
-      s += fmt::format("  {:<12} {:<5} = {:.6g} {} {}covariance [{:.6g}, {:.6g}]{}\n",
-                       p.class_name, p.name, p.estimate, p.unit,
+      s += fmt::format("  {:<12} {:<5} = {:.6g}{} {}covariance [{:.6g}, {:.6g}]{}\n",
+                       p.class_name, p.name, p.estimate, unit_suffix(p.unit),
                        p.profile.empty() ? std::string("95 % ")
                                          : "profile 95 % " + interval_text(p.profile_ci95_low, p.profile_ci95_high) + "; ",
                        p.ci95_low, p.ci95_high,
@@ -321,9 +321,17 @@ CalibrationOutput results(Run& run) {
   if (run.validation_metrics.samples > 0)
     s += fmt::format("validation spans (x, y, z together): RMSE {:.4g} N, R² {:.4f} over {} samples\n",
                      run.validation_metrics.rmse_xyz_N, run.validation_metrics.r2_xyz, run.validation_metrics.samples);
-  for (const auto& cv : out.cross_validation)
-    s += fmt::format("  without {}: held-out RMSE {} N, R² {} (x, y, z together)\n", cv.held_out,
-                     cv.metrics["held_out"]["rmse_xyz_N"].dump(), cv.metrics["held_out"]["r2_xyz"].dump());
+  if (!out.cross_validation.empty()) s += "cross-validation (each recording held out, x, y, z together):\n";
+  for (const auto& cv : out.cross_validation) {
+    // Same figures as the fit line above; a held-out recording without usable samples has none.
+    const auto& h = cv.metrics["held_out"];
+    auto fig = [&](const char* key, const char* spec) {
+      return h.contains(key) && h[key].is_number() ? fmt::format(fmt::runtime(spec), h[key].get<double>())
+                                                   : std::string("n/a");
+    };
+    s += fmt::format("  without {}: held-out RMSE {} N, R² {}\n", cv.held_out, fig("rmse_xyz_N", "{:.4g}"),
+                     fig("r2_xyz", "{:.4f}"));
+  }
   for (const auto& w : run.warnings) s += "warning: " + w + "\n";
   res.summary = s;
   res.fit = std::move(out);

@@ -109,13 +109,13 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     if (p.index < 0 || !covariance_rules || rep.held[std::size_t(p.index)]) continue;
     const std::size_t i = std::size_t(p.index);
     if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i, inflation))
-      flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g} {}, "
+      flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g}{}, "
                                 "next to no erosion): they give only a lower limit",
-                                std::exp(L.upper(i)), unit_of(p.kind)));
+                                std::exp(L.upper(i)), unit_suffix(unit_of(p.kind))));
     else if (x[i] - L.lower(i) < 0.01 || L.upper(i) - x[i] < 0.01)
-      flag(p.index, fmt::format("estimate at its {} bound ({:.4g} {})",
+      flag(p.index, fmt::format("estimate at its {} bound ({:.4g}{})",
                                 x[i] - L.lower(i) < 0.01 ? "lower" : "upper", std::exp(x[i]),
-                                unit_of(p.kind)));
+                                unit_suffix(unit_of(p.kind))));
   }
   CovarianceOutcome cov;
   for (int round = 0; round < 4; ++round) {
@@ -152,10 +152,10 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
                                          "(SE of ln = {:.3g})", se));
       } else if (cov.ok && (x[i] + kZ95 * se > L.upper(i) || x[i] - kZ95 * se < L.lower(i))) {
         const bool up = x[i] + kZ95 * se > L.upper(i);
-        more |= flag(int(i), fmt::format("95 % interval reaches past its {} bound ({:.4g} {}): "
+        more |= flag(int(i), fmt::format("95 % interval reaches past its {} bound ({:.4g}{}): "
                                          "the data give only a {} limit ({} {:.4g})",
                                          up ? "upper" : "lower", std::exp(up ? L.upper(i) : L.lower(i)),
-                                         unit_of(p->kind), up ? "lower" : "upper", up ? ">=" : "<=",
+                                         unit_suffix(unit_of(p->kind)), up ? "lower" : "upper", up ? ">=" : "<=",
                                          std::exp(up ? x[i] - kZ95 * se : x[i] + kZ95 * se)));
       }
     }

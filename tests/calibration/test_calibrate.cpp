@@ -41,6 +41,7 @@ fs::path scratch(const std::string& name) {
 struct Run {
   int code;
   std::string err;
+  std::string out;  // stdout: the summary
 };
 
 std::string read_text(const fs::path& p) {
@@ -50,10 +51,11 @@ std::string read_text(const fs::path& p) {
   return ss.str();
 }
 
-// `burrbench ARGS` (quoted by the caller), its stderr kept in `err`.
+// `burrbench ARGS` (quoted by the caller), its stderr kept in `err` and its stdout beside it.
 Run run_cli(const std::string& args, const fs::path& err) {
-  const int st = std::system(fmt::format("'{}' {} > /dev/null 2> '{}'", cli(), args, err.string()).c_str());
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, read_text(err)};
+  const fs::path out = err.string() + ".stdout";
+  const int st = std::system(fmt::format("'{}' {} > '{}' 2> '{}'", cli(), args, out.string(), err.string()).c_str());
+  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, read_text(err), read_text(out)};
 }
 
 Run calibrate(const fs::path& manifest, const fs::path& out, const std::string& extra = "") {
@@ -142,6 +144,12 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
     EXPECT_NEAR(a.estimate / truth[std::size_t(k)][0], 1.0, 0.10) << "alpha of class " << k;
     EXPECT_LT(c.ci95_low, c.estimate);
     EXPECT_GT(c.ci95_high, c.estimate);
+    // The summary gives each constant with its unit, and μ (dimensionless) with none.
+    for (const auto* q : {&a, &c, &m}) {
+      const std::string line = fmt::format("  {:<12} {:<5} = {:.6g}{} profile 95 % [", q->class_name, q->name,
+                                           q->estimate, q == &m ? "" : " N/mm^2");
+      EXPECT_NE(r.out.find(line), std::string::npos) << line << " in\n" << r.out;
+    }
   }
   // Bias and lag: the truth inside the reported 95 % intervals. With 5 recordings × 4
   // nuisances = 20 intervals at 95 %, all 20 covering the truth happens only ~36 % of the
@@ -167,7 +175,16 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
   EXPECT_GT(fit.residuals_summary.samples_used, 1000u);
   EXPECT_NEAR(fit.residuals_summary.sigma_N, s.noise_N, 0.2 * s.noise_N);  // estimated σ
   EXPECT_FALSE(fit.cross_validation.empty());
-  for (const auto& cv : fit.cross_validation) EXPECT_TRUE(cv.metrics["held_out"]["rmse_xyz_N"].is_number());
+  // The summary gives each held-out figure as the fit line gives its own (4 digits), not
+  // every digit of a double.
+  EXPECT_NE(r.out.find("cross-validation (each recording held out, x, y, z together):\n"), std::string::npos) << r.out;
+  for (const auto& cv : fit.cross_validation) {
+    const auto& h = cv.metrics["held_out"];
+    ASSERT_TRUE(h["rmse_xyz_N"].is_number());
+    const std::string line = fmt::format("  without {}: held-out RMSE {:.4g} N, R² {:.4f}\n", cv.held_out,
+                                         h["rmse_xyz_N"].get<double>(), h["r2_xyz"].get<double>());
+    EXPECT_NE(r.out.find(line), std::string::npos) << line << " in\n" << r.out;
+  }
   // Every start says how it ended, as its termination does. The starts above the best
   // optimum are told apart: inside its 95 % intervals (profile, else covariance; open
   // sides unbounded) it ended in the optimum's neighbourhood; elsewhere a converged one is
