@@ -131,22 +131,61 @@ std::string describe_manifest(const std::filesystem::path& path) {
   return s;
 }
 
+// " N/mm^2", or nothing for μ's "1" ("mu = 0.4", not "mu = 0.4 1").
+std::string after_value(const std::string& unit) { return unit == "1" ? std::string() : " " + unit; }
+
+// One parameter as the calibration left it: the value it holds, the intervals that
+// support it (profile first: the verdict comes from it) and, when it is not a confident
+// value, why. Mirrors `calibrate`'s summary so the file reads as the run did.
+std::string describe_fit_parameter(const FitParameter& p) {
+  const std::string head = fmt::format("  {:<12} {:<5}", p.class_name, p.name), u = after_value(p.unit);
+  if (p.fixed) return fmt::format("{} = {}{} (fixed)\n", head, num(p.estimate), u);
+  if (!p.identifiable) {
+    const std::string v = p.verdict == "at_bound"                       ? "AT BOUND"
+                          : p.verdict == "practically_non_identifiable" ? "NOT identifiable (practically)"
+                                                                        : "NOT identifiable";
+    return fmt::format("{}   {} (held {}{}): {}\n", head, v, num(p.held), u, p.reason);
+  }
+  auto interval = [](double lo, double hi) { return fmt::format("[{}, {}]", num(lo), num(hi)); };
+  std::string s = fmt::format("{} = {}{}", head, num(p.estimate), u);
+  if (!std::isnan(p.profile_ci95_low) || !std::isnan(p.profile_ci95_high))
+    s += " profile 95 % " + interval(p.profile_ci95_low, p.profile_ci95_high) + ";";
+  s += fmt::format(" covariance {} (SE {})", interval(p.ci95_low, p.ci95_high), num(p.std_error));
+  if (!std::isnan(p.bootstrap_ci95_low)) s += "; bootstrap " + interval(p.bootstrap_ci95_low, p.bootstrap_ci95_high);
+  s += "\n";
+  if (p.verdict == "imprecise") s += fmt::format("{}   IMPRECISE: {}\n", head, p.reason);
+  if (p.limited_by_discretization)
+    s += fmt::format("{}   LIMITED by discretization error: {} at twice the voxel; with that error {}\n", head,
+                     num(p.coarse_estimate), interval(p.ci95_with_discretization_low, p.ci95_with_discretization_high));
+  return s;
+}
+
 std::string describe_fit(const std::filesystem::path& path) {
   const FitResult f = read_fit(path);
   std::string s = "fit result (burrbench.fit)\n";
-  for (const auto& p : f.parameters)
-    s += fmt::format("  {} {} = {} ± {} {} (95% CI {} … {}){}{}\n", p.class_name, p.name, num(p.estimate),
-                     num(p.std_error), p.unit, num(p.ci95_low), num(p.ci95_high), p.fixed ? " fixed" : "",
-                     p.identifiable ? "" : " NOT identifiable: " + p.reason);
+  for (const auto& p : f.parameters) s += describe_fit_parameter(p);
   for (const auto& n : f.nuisance)
-    s += fmt::format("  {} {} = {} ± {} {}{}\n", n.recording_id, n.name, num(n.estimate), num(n.std_error), n.unit,
-                     n.fixed ? " fixed" : "");
+    s += n.fixed ? fmt::format("  {:<12} {:<12} = {}{} (fixed)\n", n.recording_id, n.name, num(n.estimate),
+                               after_value(n.unit))
+                 : fmt::format("  {:<12} {:<12} = {} ± {}{} (SE)\n", n.recording_id, n.name, num(n.estimate),
+                               num(n.std_error), after_value(n.unit));
   const auto& r = f.residuals_summary;
   s += fmt::format("residuals: {} used, {} buried, {} excluded, σ {} N, rms/σ {}\n", r.samples_used,
                    r.samples_buried, r.samples_excluded, num(r.sigma_N), num(r.rms_normalised));
   s += fmt::format("solver: {} iterations, cost {} → {}, {} replays, {} s, {}\n", f.solver.iterations,
                    num(f.solver.initial_cost), num(f.solver.final_cost), f.solver.replays, num(f.solver.wall_s),
                    f.solver.termination);
+  // The calibration's own tally (a file from before the global search has none).
+  const auto gs = f.settings.value("global_search", nlohmann::json::object());
+  if (gs.contains("reached_best") && gs.contains("starts"))
+    s += fmt::format("global search: best optimum reached by {} of {} starts\n", gs["reached_best"].dump(),
+                     gs["starts"].dump());
+  for (const auto& cv : f.cross_validation) {
+    const auto h = cv.metrics.value("held_out", nlohmann::json::object());
+    auto fig = [&](const char* key) { return h.contains(key) && h[key].is_number() ? num(h[key].get<double>()) : num(kNaN); };
+    s += fmt::format("cross-validation without {}: held-out RMSE {} N, R² {} (x, y, z together)\n", cv.held_out,
+                     fig("rmse_xyz_N"), fig("r2_xyz"));
+  }
   s += fmt::format("experiment {} sha256 {}\n", f.experiment_path, f.experiment_sha256);
   return s + prov_lines(f.provenance);
 }

@@ -104,3 +104,28 @@ def test_coarse_to_fine_reaches_the_same_optimum(half):
         lo, hi = interval(a)
         assert lo <= b["estimate"] <= hi, (a["name"], a["estimate"], b["estimate"])
         assert b["discretization"]["limited"] == a["discretization"]["limited"]
+
+
+def test_inspect_reads_the_fit_as_the_calibration_left_it(half):
+    # `inspect fit.json` is how a reviewer reads a fit later: each constant's value, its
+    # profile interval, the discretization limit, and for the others the value held and
+    # why, as fit.json stores them (μ without the unit "1").
+    fit, _, d = half
+    out = run_ok("inspect", d / "fit" / "fit.json")
+    g = lambda x: "—" if x is None else f"{x:.6g}"
+    for p in fit["parameters"]:
+        head = f"  {p['class_name']:<12} {p['name']:<5}"
+        unit = "" if p["unit"] == "1" else " " + p["unit"]
+        if not p["identifiable"]:
+            assert f"{head}   NOT identifiable" in out or f"{head}   AT BOUND" in out, out
+            assert f"(held {g(p['held'])}{unit}): {p['reason']}\n" in out, out
+            continue
+        line = (f"{head} = {g(p['estimate'])}{unit} profile 95 % [{g(p['profile_ci95_low'])}, "
+                f"{g(p['profile_ci95_high'])}]; covariance [{g(p['ci95_low'])}, {g(p['ci95_high'])}]")
+        assert line in out, (line, out)
+        dd = p["discretization"]
+        limited = f"{head}   LIMITED by discretization error: {g(dd['coarse_estimate'])} at twice the voxel; " \
+                  f"with that error [{g(dd['ci95_low'])}, {g(dd['ci95_high'])}]"
+        assert (limited in out) == dd["limited"], (limited, out)
+    gs = fit["settings"]["global_search"]
+    assert f"global search: best optimum reached by {gs['reached_best']} of {gs['starts']} starts" in out, out
