@@ -16,14 +16,16 @@ from .readers import (Group, read_criteria, read_experiment, read_fit, read_metr
 import os as _os
 
 
-def replay(experiment, params, step_us=0.0, erosion=True, threads=2):
+def replay(experiment, params, step_us=0.0, erosion=True, threads=2, progress=None):
     """Replays every recording of an experiment (as `burrbench replay`): a Group
     {recording id: Group of numpy arrays}, each array's unit in `.units`, its frame in
     `.frames`. `params` is a params.toml path or a dict {class: {id, alpha_N_per_mm2,
     c1_N_per_mm2, mu}}. `threads` recordings are replayed at once (the result does not
-    depend on it). The GIL is released while the model runs."""
+    depend on it). `progress(fraction, line)` receives the progress lines. The GIL is
+    released while the model runs. Arguments are taken as given, never converted: a
+    wrong type raises InputError naming it."""
     raw = _replay(_os.fspath(experiment), params if isinstance(params, dict) else _os.fspath(params),
-                  float(step_us), bool(erosion), int(threads))
+                  step_us, erosion, threads, progress)
     from .readers import _prediction_units
     return Group({rid: _prediction_units(Group(rec)) for rid, rec in raw.items()})
 

@@ -1,6 +1,7 @@
 #pragma once
 // Conversions between the C++ types and Python objects shared by the binding files.
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -10,6 +11,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 
 namespace burrbench::python {
@@ -31,10 +33,17 @@ py::array_t<T> array(const std::vector<T>& v) {
   return a;
 }
 
-inline glm::dvec3 to_vec3(const py::object& o, const char* what) {
-  const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(o);
-  if (!a || a.size() != 3) throw py::value_error(std::string(what) + ": expected 3 numbers");
-  return {a.at(0), a.at(1), a.at(2)};
+// Three finite numbers (a list, tuple or numpy array of ints or floats); InputError naming
+// the call and the argument otherwise: numpy would turn ["1", "2", "3"] into numbers.
+inline glm::dvec3 to_vec3(const py::object& o, const std::string& call, const char* what) {
+  const py::array raw = py::module_::import("numpy").attr("asarray")(o);
+  const char kind = raw.dtype().kind();
+  if (raw.size() == 3 && (kind == 'i' || kind == 'u' || kind == 'f')) {
+    const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(raw);
+    const glm::dvec3 v{a.data()[0], a.data()[1], a.data()[2]};
+    if (std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)) return v;
+  }
+  throw InputError(call, what, "3 finite numbers", py::str(py::repr(o)).cast<std::string>());
 }
 
 // A JSON document as Python objects (via the json module: dicts, lists, str, float).

@@ -1,5 +1,6 @@
 #pragma once
-// Long work (a calibration, a replay) that Ctrl-C or a notebook's interrupt can stop.
+// Long work (a calibration, a replay) that Ctrl-C, a notebook's interrupt or the
+// caller's progress callback can stop.
 // Python runs its signal handlers only on the main thread, and only while that thread runs
 // Python: a call that spends minutes in C++ would sit out a KeyboardInterrupt until its
 // end. So the work runs on a thread of its own, without the GIL, while the calling thread
@@ -9,12 +10,17 @@
 #include <condition_variable>
 #include <exception>
 #include <mutex>
+#include <memory>
 #include <optional>
+#include <string>
 #include <thread>
 
 #include <pybind11/pybind11.h>
 
+#include "arguments.hpp"
 #include "burrbench/data_schema/cancel.hpp"
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/progress.hpp"
 
 namespace burrbench::python {
 
@@ -59,6 +65,59 @@ void run_interruptible(CancelToken& token, Work&& work) {
   }
   if (interrupt) throw *interrupt;
   if (error) std::rethrow_exception(error);
+}
+
+// Progress lines to a Python callable progress(fraction or None, line), called under the
+// GIL. The first exception it raises cancels the work (`cancel`) and is raised once the
+// work has stopped: C++ worker threads cannot carry it.
+class PyProgress final : public Progress {
+ public:
+  PyProgress(pybind11::function f, CancelToken& cancel) : f_(std::move(f)), cancel_(cancel) {}
+  // None gives none; anything else must be callable (InputError naming `call`).
+  static std::unique_ptr<PyProgress> from(const std::string& call, const pybind11::object& progress,
+                                          CancelToken& cancel) {
+    if (progress.is_none()) return nullptr;
+    if (!PyCallable_Check(progress.ptr()))
+      throw InputError(call, "progress", "a callable progress(fraction, line), or None", shown(progress));
+    return std::make_unique<PyProgress>(progress.cast<pybind11::function>(), cancel);
+  }
+  void update(double fraction, const std::string& line) override { call(fraction, line); }
+  void finish(const std::string& summary_line) override { call(1.0, summary_line); }
+  void rethrow() {
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  void call(double fraction, const std::string& line) {
+    namespace py = pybind11;
+    std::lock_guard lk(mu_);
+    if (error_) return;
+    py::gil_scoped_acquire gil;
+    try {
+      // A negative fraction means "not known" in the C++ interface: None for Python.
+      f_(fraction >= 0 ? py::object(py::float_(fraction)) : py::object(py::none()), line);
+    } catch (py::error_already_set&) {
+      error_ = std::current_exception();
+      cancel_.request();
+    }
+  }
+  pybind11::function f_;
+  CancelToken& cancel_;
+  std::mutex mu_;
+  std::exception_ptr error_;
+};
+
+// As above, with the progress callback's exception (if it raised one) raised in place of
+// the work's Cancelled or result.
+template <class Work>
+void run_interruptible(CancelToken& token, PyProgress* progress, Work&& work) {
+  try {
+    run_interruptible(token, std::forward<Work>(work));
+  } catch (const Cancelled&) {
+    if (progress) progress->rethrow();
+    throw;
+  }
+  if (progress) progress->rethrow();
 }
 
 }  // namespace burrbench::python

@@ -1,6 +1,7 @@
 // The model from Python: a Volume (from a sample file or numpy arrays), the contact
 // kernel at one burr position, and the replay of an experiment (what `burrbench replay`
 // computes, bit for bit, through model::predict_experiment). No GIL while C++ works.
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -9,6 +10,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include "arguments.hpp"
 #include "bindings.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/sample_volume.hpp"
@@ -105,7 +107,7 @@ void bind_model(py::module_& m) {
             auto& s = v->sample;
             s.dims = {std::size_t(labels.shape(2)), std::size_t(labels.shape(1)), std::size_t(labels.shape(0))};
             s.voxel_mm = voxel_mm;
-            s.origin_mm = to_vec3(origin_mm, "origin_mm");
+            s.origin_mm = to_vec3(origin_mm, "Volume.from_arrays", "origin_mm");
             s.labels.assign(labels.data(), labels.data() + labels.size());
             s.fraction.assign(chi.data(), chi.data() + chi.size());
             s.classes.clear();
@@ -146,9 +148,12 @@ void bind_model(py::module_& m) {
   m.def(
       "contact",
       [](const PyVolume& v, const py::object& params, const py::object& p_mm, const py::object& omega_rad_s,
-         double radius_mm) {
+         const py::object& radius_arg) {
         const model::ModelParams mp = model::ModelParams::from(to_parameter_set(params));
-        const glm::dvec3 p = to_vec3(p_mm, "p_mm"), w = to_vec3(omega_rad_s, "omega_rad_s");
+        const glm::dvec3 p = to_vec3(p_mm, "contact()", "p_mm"), w = to_vec3(omega_rad_s, "contact()", "omega_rad_s");
+        const double radius_mm = as_float("contact()", "radius_mm", radius_arg);
+        if (!(radius_mm > 0) || !std::isfinite(radius_mm))
+          throw InputError("contact()", "radius_mm", "a burr radius > 0 (mm)", shown(radius_arg));
         model::ContactResult c;
         {
           py::gil_scoped_release nogil;
@@ -178,10 +183,17 @@ void bind_model(py::module_& m) {
 
   m.def(
       "replay",
-      [](const fs::path& experiment, const py::object& params, double step_us, bool erosion, int threads) {
+      [](const fs::path& experiment, const py::object& params, const py::object& step_us_arg,
+         const py::object& erosion_arg, const py::object& threads_arg, const py::object& progress) {
+        const double step_us = as_float("replay()", "step_us", step_us_arg);
+        const bool erosion = as_bool("replay()", "erosion", erosion_arg);
+        const int threads = as_int("replay()", "threads", threads_arg);
         if (threads < 1 || threads > model::kMaxThreads)
           throw InputError("replay()", "threads", fmt::format("1..{} recordings at once", model::kMaxThreads),
                            std::to_string(threads));
+        if (!std::isfinite(step_us) || step_us < 0)
+          throw InputError("replay()", "step_us", "a step ≥ 0 (µs; 0 = half the sample period)",
+                           shown(step_us_arg));
         const auto ps = to_parameter_set(params);
         const std::string params_name = py::isinstance<py::dict>(params)
                                             ? std::string("params (Python)")
@@ -189,7 +201,8 @@ void bind_model(py::module_& m) {
         std::vector<model::RecordingPrediction> preds;
         std::vector<std::string> ids;
         CancelToken cancel;
-        run_interruptible(cancel, [&] {
+        const auto pp = PyProgress::from("replay()", progress, cancel);
+        run_interruptible(cancel, pp.get(), [&] {
           const model::Experiment e = model::load_experiment(experiment);
           const model::ModelParams mp = model::ModelParams::from(ps);
           model::check_covers(ps, e.samples, params_name);
@@ -199,6 +212,7 @@ void bind_model(py::module_& m) {
           opt.exclude_buried = e.manifest.fit.buried == data_schema::BuriedPolicy::kExclude;
           opt.threads = threads;
           opt.replay.cancel = &cancel;
+          opt.progress = pp.get();
           preds = model::predict_experiment(e, mp, opt).recordings;
         });
         py::dict out;
@@ -206,8 +220,10 @@ void bind_model(py::module_& m) {
         return out;
       },
       py::arg("experiment"), py::arg("params"), py::arg("step_us") = 0.0, py::arg("erosion") = true, py::arg("threads") = 2,
+      py::arg("progress") = py::none(),
       "Replays every recording of an experiment manifest, as `burrbench replay` does: {recording id: "
-      "{t_s, force_sensor_pred_N, ... (the prediction file's datasets), removed_mm3, steps}}.");
+      "{t_s, force_sensor_pred_N, ... (the prediction file's datasets), removed_mm3, steps}}; "
+      "progress(fraction, line) receives the progress lines.");
 }
 
 }  // namespace burrbench::python

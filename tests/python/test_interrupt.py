@@ -106,3 +106,21 @@ def test_a_raising_progress_callback_stops_the_calibration(exp):
     out = burrbench.calibrate(exp / "experiment.toml", starts=2, profiles=False, cross_validate=False,
                               discretization_check=False)
     assert out["params"]["compact"]["mu"] == pytest.approx(0.4, rel=0.05)
+
+
+def test_a_raising_progress_callback_stops_a_replay(exp):
+    # A replay at a 2 µs step takes ≈ 7 s here; the callback raises at its first line past
+    # 5 % of the experiment.
+    raised = {}
+
+    def progress(fraction, line):
+        if fraction is not None and fraction > 0.05 and "at" not in raised:
+            raised["at"] = time.monotonic()
+            raise ValueError("enough")
+    with pytest.raises(ValueError, match="enough"):
+        burrbench.replay(exp / "experiment.toml", exp / "params_true.toml", step_us=2.0, progress=progress)
+    stopped = time.monotonic() - raised["at"]
+    print(f"ValueError {stopped:.3f} s after the callback raised")
+    assert stopped < 1.0, stopped
+    pred = burrbench.replay(exp / "experiment.toml", exp / "params_true.toml")
+    assert sorted(pred) == ["plunge", "polish", "sweep"]

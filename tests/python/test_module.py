@@ -137,6 +137,47 @@ def test_a_bad_calibrate_option_is_named_with_what_was_expected(exp, option, val
     assert str(e.value) == message
 
 
+@pytest.mark.parametrize("call, kwargs, message", [
+    ("replay", {"step_us": "5"}, "replay(): step_us: expected a number, got '5' (str)"),
+    ("replay", {"step_us": -1.0}, "replay(): step_us: expected a step ≥ 0 (µs; 0 = half the sample period), got -1.0 (float)"),
+    ("replay", {"step_us": float("nan")}, "replay(): step_us: expected a step ≥ 0 (µs; 0 = half the sample period), got nan (float)"),
+    ("replay", {"threads": 1.5}, "replay(): threads: expected an integer, got 1.5 (float)"),
+    ("replay", {"erosion": "no"}, "replay(): erosion: expected True or False, got 'no' (str)"),
+    ("replay", {"progress": "yes"}, "replay(): progress: expected a callable progress(fraction, line), or None, got 'yes' (str)"),
+    ("contact", {"radius_mm": "1"}, "contact(): radius_mm: expected a number, got '1' (str)"),
+    ("contact", {"radius_mm": 0.0}, "contact(): radius_mm: expected a burr radius > 0 (mm), got 0.0 (float)"),
+    ("contact", {"p_mm": ["4", "4", "1"]}, "contact(): p_mm: expected 3 finite numbers, got ['4', '4', '1']"),
+    ("contact", {"p_mm": [4.0, 4.0]}, "contact(): p_mm: expected 3 finite numbers, got [4.0, 4.0]"),
+    ("contact", {"omega_rad_s": [0, 0, float("inf")]}, "contact(): omega_rad_s: expected 3 finite numbers, got [0, 0, inf]"),
+])
+def test_a_bad_replay_or_contact_argument_is_named_with_what_was_expected(exp, call, kwargs, message):
+    # As calibrate's options: no silent "5" → 5.0 or 1.5 → 1, no pybind11 "Unable to cast".
+    if call == "replay":
+        args = {"experiment": exp / "experiment.toml", "params": exp / "params_true.toml", **kwargs}
+        f = burrbench.replay
+    else:
+        args = {"volume": burrbench.Volume.from_sample(exp / "sample.h5"), "params": exp / "params_true.toml",
+                "p_mm": [4.0, 4.0, 1.0], "omega_rad_s": [0, 0, 3141.6], "radius_mm": 1.0, **kwargs}
+        f = burrbench.contact
+    with pytest.raises(burrbench.InputError) as e:
+        f(**args)
+    assert str(e.value) == message
+
+
+def test_replay_from_python_with_progress(exp):
+    # The lines `burrbench replay` prints, the experiment's fraction rising to 1; the same
+    # prediction as without a callback.
+    lines = []
+    pred = burrbench.replay(exp / "experiment.toml", exp / "params_true.toml",
+                            progress=lambda f, line: lines.append((f, line)))
+    fractions = [f for f, _ in lines if f is not None]
+    assert len(fractions) >= 3 and fractions[-1] == 1.0 and all(0 <= f <= 1 for f in fractions), lines
+    assert any("plunge" in line for _, line in lines), lines
+    plain = burrbench.replay(exp / "experiment.toml", exp / "params_true.toml")
+    for rid in plain:
+        assert np.array_equal(plain[rid]["force_sensor_pred_N"], pred[rid]["force_sensor_pred_N"]), rid
+
+
 def test_numpy_scalars_are_good_calibrate_options(exp):
     out = burrbench.calibrate(exp / "experiment.toml", starts=np.int64(2), profiles=np.bool_(False),
                               cross_validate=False, discretization_check=False, bootstrap_block_s=np.float64(1.0))
