@@ -207,6 +207,16 @@ std::vector<std::string> fit_fifo_time(data_schema::Stream& s, double device_rat
   return notes;
 }
 
+// A span of polls whose counter repeated the value of the fresh sample at `first_ns`.
+struct FrozenSpan {
+  std::int64_t first_ns = 0, last_ns = 0;
+  std::size_t polls = 0;
+  double span_s() const { return 1e-9 * double(last_ns - first_ns); }
+};
+// Longer than any device's own update period (a sensor updating at 100 Hz polled at
+// 1 kHz repeats itself for 10 ms): a span this long is a device that stopped measuring.
+constexpr double kFrozenWarnS = 0.5;
+
 }  // namespace
 
 data_schema::Recording recording_from_journal(const JournalContents& j, const std::string& file,
@@ -258,6 +268,9 @@ data_schema::Recording recording_from_journal(const JournalContents& j, const st
     // bit 2: the device's status word marked the sample invalid (its values are NaN)
     data_schema::Channel flags{"sample_flags", "1", 1, {}};
     std::vector<double> buf;
+    // The longest span over which the device's counter did not advance: the device gave
+    // no new measurement (stalled, or stopped measuring) while it kept answering.
+    FrozenSpan frozen, run;
     for (const auto* s : samples) {
       st.t_send_ns.push_back(s->t_send_ns);
       st.t_recv_ns.push_back(s->t_recv_ns);
@@ -287,6 +300,22 @@ data_schema::Recording recording_from_journal(const JournalContents& j, const st
       flags.values.push_back((values_ok ? 0.0 : 1.0) + (stale ? 2.0 : 0.0) + (status_bad ? 4.0 : 0.0));
       rep.stale += stale;
       rep.invalid += !ok;
+      if (!stale) {
+        run = {st.t_ns.back(), st.t_ns.back(), 0};
+      } else {
+        run.last_ns = st.t_ns.back();
+        ++run.polls;
+        if (run.span_s() > frozen.span_s()) frozen = run;
+      }
+    }
+    if (frozen.span_s() >= kFrozenWarnS) {
+      const auto rel = [&](std::int64_t t) { return 1e-9 * double(t - h.session_monotonic_ns); };
+      const std::string note = fmt::format(
+          "its counter did not advance for {:.2f} s ({} polls, {:.2f} s to {:.2f} s into the session): the device "
+          "gave no new measurement over that span (stalled, or stopped measuring); those rows are marked stale",
+          frozen.span_s(), frozen.polls, rel(frozen.first_ns), rel(frozen.last_ns));
+      rec.events.push_back({frozen.first_ns, "frozen", d.name, note});
+      rep.problems.push_back(d.name + ": " + note);
     }
     if (d.calibration) {
       const auto& cal = *d.calibration;

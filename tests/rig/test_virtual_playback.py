@@ -7,9 +7,7 @@ import numpy as np
 import pytest
 from pymodbus.client import ModbusTcpClient
 
-from virtual_helpers import PYTHON, RIG_SCRIPT, playback_start_ns, start_virtual_rig
-
-T0_NS = 5_000_000_000  # recordings use host monotonic time: anything but zero
+from virtual_helpers import PYTHON, RIG_SCRIPT, T0_NS, playback_start_ns, start_virtual_rig, write_recording
 
 
 def u32(regs):
@@ -22,34 +20,6 @@ def floats(regs):
 
 def i32s(regs):
     return list(struct.unpack(f">{len(regs) // 2}i", struct.pack(f">{len(regs)}H", *regs)))
-
-
-def write_recording(path, ft_hz=200.0, stage_hz=100.0, spindle_hz=50.0, duration_s=1.0,
-                    stage_lag_s=0.1):
-    """A small recording in the docs/formats.md layout: /streams/<name>/{t_ns, channels/<ch>}."""
-    with h5py.File(path, "w") as f:
-        f.attrs["format"] = "burrbench.recording"
-        f.attrs["format_version"] = "1.0"
-        s = f.create_group("streams")
-        n = int(duration_s * ft_hz)
-        g = s.create_group("ft_sensor")
-        g["t_ns"] = T0_NS + np.round(np.arange(n) * 1e9 / ft_hz).astype(np.int64)
-        i = np.arange(n, dtype=np.float64)
-        g.create_group("channels")
-        g["channels/force_N"] = np.stack([0.25 * i, -0.5 * i, 1.0 + i], axis=1)
-        g["channels/torque_Nmm"] = np.stack([10.0 * i, -i, 2.0 * i], axis=1)
-        m = int((duration_s - stage_lag_s) * stage_hz)
-        g = s.create_group("stage")
-        g["t_ns"] = T0_NS + int(stage_lag_s * 1e9) + np.round(np.arange(m) * 1e9 / stage_hz).astype(np.int64)
-        j = np.arange(m, dtype=np.float64)
-        g.create_group("channels")
-        g["channels/position_mm"] = np.stack([0.001 * j, 2.0 - 0.002 * j, -0.5 * j], axis=1)
-        q = int(duration_s * spindle_hz)
-        g = s.create_group("spindle")
-        g["t_ns"] = T0_NS + np.round(np.arange(q) * 1e9 / spindle_hz).astype(np.int64)
-        g.create_group("channels")
-        g["channels/spindle_rpm"] = -(1000.0 + 10.0 * np.arange(q))
-    return {"ft": (n, ft_hz), "stage": (m, stage_hz), "spindle": (q, spindle_hz)}
 
 
 def ft_row(k):
