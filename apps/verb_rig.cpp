@@ -41,8 +41,16 @@ void setup(CLI::App& root) {
       }
       std::cout << fmt::format("{:<12} {:<28} ok  {:.2f} ms{}\n", r.device, r.link, r.round_trip_ms,
                                r.counter >= 0 ? fmt::format("  counter {}", r.counter) : "");
-      for (const auto& c : r.channels)
-        std::cout << fmt::format("    {:<14} {} {}{}\n", c.name, fmt::join(c.values, " "), c.unit, c.valid ? "" : "  INVALID");
+      for (const auto& c : r.channels) {
+        // A float32 register's value as the device sent it (0.02157498, not the 17 digits
+        // of its double); a scaled integer to 12 digits (2.018, not the 2.0180000000000002
+        // of 2018 × 0.001; an int32 has at most 10).
+        std::string values;
+        for (const double v : c.values)
+          values += (values.empty() ? "" : " ") +
+                    (double(float(v)) == v ? fmt::format("{}", float(v)) : fmt::format("{:.12g}", v));
+        std::cout << fmt::format("    {:<18} {} {}{}\n", c.name, values, c.unit, c.valid ? "" : "  INVALID");
+      }
     }
     if (!all) apps::set_exit_code(1);
   });

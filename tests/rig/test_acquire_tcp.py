@@ -111,3 +111,25 @@ def test_rig_check_and_tare(tmp_path):
                                                 rh.FT_CHANNELS[2:], timeout_ms=50), "dead.toml")
     p = rh.run(["rig", "check", "--rig", dead], timeout=20)
     assert p.returncode == 1 and "FAILED" in p.stdout, p.stdout + p.stderr
+
+
+def test_rig_check_shows_each_value_as_the_device_sent_it(tmp_path):
+    # A float32 as its shortest float (19.91, not 19.909999847412109), a scaled integer
+    # without the binary noise of its scale (1.992 µm-counts × 0.001, not 1.9920000000000002).
+    with start_virtual_rig(["--pattern", "ramp"]) as (proc, host, port):
+        p = rh.run(["rig", "check", "--rig", rh.write_map(tmp_path, rh.preset("virtual", port))])
+    assert p.returncode == 0, p.stdout + p.stderr
+    device = None
+    lines = {}
+    for line in p.stdout.splitlines():
+        if not line.startswith(" "):
+            device = line.split()[0]
+            counter = int(line.split("counter ")[1])
+            continue
+        name, *vals = line.split()
+        lines[(device, name)] = (counter, " ".join(vals[:-1]))
+    k, text = lines[("ft_sensor", "force_N")]
+    assert text == " ".join(str(np.float32(v)) for v in rh.ramp_wrench(k)[:3]), p.stdout
+    k, text = lines[("stage", "position_mm")]
+    assert text == " ".join(f"{v * 0.001:.12g}" for v in rh.ramp_position_um(k)), p.stdout
+    assert all(len(v.replace("-", "").replace(".", "")) <= 12 for v in text.split()), text
