@@ -26,14 +26,6 @@ inline void refuse_output_over_inputs(const std::string& out, const std::string&
       throw InputError(out, option, "a path different from the inputs (inputs are never written)", in);
 }
 
-// An output never replaces an existing file unless the user says --overwrite; checked
-// before any work.
-inline void refuse_existing(const std::string& out, const std::string& option, bool overwrite) {
-  std::error_code ec;
-  if (out.empty() || overwrite || !std::filesystem::exists(std::filesystem::symlink_status(out, ec))) return;
-  throw InputError(out, option, "a file that does not exist yet (--overwrite replaces it)", "exists");
-}
-
 // InputError when two outputs of one command name the same file (one would replace the
 // other: `replay --out X --csv X`).
 inline void refuse_same_outputs(const std::string& a, const std::string& option_a, const std::string& b,
@@ -55,6 +47,15 @@ inline void check_output_location(const std::string& out, const std::string& opt
     throw InputError(out, option, "a path in an existing folder", "no folder " + dir.string());
   if (::access(dir.c_str(), W_OK) != 0)
     throw InputError(out, option, "a path in a folder we may write", "folder " + dir.string() + " is not writable");
+}
+
+// An output file, checked before any work: its folder exists and is writable, it names no
+// folder, and it never replaces an existing file unless the user says --overwrite.
+inline void refuse_existing(const std::string& out, const std::string& option, bool overwrite) {
+  check_output_location(out, option);
+  std::error_code ec;
+  if (out.empty() || overwrite || !std::filesystem::exists(std::filesystem::symlink_status(out, ec))) return;
+  throw InputError(out, option, "a file that does not exist yet (--overwrite replaces it)", "exists");
 }
 
 }  // namespace burrbench::apps

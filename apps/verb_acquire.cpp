@@ -65,6 +65,7 @@ void run(const Options& o) {
   apps::refuse_output_over_inputs(journal.string(), "--journal", {o.rig, o.tare, o.out});
   // A recording is the one copy of a session: never replaced unless asked.
   apps::refuse_existing(o.out, "--out", o.overwrite);
+  apps::check_output_location(journal.string(), "--journal");
   if (std::filesystem::exists(journal))
     throw InputError(journal.string(), "(journal)", "no journal left from an earlier session (run `burrbench recover` on it, or remove it)", "exists");
   if (o.duration_s < 0) throw InputError("--duration", "value", "seconds ≥ 0");

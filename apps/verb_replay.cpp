@@ -41,8 +41,6 @@ void run(const Args& a) {
     apps::refuse_output_over_inputs(a.out, "--out", ins);
     apps::refuse_output_over_inputs(a.csv, "--csv", ins);
     apps::refuse_same_outputs(a.out, "--out", a.csv, "--csv");
-    apps::check_output_location(a.out, "--out");
-    apps::check_output_location(a.csv, "--csv");
     apps::refuse_existing(a.out, "--out", a.overwrite);
     apps::refuse_existing(a.csv, "--csv", a.overwrite);
   }

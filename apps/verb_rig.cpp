@@ -68,7 +68,6 @@ void setup(CLI::App& root) {
     using namespace burrbench;
     apps::refuse_output_over_inputs(*out, "--out", {*tare_map});
     apps::refuse_existing(*out, "--out", *overwrite);
-    apps::check_output_location(*out, "--out");
     const auto map = rig::load_rig_map(*tare_map);
     auto t = rig::measure_tare(map, *n);
     t.rig_sha256 = sha256_file(*tare_map);
@@ -92,7 +91,6 @@ void setup(CLI::App& root) {
     std::vector<std::string> inputs{*loads_path, spec.unloaded.string()};
     for (const auto& l : spec.loads) inputs.push_back(l.tare.string());
     apps::refuse_output_over_inputs(*pose_out, "--out", inputs);
-    apps::check_output_location(*pose_out, "--out");
     apps::refuse_existing(*pose_out, "--out", *pose_overwrite);
     const auto zero = rig::read_tare(spec.unloaded);
     std::vector<model::StaticLoad> loads;

@@ -40,7 +40,6 @@ void run(const Args& a) {
     for (const auto& s : e.manifest.samples) ins.push_back(s.path.string());
     for (const auto& r : e.manifest.recordings) ins.push_back(r.path.string());
     apps::refuse_output_over_inputs(a.out, "--out", ins);
-    apps::check_output_location(a.out, "--out");
     apps::refuse_existing(a.out, "--out", a.overwrite);
   }
   model::VerifyOptions opt;

@@ -73,6 +73,41 @@ def test_no_output_replaces_an_existing_file_without_overwrite(exp, tmp_path, ve
     no_leftovers(tmp_path)
 
 
+@pytest.mark.parametrize("verb", ["sample synth", "sample resample", "sample export-nrrd", "sample import", "synth",
+                                  "recover", "acquire --out", "acquire --journal", "replay", "verify"])
+def test_an_output_file_in_a_missing_folder_is_refused_before_any_work(exp, tmp_path, verb):
+    # One line naming the path, the option and the missing folder, exit 2, before any work
+    # (a resample or a session is not run only to fail at its end with an I/O error), and
+    # nothing written anywhere.
+    gone = tmp_path / "no" / "such"
+    (tmp_path / "rig.toml").write_text((SRC / "examples/rigs/virtual.toml").read_text())
+    (tmp_path / "j.journal").write_bytes(b"")
+    target, option = gone / "out.h5", "--out"
+    args = {
+        "sample synth": ["sample", "synth", "--out", target],
+        "sample resample": ["sample", "resample", exp / "sample.h5", "--split", "2", "--out", target],
+        "sample export-nrrd": ["sample", "export-nrrd", exp / "sample.h5", "--out-prefix", gone / "x"],
+        "sample import": ["sample", "import", "--labels", tmp_path / "rig.toml", "--out", target],
+        "synth": ["synth", "--sample", exp / "sample.h5", "--protocol", SRC / "examples/protocols/plunge.toml",
+                  "--params", exp / "params_true.toml", "--out", target, "--truth", tmp_path / "t.json"],
+        "recover": ["recover", tmp_path / "j.journal", "--out", target],
+        "acquire --out": ["acquire", "--rig", tmp_path / "rig.toml", "--out", target, "--duration", "1"],
+        "acquire --journal": ["acquire", "--rig", tmp_path / "rig.toml", "--out", tmp_path / "r.h5",
+                              "--journal", target, "--duration", "1"],
+        "replay": ["replay", exp / "experiment.toml", "--params", exp / "params_true.toml", "--out", target],
+        "verify": ["verify", exp / "experiment.toml", "--params", exp / "params_true.toml", "--out", target],
+    }[verb]
+    if verb == "sample export-nrrd":
+        target, option = gone / "x_labels.nrrd", "--out-prefix"
+    if verb == "acquire --journal":
+        option = "--journal"
+    before = sorted(p.name for p in tmp_path.iterdir())
+    p = run(*args)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert p.stderr == f"burrbench: {target}: {option}: expected a path in an existing folder, got no folder {gone}\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
 @pytest.mark.parametrize("verb", ["calibrate", "validate", "report"])
 def test_a_folder_output_must_be_new_or_empty(exp, tmp_path, verb):
     out = tmp_path / "out"
