@@ -149,6 +149,28 @@ def test_the_dossier_draws_every_section_and_plot_and_prints_every_column(fitted
     assert printed["dark_pixels"] > 20, printed  # the word "verdict" is drawn on the page
 
 
+def test_the_fit_settings_read_as_tables_not_json(fitted, tmp_path):
+    # Section 5 shows fit.json's settings, solver and residual summary to a reviewer: nested
+    # settings as tables, the stages and each recording's registration as one table each,
+    # numbers to 6 significant digits (fit.json keeps every digit), no raw JSON.
+    import re
+    run_ok("report", fitted / "cal", "--out", tmp_path / "r" / "report.html")
+    html = (tmp_path / "r" / "report.html").read_text()
+    section = html[html.index('id="calib"'):html.index('id="params"')]
+    assert "{&quot;" not in section and '{"' not in section and "[{" not in section, section[:2000]
+    reals = re.findall(r"<td(?: class=\"num\")?>(-?\d+\.\d+)(?:e[-+]\d+)?</td>", section)
+    assert len(reals) > 10, section[:2000]
+    for r in reals:
+        assert len(r.lstrip("-").replace(".", "").lstrip("0")) <= 6, r
+    fit = json.loads((fitted / "cal" / "fit.json").read_text())
+    stages = section[section.index("<th>stages</th>"):]
+    for st in fit["solver"]["stages"]:
+        assert f"<td>{st['stage']}</td>" in stages, st
+    assert "<th>plunge</th>" in section and "<th>sweep</th>" in section  # registration, a row each
+    assert f"<td>{fit['settings']['residual_variance']:.6g}</td>" in section
+    assert f"<td>{fit['residuals_summary']['sigma_N']:.6g}</td>" in section
+
+
 def test_a_broken_context_of_use_is_refused(fitted, tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text((fitted / "criteria.toml").read_text().replace('model_influence = "high"', 'model_influence = "huge"'))
