@@ -193,16 +193,47 @@
         cols.push(ys);
       });
       plot(el, "Waterfall: final cost of every start", "start (sorted)", "cost", s, cols,
-        function (o) { o.scales.y = { distr: 3 }; });
+        function (o) {
+          o.scales.y = { distr: 3 };
+          o.axes[0].incrs = [1, 2, 5, 10, 20, 50, 100, 200, 500];  // starts are counted: whole ticks
+        });
     }
     (data.profiles || []).forEach(function (p, i) {
       var e = document.getElementById("plot-profile-" + i);
       if (!e) return;
-      var thr = p.value.map(function () { return p.threshold; });
+      var c = profileCurve(p);
+      var thr = c.x.map(function () { return p.threshold; });
       plot(e, "Profile: " + p.name, p.name + " (" + p.unit + ")", "cost rise", [
-        { label: "profile", stroke: PRED[0], width: 1.5, points: { show: true, size: 6 } },
-        { label: "95 % threshold", stroke: "#777", dash: [6, 4] }], [p.value, p.delta, thr]);
+        { label: "profile", stroke: PRED[0], width: 1.5, points: { show: false } },
+        { label: "computed points", stroke: PRED[0], width: 0, points: { show: true, size: 7 } },
+        { label: "95 % threshold", stroke: "#777", dash: [6, 4], points: { show: false } }], [c.x, c.curve, c.points, thr]);
     });
+  }
+
+  // The profile between its computed points as the walk models it (docs/calibration.md,
+  // "Profiles and verdicts"): √Δ linear in ln θ, i.e. a quadratic rise, the model its
+  // crossings are interpolated with. Straight lines would draw a V where the cost is a
+  // parabola (a side often closes with one point). The computed points are marked.
+  function profileCurve(p) {
+    var pts = p.value.map(function (v, k) { return [v, p.delta[k]]; })
+      .sort(function (a, b) { return a[0] - b[0]; });
+    var x = [], curve = [], points = [], steps = 24;
+    pts.forEach(function (q, k) {
+      var prev = pts[k - 1];
+      if (prev && prev[0] > 0 && q[0] > 0 && prev[1] !== null && q[1] !== null) {
+        var sa = Math.sqrt(Math.max(0, prev[1])), sb = Math.sqrt(Math.max(0, q[1]));
+        for (var j = 1; j < steps; j++) {
+          var t = j / steps, s = (1 - t) * sa + t * sb;
+          x.push(Math.exp((1 - t) * Math.log(prev[0]) + t * Math.log(q[0])));
+          curve.push(s * s);
+          points.push(null);
+        }
+      }
+      x.push(q[0]);
+      curve.push(q[1]);
+      points.push(q[1]);
+    });
+    return { x: x, curve: curve, points: points };
   }
 
   overview();

@@ -85,9 +85,9 @@ std::string report_dom(const fs::path& out, const fs::path& rep, const fs::path&
   return browser["dom"].get<std::string>();
 }
 
-// The series names in the waterfall plot's legend, in order.
-std::vector<std::string> waterfall_legend(const std::string& dom) {
-  const std::size_t from = dom.find("id=\"plot-waterfall\""), to = dom.find("</table>", from);
+// The legend labels of the rendered plot with that element id.
+std::vector<std::string> plot_legend(const std::string& dom, const std::string& plot_id) {
+  const std::size_t from = dom.find("id=\"" + plot_id + "\""), to = dom.find("</table>", from);
   std::vector<std::string> out;
   if (from == std::string::npos || to == std::string::npos) return out;
   const std::string tag = "<div class=\"u-label\">";
@@ -255,7 +255,7 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
                        : ending == "stopped" ? "stopped before converging"
                                              : "screened at its pre-fit");
   }
-  EXPECT_EQ(waterfall_legend(dom), legend);
+  EXPECT_EQ(plot_legend(dom, "plot-waterfall"), legend);
   // A fit.json written before the starts' endings were stored draws them as one series.
   {
     const fs::path old = dir / "old";
@@ -269,10 +269,17 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
     std::ofstream(old / "fit.json") << j.dump(1);
     const std::string old_dom = report_dom(old, dir / "rep_old" / "report.html", dir / "chromium_old");
     EXPECT_NE(old_dom.find("id=\"plot-waterfall\" data-rendered=\"1\""), std::string::npos);
-    EXPECT_EQ(waterfall_legend(old_dom), (std::vector<std::string>{"start (sorted)", "cost"}));
+    EXPECT_EQ(plot_legend(old_dom, "plot-waterfall"), (std::vector<std::string>{"start (sorted)", "cost"}));
   }
-  for (int k = 0; k < 6; ++k)
+  for (int k = 0; k < 6; ++k) {
     EXPECT_NE(dom.find(fmt::format("id=\"plot-profile-{}\" data-rendered=\"1\"", k)), std::string::npos) << k;
+    // The curve between the computed points (quadratic, as the walk models it) and the
+    // points themselves, apart.
+    const auto l = plot_legend(dom, fmt::format("plot-profile-{}", k));
+    ASSERT_EQ(l.size(), 4u) << k;
+    EXPECT_EQ(std::vector<std::string>(l.begin() + 1, l.end()),
+              (std::vector<std::string>{"profile", "computed points", "95 % threshold"}));
+  }
   EXPECT_NE(dom.find("held at the optimum"), std::string::npos);
   if (!HasFailure()) fs::remove_all(dir);
 }
