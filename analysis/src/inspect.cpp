@@ -32,7 +32,23 @@ std::string describe_metrics(const std::filesystem::path& path) {
   std::string s = fmt::format("metrics (burrbench.metrics), {} rows", j["rows"].size());
   if (j.contains("pass") && j["pass"].is_boolean())
     s += fmt::format(", release gate {}", j["pass"].get<bool>() ? "PASS" : "FAIL");
-  return s + "\n";
+  s += "\n";
+  // Each check as `validate` printed it, so a reviewer reads the gate from the file alone.
+  if (j.contains("criteria") && j["criteria"].is_array())
+    for (const auto& c : j["criteria"]) {
+      if (!c.is_object()) continue;
+      const auto& v = c.contains("value") ? c["value"] : nlohmann::json();
+      s += fmt::format("  {} {} [{}] = {}\n",
+                       !c.contains("pass") || !c["pass"].is_boolean() ? "????" : c["pass"].get<bool>() ? "PASS" : "FAIL",
+                       c.value("name", std::string("?")), c.value("axis", std::string("?")),
+                       v.is_number() ? fmt::format("{:.4g}", v.get<double>()) : std::string("n/a"));
+    }
+  if (j.contains("criteria_predate_fit")) {
+    const auto& d = j["criteria_predate_fit"];
+    s += fmt::format("criteria fixed before the fit: {}\n", d.is_boolean() ? (d.get<bool>() ? "yes" : "NO (changed after it)")
+                                                                         : "not established");
+  }
+  return s;
 }
 
 std::string describe_analysis(const std::filesystem::path& path) {
@@ -40,8 +56,19 @@ std::string describe_analysis(const std::filesystem::path& path) {
   const auto in = read_analysis_input(path.parent_path().empty() ? "." : path.parent_path());
   std::size_t n = 0;
   for (const auto& r : in.recordings) n += r.t_s.size();
-  return fmt::format("analysis directory (burrbench.analysis), {} recordings, {} samples, {} sample volumes\n",
-                     in.recordings.size(), n, in.samples.size());
+  std::string s = fmt::format("analysis directory (burrbench.analysis, {}), {} recordings, {} samples, {} sample volumes\n",
+                              in.mode, in.recordings.size(), n, in.samples.size());
+  for (const auto& r : in.recordings) {
+    std::size_t used = 0;
+    for (const auto u : r.used) used += u != 0;
+    s += fmt::format("  {} ({}, sample {}): {} samples, {} used\n", r.id, r.role, r.sample_id, r.t_s.size(), used);
+  }
+  for (const auto& p : in.parameters)
+    s += fmt::format("  constants of {}: alpha {:.6g} N/mm^2, C1 {:.6g} N/mm^2, mu {:.6g}\n", p.class_name,
+                     p.alpha_N_per_mm2, p.c1_N_per_mm2, p.mu);
+  if (in.verification.is_object() && in.verification.contains("verdict") && in.verification["verdict"].is_string())
+    s += "verification: " + in.verification["verdict"].get<std::string>() + "\n";
+  return s;
 }
 
 }  // namespace

@@ -67,9 +67,21 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
     # `inspect` reads every file the gate wrote, analysis's formats included (issue 12).
     for f, want in (("criteria.toml", "acceptance criteria (burrbench.criteria), 4 criteria"),
                     ("metrics.json", "release gate PASS"),
-                    ("analysis.json", "analysis directory (burrbench.analysis), 3 recordings")):
+                    ("analysis.json", "analysis directory (burrbench.analysis, validate), 3 recordings")):
         r = run("inspect", str(out / f))
         assert r.returncode == 0 and want in r.stdout and r.stdout.endswith("valid\n"), r.stdout + r.stderr
+    # ... and says what a reviewer needs from each: every check of the gate with its value,
+    # every recording's role and used samples, the verification's verdict.
+    r = run("inspect", str(out / "metrics.json"))
+    for c in m["criteria"]:
+        line = f"  {'PASS' if c['pass'] else 'FAIL'} {c['name']} [{c['axis']}] = {c['value']:.4g}\n"
+        assert line in r.stdout, (line, r.stdout)
+    assert "criteria fixed before the fit: not established\n" in r.stdout, r.stdout
+    r = run("inspect", str(out / "analysis.json"))
+    a = json.load(open(out / "analysis.json"))
+    for rec in a["recordings"]:
+        assert f"  {rec['id']} ({rec['role']}, sample {rec['sample']}): " in r.stdout, (rec, r.stdout)
+    assert "verification: " + a["verification"]["verdict"] + "\n" in r.stdout, r.stdout
     (out / "metrics.json").write_text('{"format": "burrbench.metrics", "format_version": "1.0"}')
     r = run("inspect", str(out / "metrics.json"))
     assert_refused(r.returncode, r.stderr, out / "metrics.json", f"{out / 'metrics.json'}: rows: expected")
