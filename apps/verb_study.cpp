@@ -200,8 +200,9 @@ void summarize(const SummarizeArgs& a) {
   std::cout << fmt::format("population of {} specimens (random effects on ln θ, 95 % HKSJ interval):\n", fits.size());
   for (const auto& p : pop)
     if (p.estimable())
-      std::cout << fmt::format("  {:<12} {:<6} {:>10.4g} [{:.4g}, {:.4g}] {}  k={} tau_ln={:.3g} I2={:.0f}%{}\n",
-                               p.class_name, p.parameter, p.mean, p.ci95_low, p.ci95_high, p.unit, p.k, p.tau_ln,
+      std::cout << fmt::format("  {:<12} {:<6} {:>10.4g} [{:.4g}, {:.4g}]{}  k={} tau_ln={:.3g} I2={:.0f}%{}\n",
+                               p.class_name, p.parameter, p.mean, p.ci95_low, p.ci95_high,
+                               data_schema::unit_suffix(p.unit), p.k, p.tau_ln,
                                100 * p.i2, p.excluded.empty() ? "" : fmt::format(", {} excluded", p.excluded.size()));
     else
       std::cout << fmt::format("  {:<12} {:<6} not pooled: {} usable specimen(s), {} excluded{}\n", p.class_name,

@@ -17,9 +17,6 @@ const char* to_string(PhysKind k) {
 }
 
 const char* unit_of(PhysKind k) { return k == PhysKind::kMu ? "1" : "N/mm^2"; }
-
-std::string unit_suffix(std::string_view unit) { return unit == "1" ? std::string() : " " + std::string(unit); }
-
 Layout::Layout(
     const std::vector<std::pair<std::uint8_t, std::pair<std::string, data_schema::ClassFitSpec>>>&
         classes,

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/model/job_queue.hpp"
 #include "pipeline.hpp"
 
@@ -158,7 +159,7 @@ void assess(Run& run) {
         const bool up = L.upper(i) - xi < kBoundLog;
         v = "at_bound";
         why = fmt::format("estimate at its {} bound ({:.4g}{}): widen it ([fit.classes.{}] {})",
-                          up ? "upper" : "lower", std::exp(xi), unit_suffix(unit_of(p->kind)), p->class_name,
+                          up ? "upper" : "lower", std::exp(xi), data_schema::unit_suffix(unit_of(p->kind)), p->class_name,
                           to_string(p->kind));
       } else if (pr.lower.closed && pr.upper.closed) {
         v = "identifiable";
@@ -179,7 +180,7 @@ void assess(Run& run) {
         why = fmt::format("profile flat towards its {} bound: the data give only {} limit ({} {:.4g}{})",
                           up_open ? "upper" : "lower", up_open ? "a lower" : "an upper",
                           up_open ? ">=" : "<=",
-                          std::exp(up_open ? pr.lower.crossing : pr.upper.crossing), unit_suffix(unit_of(p->kind)));
+                          std::exp(up_open ? pr.lower.crossing : pr.upper.crossing), data_schema::unit_suffix(unit_of(p->kind)));
       } else {
         v = "non_identifiable";
         why = "profile flat on both sides within the bounds";
@@ -193,7 +194,7 @@ void assess(Run& run) {
             v = "non_identifiable";
             why = fmt::format("start {} reached an equally good fit (cost {:.6g}) at {:.4g}{}, "
                               "outside the profile interval", e.index, e.cost, std::exp(e.end[i]),
-                              unit_suffix(unit_of(p->kind)));
+                              data_schema::unit_suffix(unit_of(p->kind)));
             break;
           }
       run.verdict[i] = v;

@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/import/volume.hpp"
 #include "pipeline.hpp"
 
@@ -116,7 +117,7 @@ void discretization_check(Run& run) {
           "{} {}: the refit at voxel {:.4g} mm ran into its bound ({:.4g}{}): at twice the voxel the model is too "
           "coarse for the check to measure the discretization error; treat the estimate as limited by it and verify "
           "on a finer sample (`burrbench verify`, `burrbench sample resample --split 2`)",
-          fp.class_name, fp.name, c.voxel_mm, fp.coarse_estimate, unit_suffix(fp.unit)));
+          fp.class_name, fp.name, c.voxel_mm, fp.coarse_estimate, data_schema::unit_suffix(fp.unit)));
       continue;
     }
     if (fp.limited_by_discretization)
@@ -127,7 +128,7 @@ void discretization_check(Run& run) {
           "(a finer sample narrows it; `burrbench verify`)",
           fp.class_name, fp.name, percent(100 * (std::exp(fit.x[i] - run.x[i]) - 1), true), c.fine_voxel_mm,
           c.voxel_mm, percent(100 * (std::exp(half) - 1)), fp.ci95_with_discretization_low, fp.ci95_with_discretization_high,
-          unit_suffix(fp.unit)));
+          data_schema::unit_suffix(fp.unit)));
   }
 }
 

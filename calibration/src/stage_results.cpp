@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/provenance.hpp"
 #include "pipeline.hpp"
 
@@ -268,7 +269,7 @@ CalibrationOutput results(Run& run) {
   }
   for (const auto& p : out.parameters) {
     if (p.fixed) {
-      s += fmt::format("  {:<12} {:<5} = {:.6g}{} (fixed)\n", p.class_name, p.name, p.estimate, unit_suffix(p.unit));
+      s += fmt::format("  {:<12} {:<5} = {:.6g}{} (fixed)\n", p.class_name, p.name, p.estimate, data_schema::unit_suffix(p.unit));
     } else if (!p.identifiable) {
       s += fmt::format("  {:<12} {:<5}   {} (held {:.6g}{}): {}\n", p.class_name, p.name,
                        p.verdict == "at_bound" ? "AT BOUND" : "NOT identifiable", p.held,
@@ -276,7 +277,7 @@ CalibrationOutput results(Run& run) {
                        p.reason);
     } else {
       s += fmt::format("  {:<12} {:<5} = {:.6g}{} {}covariance [{:.6g}, {:.6g}]{}\n",
-                       p.class_name, p.name, p.estimate, unit_suffix(p.unit),
+                       p.class_name, p.name, p.estimate, data_schema::unit_suffix(p.unit),
                        p.profile.empty() ? std::string("95 % ")
                                          : "profile 95 % " + interval_text(p.profile_ci95_low, p.profile_ci95_high) + "; ",
                        p.ci95_low, p.ci95_high,

@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/fit_result.hpp"
+
 namespace burrbench::calibration {
 namespace {
 
@@ -111,11 +113,11 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i, inflation))
       flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g}{}, "
                                 "next to no erosion): they give only a lower limit",
-                                std::exp(L.upper(i)), unit_suffix(unit_of(p.kind))));
+                                std::exp(L.upper(i)), data_schema::unit_suffix(unit_of(p.kind))));
     else if (x[i] - L.lower(i) < 0.01 || L.upper(i) - x[i] < 0.01)
       flag(p.index, fmt::format("estimate at its {} bound ({:.4g}{})",
                                 x[i] - L.lower(i) < 0.01 ? "lower" : "upper", std::exp(x[i]),
-                                unit_suffix(unit_of(p.kind))));
+                                data_schema::unit_suffix(unit_of(p.kind))));
   }
   CovarianceOutcome cov;
   for (int round = 0; round < 4; ++round) {
@@ -155,7 +157,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
         more |= flag(int(i), fmt::format("95 % interval reaches past its {} bound ({:.4g}{}): "
                                          "the data give only a {} limit ({} {:.4g})",
                                          up ? "upper" : "lower", std::exp(up ? L.upper(i) : L.lower(i)),
-                                         unit_suffix(unit_of(p->kind)), up ? "lower" : "upper", up ? ">=" : "<=",
+                                         data_schema::unit_suffix(unit_of(p->kind)), up ? "lower" : "upper", up ? ">=" : "<=",
                                          std::exp(up ? x[i] - kZ95 * se : x[i] + kZ95 * se)));
       }
     }

@@ -61,6 +61,8 @@ const FitParameter* FitResult::parameter(std::uint8_t class_id, const std::strin
   return nullptr;
 }
 
+std::string unit_suffix(std::string_view unit) { return unit == "1" ? std::string() : " " + std::string(unit); }
+
 void validate(const FitResult& f, const std::string& file) {
   std::set<std::pair<int, std::string>> seen;
   for (std::size_t i = 0; i < f.parameters.size(); ++i) {

@@ -131,14 +131,11 @@ std::string describe_manifest(const std::filesystem::path& path) {
   return s;
 }
 
-// " N/mm^2", or nothing for μ's "1" ("mu = 0.4", not "mu = 0.4 1").
-std::string after_value(const std::string& unit) { return unit == "1" ? std::string() : " " + unit; }
-
 // One parameter as the calibration left it: the value it holds, the intervals that
 // support it (profile first: the verdict comes from it) and, when it is not a confident
 // value, why. Mirrors `calibrate`'s summary so the file reads as the run did.
 std::string describe_fit_parameter(const FitParameter& p) {
-  const std::string head = fmt::format("  {:<12} {:<5}", p.class_name, p.name), u = after_value(p.unit);
+  const std::string head = fmt::format("  {:<12} {:<5}", p.class_name, p.name), u = unit_suffix(p.unit);
   if (p.fixed) return fmt::format("{} = {}{} (fixed)\n", head, num(p.estimate), u);
   if (!p.identifiable) {
     const std::string v = p.verdict == "at_bound"                       ? "AT BOUND"
@@ -166,9 +163,9 @@ std::string describe_fit(const std::filesystem::path& path) {
   for (const auto& p : f.parameters) s += describe_fit_parameter(p);
   for (const auto& n : f.nuisance)
     s += n.fixed ? fmt::format("  {:<12} {:<12} = {}{} (fixed)\n", n.recording_id, n.name, num(n.estimate),
-                               after_value(n.unit))
+                               unit_suffix(n.unit))
                  : fmt::format("  {:<12} {:<12} = {} ± {}{} (SE)\n", n.recording_id, n.name, num(n.estimate),
-                               num(n.std_error), after_value(n.unit));
+                               num(n.std_error), unit_suffix(n.unit));
   const auto& r = f.residuals_summary;
   s += fmt::format("residuals: {} used, {} buried, {} excluded, σ {} N, rms/σ {}\n", r.samples_used,
                    r.samples_buried, r.samples_excluded, num(r.sigma_N), num(r.rms_normalised));

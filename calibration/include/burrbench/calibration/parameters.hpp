@@ -11,7 +11,6 @@
 #include <limits>
 #include <optional>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -26,9 +25,6 @@ using PerLabel = std::array<double, kLabels>;
 enum class PhysKind { kAlpha, kC1, kMu };
 const char* to_string(PhysKind k);  // "alpha" | "c1" | "mu"
 const char* unit_of(PhysKind k);    // "N/mm^2" | "1"
-// The unit as a message writes it after a value: " N/mm^2", or nothing for a
-// dimensionless "1" ("mu = 0.4", not "mu = 0.4 1").
-std::string unit_suffix(std::string_view unit);
 
 struct PhysicsParam {
   std::uint8_t label = 0;

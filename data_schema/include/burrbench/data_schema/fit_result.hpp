@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -52,6 +53,10 @@ struct FitParameter {
   bool limited_by_discretization = false;
   double ci95_with_discretization_low = kNaN, ci95_with_discretization_high = kNaN;
 };
+
+// A unit as a message writes it after a value: " N/mm^2", or nothing for the
+// dimensionless "1" ("mu = 0.4", not "mu = 0.4 1").
+std::string unit_suffix(std::string_view unit);
 
 struct FitNuisance {
   std::string recording_id;
