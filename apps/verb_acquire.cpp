@@ -38,8 +38,9 @@ struct Options {
 std::string live_line(const burrbench::rig::SessionStatus& s) {
   std::uint64_t samples = 0, timeouts = 0, reconnects = 0, polls = 0, missed = 0;
   double jitter = 0, rate = 0, req = 0;
-  std::string force;
+  std::string force, frozen;
   for (const auto& d : s.devices) {
+    if (d.frozen_s >= burrbench::rig::kFrozenAfterS) frozen += fmt::format("  FROZEN {} {:.1f} s", d.name, d.frozen_s);
     samples += d.samples;
     timeouts += d.timeouts;
     reconnects += d.reconnects;
@@ -51,9 +52,32 @@ std::string live_line(const burrbench::rig::SessionStatus& s) {
     if (d.first_channel == burrbench::data_schema::kForce && d.last.size() == 3 && force.empty())
       force = fmt::format(" F {:.2f} {:.2f} {:.2f} N", d.last[0], d.last[1], d.last[2]);
   }
-  return fmt::format("{:.0f}/{:.0f} Hz  jitter p99 {:.0f} µs{}  samples {}  timeouts {}  reconnects {}  missed {}",
-                     rate, req, jitter, force, samples, timeouts, reconnects, missed);
+  return fmt::format("{:.0f}/{:.0f} Hz  jitter p99 {:.0f} µs{}  samples {}  timeouts {}  reconnects {}  missed {}{}",
+                     rate, req, jitter, force, samples, timeouts, reconnects, missed, frozen);
 }
+
+// Tells the operator at once, on a line of its own, when a device still answering stops
+// measuring (its counter no longer advances), and when it measures again: drilling on
+// a frozen force sensor records nothing new.
+class FrozenWatch {
+ public:
+  explicit FrozenWatch(std::size_t devices) : frozen_(devices, false) {}
+  void check(const burrbench::rig::SessionStatus& s, burrbench::Progress& progress) {
+    for (std::size_t i = 0; i < s.devices.size() && i < frozen_.size(); ++i) {
+      const auto& d = s.devices[i];
+      const bool now = d.frozen_s >= burrbench::rig::kFrozenAfterS;
+      if (now && !frozen_[i])
+        progress.note(fmt::format("WARNING: {} gives no new measurement: its counter has not advanced for {:.1f} s "
+                                  "(stalled, or stopped measuring); its rows are marked stale",
+                                  d.name, d.frozen_s));
+      if (!now && frozen_[i]) progress.note(fmt::format("{} measures again", d.name));
+      frozen_[i] = now;
+    }
+  }
+
+ private:
+  std::vector<bool> frozen_;
+};
 
 void run(const Options& o) {
   using namespace burrbench;
@@ -106,11 +130,14 @@ void run(const Options& o) {
   rig::Session session(map, journal, rig::to_json(h).dump());
   std::cerr << fmt::format("acquiring {} device(s) into journal {} (Ctrl-C stops)\n", map.devices.size(), journal.string());
   TerminalProgress progress("acquire");
+  FrozenWatch frozen(map.devices.size());
   const auto t0 = std::chrono::steady_clock::now();
   while (g_signal == 0 && !session.fatal()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    progress.update(o.duration_s > 0 ? std::min(1.0, el / o.duration_s) : -1.0, live_line(session.status()));
+    const auto status = session.status();
+    frozen.check(status, progress);
+    progress.update(o.duration_s > 0 ? std::min(1.0, el / o.duration_s) : -1.0, live_line(status));
     if (o.duration_s > 0 && el >= o.duration_s) break;
   }
   session.stop();

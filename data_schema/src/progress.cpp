@@ -33,15 +33,19 @@ void TerminalProgress::update(double fraction, const std::string& line) {
 }
 
 void TerminalProgress::stage(const std::string& name, const std::string& detail) {
-  const auto now = std::chrono::steady_clock::now();
   stage_ = name;
-  const std::string text = fmt::format("{}: {}{}{} [{:.1f} s]", label_, name, detail.empty() ? "" : ": ", detail,
-                                       elapsed_s(now));
-  // On a terminal the stage's line stays (newline) and the status line goes on below it.
-  fmt::print(out_, "{}{}\n", tty_ && printed_ ? "\r\033[K" : "", text);
+  kept_line(detail.empty() ? name : name + ": " + detail);
+}
+
+void TerminalProgress::note(const std::string& line) { kept_line(line); }
+
+void TerminalProgress::kept_line(const std::string& line) {
+  const auto now = std::chrono::steady_clock::now();
+  // On a terminal the line stays (newline) and the status line goes on below it.
+  fmt::print(out_, "{}{}: {} [{:.1f} s]\n", tty_ && printed_ ? "\r\033[K" : "", label_, line, elapsed_s(now));
   std::fflush(out_);
   last_ = now;
-  printed_ = false;  // the next update is shown at once, under its stage
+  printed_ = false;  // the next update is shown at once, below it
 }
 
 void TerminalProgress::finish(const std::string& summary_line) {

@@ -213,9 +213,6 @@ struct FrozenSpan {
   std::size_t polls = 0;
   double span_s() const { return 1e-9 * double(last_ns - first_ns); }
 };
-// Longer than any device's own update period (a sensor updating at 100 Hz polled at
-// 1 kHz repeats itself for 10 ms): a span this long is a device that stopped measuring.
-constexpr double kFrozenWarnS = 0.5;
 
 }  // namespace
 
@@ -308,7 +305,7 @@ data_schema::Recording recording_from_journal(const JournalContents& j, const st
         if (run.span_s() > frozen.span_s()) frozen = run;
       }
     }
-    if (frozen.span_s() >= kFrozenWarnS) {
+    if (frozen.span_s() >= kFrozenAfterS) {
       const auto rel = [&](std::int64_t t) { return 1e-9 * double(t - h.session_monotonic_ns); };
       const std::string note = fmt::format(
           "its counter did not advance for {:.2f} s ({} polls, {:.2f} s to {:.2f} s into the session): the device "

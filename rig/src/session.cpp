@@ -58,6 +58,7 @@ struct DeviceState {
   std::uint16_t index = 0;
   std::int64_t period_ns = 0, next_ns = 0;
   std::int64_t last_counter = -1;   // unwrapped (decode.hpp: unwrap_counter)
+  std::int64_t counter_advanced_ns = 0;  // send time of the poll that last saw it advance
   std::int64_t rate_c0 = -1, rate_t0_ns = 0;  // latest mode: counter and time seen first, for the device's rate
   std::int64_t last_ok_send_ns = -1;
   std::int64_t last_ok_before_ns = 0;  // the good poll before that (set in on_good)
@@ -219,7 +220,11 @@ struct Session::Impl {
       if (counter >= 0 && st.last_counter >= 0 && counter < st.last_counter)
         event(st.index, "counter_reset", fmt::format("counter {} → {} (device restarted: it went back further than a wrap of its {}-bit range explains)",
                                                      st.last_counter, counter, register_count(d.counter->type) * 16));
-      if (counter >= 0) st.last_counter = counter;
+      if (counter >= 0) {
+        if (counter != st.last_counter) st.counter_advanced_ns = r.t_send_ns;
+        st.status.frozen_s = static_cast<double>(r.t_send_ns - st.counter_advanced_ns) * 1e-9;
+        st.last_counter = counter;
+      }
       push({st.index, r.t_send_ns, r.t_recv_ns, counter, regs});
       ++st.status.samples;
       note_values(st, regs, d.start);

@@ -18,6 +18,9 @@ class Progress {
     update(-1, detail.empty() ? name : name + ": " + detail);
   }
   virtual void finish(const std::string& summary_line) = 0;
+  // Something the user must see now (a device that stopped measuring): a line of its own,
+  // kept, whatever the update rate; the stage does not change. By default an update.
+  virtual void note(const std::string& line) { update(-1, line); }
 };
 
 // Rewrites one status line on a terminal (stderr) at most every 100 ms; when stderr is
@@ -31,9 +34,11 @@ class TerminalProgress final : public Progress {
   void update(double fraction, const std::string& line) override;
   void stage(const std::string& name, const std::string& detail) override;
   void finish(const std::string& summary_line) override;
+  void note(const std::string& line) override;
 
  private:
   double elapsed_s(std::chrono::steady_clock::time_point now) const;
+  void kept_line(const std::string& line);  // a line that stays above the status line
   std::string label_;
   std::string stage_;  // the current stage's name ("" before the first)
   std::FILE* out_;

@@ -16,6 +16,11 @@ enum class ValueType { Int16, UInt16, Int32, UInt32, Float32 };
 enum class WordOrder { ABCD, CDAB, BADC, DCBA };
 enum class Transport { Tcp, Rtu };
 enum class Mode { Latest, Fifo };
+// Latest mode with a counter: a device still answering whose counter has not advanced for
+// this long has stopped measuring (stalled, or its acquisition stopped). Longer than any
+// device's own update period: a sensor updating at 100 Hz polled at 1 kHz repeats itself
+// for 10 ms. `acquire` warns while it lasts; the recording gets a `frozen` event.
+inline constexpr double kFrozenAfterS = 0.5;
 
 int register_count(ValueType t);  // 1 or 2
 const char* to_string(ValueType t);

@@ -27,6 +27,9 @@ struct DeviceStatus {
   double jitter_p99_us = 0;        // |interval - period| of consecutive polls
   double jitter_max_us = 0;
   double achieved_hz = 0;          // successful polls / elapsed
+  // Latest mode with a counter: seconds since its counter last advanced, at the last good
+  // poll (0 while it advances); ≥ kFrozenAfterS: the device has stopped measuring.
+  double frozen_s = 0;
   std::vector<double> last;        // last decoded values of the first channel
   std::string first_channel;
 };
