@@ -7,6 +7,8 @@
 #include <map>
 #include <optional>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -307,12 +309,21 @@ std::string nuisance_table(const json& fit) {
 std::string parameter_section(const AnalysisInput& in, const json* fit) {
   std::string h;
   if (fit && fit->contains("parameters")) {
-    h += "<table><tr><th>class</th><th>parameter</th><th>unit</th><th>estimate</th>"
-         "<th>held at the optimum</th><th>profile 95 %</th><th>std. error</th>"
-         "<th>covariance 95 %</th><th>bootstrap 95 %</th><th>at 2l (discretization)</th><th>fixed</th><th>verdict</th></tr>";
+    // The bootstrap's column only when it ran (`--bootstrap N`): else a column of blanks.
+    const auto& ps = fit->at("parameters");
+    const bool bootstrap = std::any_of(ps.begin(), ps.end(), [](const json& p) {
+      return p.contains("bootstrap_ci95_low") && p.at("bootstrap_ci95_low").is_number();
+    });
+    h += std::string("<table><tr><th>class</th><th>parameter</th><th>unit</th><th>estimate</th>"
+                     "<th>held at the optimum</th><th>profile 95 %</th><th>std. error</th><th>covariance 95 %</th>") +
+         (bootstrap ? "<th>bootstrap 95 %</th>" : "") + "<th>at 2l (discretization)</th><th>fixed</th><th>verdict</th></tr>";
     for (const auto& p : fit->at("parameters")) {
       const auto n = [&](const char* k) {
         return p.contains(k) && p.at(k).is_number() ? num(p.at(k).get<double>()) : std::string("—");
+      };
+      // An interval neither of whose ends was computed is one dash, not "[—, —]".
+      const auto interval = [&](const char* lo, const char* hi) {
+        return n(lo) == "—" && n(hi) == "—" ? std::string("—") : "[" + n(lo) + ", " + n(hi) + "]";
       };
       const bool ident = p.value("identifiable", false);
       // An open side of a profile interval (null) means: not closed within the bounds.
@@ -326,8 +337,8 @@ std::string parameter_section(const AnalysisInput& in, const json* fit) {
       h += "<tr>" + td(esc(p.value("class_name", std::string()))) + td(esc(p.value("name", std::string()))) +
            td(esc(p.value("unit", std::string()))) + td(n("estimate"), true) + td(n("held"), true) +
            td(prof, true) + td(n("std_error"), true) +
-           td("[" + n("ci95_low") + ", " + n("ci95_high") + "]", true) +
-           td("[" + n("bootstrap_ci95_low") + ", " + n("bootstrap_ci95_high") + "]", true) +
+           td(interval("ci95_low", "ci95_high"), true) +
+           (bootstrap ? td(interval("bootstrap_ci95_low", "bootstrap_ci95_high"), true) : std::string()) +
            td(discretization_cell(p), true) + td(p.value("fixed", false) ? "yes" : "no") +
            td(ident && verdict != "imprecise" ? esc(verdict)
                                               : "<b>" + esc(verdict) + "</b>: " + esc(p.value("reason", std::string()))) +
@@ -492,10 +503,34 @@ std::string cross_validation_section(const std::vector<MetricRow>& rows, const j
            td(num(r.m.sg_combined), true) + "</tr>";
   h += "</table>";
   if (fit && fit->contains("cross_validation") && !fit->at("cross_validation").empty()) {
-    h += "<h3>Leave-one-out cross-validation (from the fit)</h3><table><tr><th>held out</th><th>metrics</th></tr>";
-    for (const auto& cv : fit->at("cross_validation"))
-      h += "<tr>" + td(esc(cv.value("held_out", std::string()))) +
-           td("<code>" + esc(cv.contains("metrics") ? cv.at("metrics").dump() : "{}") + "</code>") + "</tr>";
+    // Each fold: the recording left out, how the refit without it predicts it and its own
+    // data (x, y, z together), the constants it refitted, how its solve ended.
+    const json& folds = fit->at("cross_validation");
+    std::vector<std::string> names;  // the refitted constants, in the order the folds give them
+    for (const auto& cv : folds)
+      if (cv.contains("metrics") && cv.at("metrics").contains("parameters") && cv.at("metrics").at("parameters").is_object())
+        for (const auto& [k, _] : cv.at("metrics").at("parameters").items())
+          if (std::find(names.begin(), names.end(), k) == names.end()) names.push_back(k);
+    h += "<h3>Leave-one-out cross-validation (from the fit)</h3><p class=\"muted\">Each recording left out in "
+         "turn: the constants refitted on the others (from the optimum), the left-out recording predicted with "
+         "them; RMSE and R² over x, y, z together.</p><table><tr><th>held out</th><th>held-out n</th>"
+         "<th>held-out RMSE (N)</th><th>held-out R²</th><th>refit n</th><th>refit RMSE (N)</th><th>refit R²</th>";
+    for (const auto& n : names) h += "<th>" + esc(n) + "</th>";
+    h += "<th>refit ended</th></tr>";
+    const json none;
+    for (const auto& cv : folds) {
+      const json& m = cv.contains("metrics") && cv.at("metrics").is_object() ? cv.at("metrics") : none;
+      auto at = [&](const char* group, const char* key) -> const json& {
+        return m.is_object() && m.contains(group) && m.at(group).is_object() && m.at(group).contains(key)
+                   ? m.at(group).at(key) : none;
+      };
+      auto cell = [&](const json& v) { return td(value_html(v), v.is_number()); };
+      h += "<tr>" + td(esc(cv.value("held_out", std::string()))) + cell(at("held_out", "samples")) +
+           cell(at("held_out", "rmse_xyz_N")) + cell(at("held_out", "r2_xyz")) + cell(at("calibration", "samples")) +
+           cell(at("calibration", "rmse_xyz_N")) + cell(at("calibration", "r2_xyz"));
+      for (const auto& n : names) h += cell(at("parameters", n.c_str()));
+      h += td(esc(m.is_object() ? m.value("termination", std::string("—")) : std::string("—"))) + "</tr>";
+    }
     h += "</table>";
   }
   return h;

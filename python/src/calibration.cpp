@@ -3,9 +3,7 @@
 // Python callable (fraction or None, line) — the lines `burrbench calibrate` prints.
 // Ctrl-C (KeyboardInterrupt) or an exception from that callable stops it within a moment.
 #include <algorithm>
-#include <exception>
 #include <filesystem>
-#include <mutex>
 #include <string>
 
 #include <pybind11/functional.h>
@@ -43,12 +41,12 @@ void set_option(calibration::CalibrateOptions& o, const std::string& k, const py
   else if (k == "bootstrap") o.bootstrap = as_int(kCall, k, v);
   else if (k == "bootstrap_block_s") o.bootstrap_block_s = as_float(kCall, k, v);
   else if (k == "derivatives") {
-    if (!py::isinstance<py::str>(v)) throw InputError("calibrate()", k, "\"sensitivities\" or \"fd\"", shown(v));
+    if (!py::isinstance<py::str>(v)) throw InputError(kCall, k, "\"sensitivities\" or \"fd\"", shown(v));
     const std::string d = v.cast<std::string>();
-    if (d != "sensitivities" && d != "fd") throw InputError("calibrate()", "derivatives", "\"sensitivities\" or \"fd\"", d);
+    if (d != "sensitivities" && d != "fd") throw InputError(kCall, "derivatives", "\"sensitivities\" or \"fd\"", d);
     o.derivatives = d == "fd" ? calibration::Derivatives::kFiniteDifferences : calibration::Derivatives::kSensitivities;
   } else
-    throw InputError("calibrate()", k,
+    throw InputError(kCall, k,
                      "an option of: threads, max_iterations, starts, solve_starts, start_iterations, profiles, "
                      "profile_points, noise_inflation, discretization_check, coarse_to_fine, cross_validate, "
                      "bootstrap, bootstrap_block_s, derivatives",
@@ -68,7 +66,7 @@ void bind_calibration(py::module_& m) {
         } catch (const InputError& e) {  // it names the CLI's option: "--max-iterations"
           std::string name = e.field().rfind("--", 0) == 0 ? e.field().substr(2) : e.field();
           std::replace(name.begin(), name.end(), '-', '_');
-          throw InputError("calibrate()", name, e.expected(), e.got());
+          throw InputError(kCall, name, e.expected(), e.got());
         }
         CancelToken cancel;
         o.cancel = &cancel;

@@ -36,14 +36,20 @@ py::array_t<T> array(const std::vector<T>& v) {
 // Three finite numbers (a list, tuple or numpy array of ints or floats); InputError naming
 // the call and the argument otherwise: numpy would turn ["1", "2", "3"] into numbers.
 inline glm::dvec3 to_vec3(const py::object& o, const std::string& call, const char* what) {
-  const py::array raw = py::module_::import("numpy").attr("asarray")(o);
+  const std::string got = py::str(py::repr(o)).cast<std::string>();
+  py::array raw;
+  try {
+    raw = py::module_::import("numpy").attr("asarray")(o);
+  } catch (const py::error_already_set&) {  // ragged lists and the like
+    throw InputError(call, what, "3 finite numbers", got);
+  }
   const char kind = raw.dtype().kind();
   if (raw.size() == 3 && (kind == 'i' || kind == 'u' || kind == 'f')) {
     const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(raw);
     const glm::dvec3 v{a.data()[0], a.data()[1], a.data()[2]};
     if (std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)) return v;
   }
-  throw InputError(call, what, "3 finite numbers", py::str(py::repr(o)).cast<std::string>());
+  throw InputError(call, what, "3 finite numbers", got);
 }
 
 // A JSON document as Python objects (via the json module: dicts, lists, str, float).

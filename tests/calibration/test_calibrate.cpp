@@ -281,6 +281,18 @@ TEST(CalibrateCli, RecoversTwoClassesFromPlungeSweepPolish) {
               (std::vector<std::string>{"profile", "computed points", "95 % threshold"}));
   }
   EXPECT_NE(dom.find("held at the optimum"), std::string::npos);
+  EXPECT_EQ(dom.find("bootstrap 95 %"), std::string::npos);  // no --bootstrap: no column of blanks
+  // The cross-validation's folds as a table (held-out figures to 6 digits), not JSON.
+  const std::size_t cv_at = dom.find("Leave-one-out cross-validation");
+  ASSERT_NE(cv_at, std::string::npos);
+  const std::string cv_table = dom.substr(cv_at, dom.find("</table>", cv_at) - cv_at);
+  EXPECT_EQ(cv_table.find("{&quot;"), std::string::npos) << cv_table;
+  for (const auto& cv : fit.cross_validation)
+    EXPECT_NE(cv_table.find(fmt::format("<td>{}</td><td class=\"num\">{}</td><td class=\"num\">{:.6g}</td>", cv.held_out,
+                                        cv.metrics["held_out"]["samples"].dump(),
+                                        cv.metrics["held_out"]["rmse_xyz_N"].get<double>())),
+              std::string::npos)
+        << cv.held_out << "\n" << cv_table;
   if (!HasFailure()) fs::remove_all(dir);
 }
 
@@ -307,6 +319,15 @@ TEST(CalibrateCli, OnlyCompactTouchedLeavesTrabecularNotIdentifiable) {
     EXPECT_TRUE(param(fit, 1, n).identifiable) << n << ": " << param(fit, 1, n).reason;
   }
   EXPECT_NEAR(param(fit, 1, "c1").estimate / s.c1_1, 1.0, 0.02);
+  // The report's parameter table gives the bootstrap's column, with each interval.
+  const fs::path rep = dir / "rep" / "report.html";
+  ASSERT_EQ(run_cli(fmt::format("report '{}' --out '{}'", (dir / "out").string(), rep.string()), dir / "report.stderr").code, 0);
+  const std::string html = read_text(rep);
+  EXPECT_NE(html.find("<th>bootstrap 95 %</th>"), std::string::npos);
+  for (const char* n : {"alpha", "c1", "mu"}) {
+    const auto& c = param(fit, 1, n);
+    EXPECT_NE(html.find(fmt::format("[{:.4g}, {:.4g}]", c.bootstrap_ci95_low, c.bootstrap_ci95_high)), std::string::npos) << n;
+  }
   if (!HasFailure()) fs::remove_all(dir);
 }
 

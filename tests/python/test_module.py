@@ -149,6 +149,7 @@ def test_a_bad_calibrate_option_is_named_with_what_was_expected(exp, option, val
     ("contact", {"p_mm": ["4", "4", "1"]}, "contact(): p_mm: expected 3 finite numbers, got ['4', '4', '1']"),
     ("contact", {"p_mm": [4.0, 4.0]}, "contact(): p_mm: expected 3 finite numbers, got [4.0, 4.0]"),
     ("contact", {"omega_rad_s": [0, 0, float("inf")]}, "contact(): omega_rad_s: expected 3 finite numbers, got [0, 0, inf]"),
+    ("contact", {"p_mm": [[4.0, 4.0], [1.0]]}, "contact(): p_mm: expected 3 finite numbers, got [[4.0, 4.0], [1.0]]"),
 ])
 def test_a_bad_replay_or_contact_argument_is_named_with_what_was_expected(exp, call, kwargs, message):
     # As calibrate's options: no silent "5" → 5.0 or 1.5 → 1, no pybind11 "Unable to cast".
