@@ -87,10 +87,26 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
               {"burr radius (mm)", ex.manifest.burr.radius_mm},
               {"sensor measures", ds::to_string(ex.manifest.sensor.measures)},
               {"buried samples", ds::to_string(ex.manifest.fit.buried)}};
+  // The nuisances the fit estimated (not those it held fixed), as this replay applies them.
+  const auto fitted = [&](const char* prefix) {
+    return fit && std::any_of(fit->nuisance.begin(), fit->nuisance.end(), [&](const ds::FitNuisance& n) {
+             return n.name.rfind(prefix, 0) == 0 && !n.fixed;
+           });
+  };
+  // A pose correction per fiducial-registered mounting (pose_rx … pose_tz), or none (a
+  // given transform is taken as exact).
+  const bool pose_fitted = fitted("pose_");
   if (fit) {
+    std::vector<std::string> applied;
+    if (fitted("bias_")) applied.push_back("bias");
+    if (fitted("lag")) applied.push_back("lag");
+    if (fitted("depth_offset")) applied.push_back("depth offset");
+    if (fitted("torque_bias_")) applied.push_back("moment bias");
+    if (fitted("spindle_")) applied.push_back("spindle idle and viscous terms");
+    if (pose_fitted) applied.push_back("the registration's pose correction per sample mounting");
     in.calibration = {{"method", "Ceres least squares on the recorded sensor force (burrbench calibrate)"},
-                      {"nuisances applied", "per-recording bias, lag, depth offset and the registration's "
-                                            "pose correction per sample mounting, from fit.json"},
+                      {"nuisances applied", applied.empty() ? std::string("none (all held fixed)")
+                                                            : fmt::format("from fit.json: {}", fmt::join(applied, ", "))},
                       {"recordings without a fitted bias", opt.tare ? "tare: measured force minus its mean over samples with no predicted contact" : "none"}};
   } else {
     in.calibration = {{"method", "none: fixed parameters replayed (burrbench validate)"},
@@ -104,15 +120,21 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
       "The removed-bone picture shows, per voxel, the largest bone fraction any recording "
       "removed, summed along the volume z axis.",
       "Forces are compared in the sensor frame; the sensor's own calibration is taken as exact.",
-      fit ? "The registration (rig to volume) is a measurement: calibrate fitted its pose correction per "
+      pose_fitted
+          ? "The registration (rig to volume) is a measurement: calibrate fitted its pose correction per "
             "sample mounting, with the fiducial fit's covariance as its prior, so the parameter intervals "
             "include the registration's uncertainty; this replay applies the fitted correction. The "
             "registration column gives the fiducial RMS and Fitzpatrick's predicted TRE along the path."
-          : "The registration (rig to volume) is the manifest's (or the fiducial fit's) without a "
-            "correction: its uncertainty is not propagated into these metrics. The registration column "
-            "gives the fiducial RMS and Fitzpatrick's predicted TRE along the path: force is stiff in depth "
-            "(about 20 N/mm at 0.5 mm immersion), so a TRE of a few micrometres is already comparable to "
-            "the sensor noise."};
+          : std::string("The registration (rig to volume) is the manifest's (or the fiducial fit's) without a "
+                        "correction") +
+                (fit ? " (the fit estimated no pose: a given transform is taken as exact, or [fit.nuisance] pose "
+                       "is off)"
+                     : "") +
+                ": its uncertainty is not propagated into these metrics" +
+                (fit ? " nor into the constants' intervals" : "") +
+                ". The registration column gives the fiducial RMS and Fitzpatrick's predicted TRE along the path: "
+                "force is stiff in depth (about 20 N/mm at 0.5 mm immersion), so a TRE of a few micrometres is "
+                "already comparable to the sensor noise."};
   for (const auto& [label, c] : params.classes)
     in.parameters.push_back({int(label), c.name, c.alpha_N_per_mm2, c.c1_N_per_mm2, c.mu});
 

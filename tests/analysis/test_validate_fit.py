@@ -169,6 +169,13 @@ def test_the_fit_settings_read_as_tables_not_json(fitted, tmp_path):
     assert "<th>plunge</th>" in section and "<th>sweep</th>" in section  # registration, a row each
     assert f"<td>{fit['settings']['residual_variance']:.6g}</td>" in section
     assert f"<td>{fit['residuals_summary']['sigma_N']:.6g}</td>" in section
+    # It says which nuisances the replay applied from the fit, and that without fiducials
+    # no pose was fitted, so the registration's uncertainty is not in the intervals.
+    free = {n["name"] for n in fit["nuisance"] if not n["fixed"]}
+    applied = [w for w, on in (("bias", "bias_x" in free), ("lag", "lag" in free),
+                               ("depth offset", "depth_offset" in free)) if on]
+    assert f"<th>nuisances applied</th><td>from fit.json: {', '.join(applied)}</td>" in section, section[:1500]
+    assert "the fit estimated no pose" in html and "calibrate fitted its pose correction" not in html
 
 
 def test_a_broken_context_of_use_is_refused(fitted, tmp_path):

@@ -145,6 +145,8 @@ TEST(RegistrationFit, FiducialErrorIsFittedAndPropagated) {
   EXPECT_NE(html.find("registration from 4 fiducials: RMS"), std::string::npos);
   EXPECT_NE(html.find("predicted TRE along the path"), std::string::npos);
   EXPECT_NE(html.find("the parameter intervals include the registration"), std::string::npos);
+  EXPECT_NE(html.find("the registration&#39;s pose correction per sample mounting"), std::string::npos)
+      << "among the nuisances applied";
   EXPECT_EQ(html.find("taken as exact in the replay"), std::string::npos);
   EXPECT_NE(html.find("imprecise"), std::string::npos) << "the verdict reaches the report";
   if (!HasFailure()) fs::remove_all(dir);
