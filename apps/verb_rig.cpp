@@ -74,6 +74,13 @@ void setup(CLI::App& root) {
     rig::write_tare(*out, t);
     std::cout << fmt::format("tare of {} from {} samples: F {:.4f} {:.4f} {:.4f} N  T {:.3f} {:.3f} {:.3f} N*mm → {}\n",
                              t.device, t.samples, t.bias[0], t.bias[1], t.bias[2], t.bias[3], t.bias[4], t.bias[5], *out);
+    std::cout << std::flush;  // the warning follows the line it is about
+    if (t.drift_sigmas > rig::kTareDriftSigmas)
+      std::cerr << fmt::format("warning: the force moved by {:.4f} {:.4f} {:.4f} N between the tare's first and second "
+                               "half ({:.0f} standard errors; at rest it does not): the burr may have touched, or the "
+                               "sensor was still settling. Tare again with the burr spinning in air (--overwrite "
+                               "replaces {}).\n",
+                               t.drift[0], t.drift[1], t.drift[2], t.drift_sigmas, *out);
   });
 
   // --- sensor-pose: the sensor's rotation and origin from static loads ---

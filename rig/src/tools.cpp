@@ -108,7 +108,8 @@ Tare measure_tare(const RigMap& map, std::size_t samples) {
   ModbusLink link(*dev);
   std::string err;
   if (!link.connect(&err)) throw std::runtime_error(err);
-  std::vector<double> sum(6, 0.0), sq(6, 0.0);
+  // `second`: the sum over the second half (for the drift between the halves)
+  std::vector<double> sum(6, 0.0), sq(6, 0.0), second(6, 0.0);
   std::size_t got = 0, failures = 0;
   std::int64_t first = 0, last = 0;
   const auto period = std::chrono::duration<double>(1.0 / dev->rate_hz);
@@ -135,9 +136,10 @@ Tare measure_tare(const RigMap& map, std::size_t samples) {
       ++failures;
       continue;
     }
-    for (int k = 0; k < 6; ++k) {
-      sum[static_cast<std::size_t>(k)] += w[static_cast<std::size_t>(k)];
-      sq[static_cast<std::size_t>(k)] += w[static_cast<std::size_t>(k)] * w[static_cast<std::size_t>(k)];
+    for (std::size_t k = 0; k < 6; ++k) {
+      sum[k] += w[k];
+      sq[k] += w[k] * w[k];
+      if (2 * got >= samples) second[k] += w[k];
     }
     const auto mid = r.t_send_ns + (r.t_recv_ns - r.t_send_ns) / 2;
     if (got++ == 0) first = mid;
@@ -147,10 +149,21 @@ Tare measure_tare(const RigMap& map, std::size_t samples) {
   Tare t;
   t.device = dev->name;
   t.samples = got;
-  for (int k = 0; k < 6; ++k) {
-    const double mean = sum[static_cast<std::size_t>(k)] / static_cast<double>(got);
+  const std::size_t n2 = got - (got + 1) / 2, n1 = got - n2;  // halves as the loop split them
+  for (std::size_t k = 0; k < 6; ++k) {
+    const double mean = sum[k] / static_cast<double>(got);
     t.bias.push_back(mean);
-    t.stddev.push_back(std::sqrt(std::max(0.0, sq[static_cast<std::size_t>(k)] / static_cast<double>(got) - mean * mean)));
+    t.stddev.push_back(std::sqrt(std::max(0.0, sq[k] / static_cast<double>(got) - mean * mean)));
+    const double m2 = n2 ? second[k] / static_cast<double>(n2) : mean, m1 = (sum[k] - second[k]) / static_cast<double>(n1);
+    t.drift.push_back(m2 - m1);
+    // The noise about each half's own mean (pooled), so that the drift does not hide in a
+    // stddev it inflates; the standard error of the difference of the two half means.
+    if (k < 3 && n2 && got > 2) {
+      const double within = std::max(0.0, (sq[k] - static_cast<double>(n1) * m1 * m1 - static_cast<double>(n2) * m2 * m2) /
+                                              static_cast<double>(got - 2));
+      const double se = std::sqrt(within * (1.0 / static_cast<double>(n1) + 1.0 / static_cast<double>(n2)));
+      if (se > 0) t.drift_sigmas = std::max(t.drift_sigmas, std::abs(m2 - m1) / se);
+    }
   }
   t.t_ns = first + (last - first) / 2;
   t.wall_ns = wall_ns() - (monotonic_ns() - t.t_ns);

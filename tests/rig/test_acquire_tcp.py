@@ -1,9 +1,11 @@
 """End to end over Modbus TCP against the real virtual rig: every value the rig served
 during the session is in the recording, decoded exactly, with honest timestamps."""
 import os
+import re
 
 import h5py
 import numpy as np
+import pytest
 
 import rig_helpers as rh
 from virtual_helpers import playback_start_ns, read_served_log, start_virtual_rig
@@ -102,6 +104,7 @@ def test_rig_check_and_tare(tmp_path):
         tare = os.path.join(str(tmp_path), "tare.toml")
         p = rh.run(["rig", "tare", "--rig", rig_map, "--samples", "50", "--out", tare])
         assert p.returncode == 0, p.stdout + p.stderr
+        assert "moved by" not in p.stderr, p.stderr  # a sensor at rest: no drift warning
         out = rh.acquire(tmp_path, rig_map, 0.5, extra=["--tare", tare])
     rec = rh.read_recording(out)
     np.testing.assert_allclose(rec["_meta_sets"]["bias"], [1.5, -2.25, 100.0, 250.0, -500.0, 1000.0], rtol=0, atol=1e-12)
@@ -133,3 +136,21 @@ def test_rig_check_shows_each_value_as_the_device_sent_it(tmp_path):
     k, text = lines[("stage", "position_mm")]
     assert text == " ".join(f"{v * 0.001:.12g}" for v in rh.ramp_position_um(k)), p.stdout
     assert all(len(v.replace("-", "").replace(".", "")) <= 12 for v in text.split()), text
+
+
+def test_a_tare_taken_while_the_force_moves_is_flagged(tmp_path):
+    # The ramp pattern's force rises steadily, as when the burr touches during the tare:
+    # the tare is written (it is the user's call) with a warning naming the drift between
+    # its halves. Its size: the ramp's rise over half the samples.
+    tare = tmp_path / "tare.toml"
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "1000"]) as (proc, host, port):
+        p = rh.run(["rig", "tare", "--rig", rh.write_map(tmp_path, rh.preset("virtual", port)), "--samples", "100",
+                    "--out", tare])
+    assert p.returncode == 0 and tare.exists(), p.stdout + p.stderr
+    m = re.search(r"warning: the force moved by (\S+) (\S+) (\S+) N between the tare's first and second half "
+                  r"\(([0-9]+) standard errors", p.stderr)
+    assert m, p.stderr
+    dx, dy, dz, sigmas = (float(g) for g in m.groups())
+    # 0.01 N per device sample along x (-0.02 y, 0.03 z); 50 polls at 1 kHz apart ≈ 50 samples.
+    assert 0.2 < dx < 3.0 and dy == pytest.approx(-2 * dx, rel=0.01) and dz == pytest.approx(3 * dx, rel=0.01), m.group(0)
+    assert sigmas > 10, m.group(0)

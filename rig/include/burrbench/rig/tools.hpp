@@ -30,11 +30,17 @@ struct Tare {
   std::string device;
   std::vector<double> bias;  // Fx,Fy,Fz N, Tx,Ty,Tz N·mm
   std::vector<double> stddev;
+  // Not stored: the second half's mean minus the first half's (6 values), and the force's
+  // drift in standard errors of that difference (largest axis). A sensor at rest does not
+  // drift: a large figure means the burr touched, or the sensor was still settling.
+  std::vector<double> drift;
+  double drift_sigmas = 0;  // `rig tare` warns above kTareDriftSigmas
   std::size_t samples = 0;
   std::int64_t t_ns = 0;          // CLOCK_MONOTONIC at the middle of the averaging window
   std::int64_t wall_ns = 0;       // Unix time of the same instant
   std::string rig_sha256;
 };
+inline constexpr double kTareDriftSigmas = 5;
 // Polls the device holding force_N and torque_Nmm (directly or through its calibration
 // matrix) at its rate. std::runtime_error when the device cannot deliver N samples.
 Tare measure_tare(const RigMap& map, std::size_t samples);
