@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from bad_input import assert_refused
+
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 CRITERIA = SRC / "examples" / "criteria" / "release.toml"
@@ -103,7 +105,7 @@ def test_an_output_file_in_a_missing_folder_is_refused_before_any_work(exp, tmp_
         option = "--journal"
     before = sorted(p.name for p in tmp_path.iterdir())
     p = run(*args)
-    assert p.returncode == 2, p.stdout + p.stderr
+    assert_refused(p.returncode, p.stderr, target, f"{option}: expected a path in an existing folder", label=verb)
     assert p.stderr == f"burrbench: {target}: {option}: expected a path in an existing folder, got no folder {gone}\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == before
 
