@@ -20,6 +20,7 @@
 #include "burrbench/rig/modbus_link.hpp"
 #include "burrbench/rig/session.hpp"
 #include "burrbench/rig/tools.hpp"
+#include "burr_options.hpp"
 #include "output_paths.hpp"
 #include "verb_registry.hpp"
 
@@ -30,6 +31,7 @@ void on_signal(int sig) { g_signal = sig; }
 
 struct Options {
   std::string rig, out, journal, sample_id, notes, tare;
+  burrbench::apps::BurrOptions burr;
   double duration_s = 0;
   bool keep_journal = false;
   bool overwrite = false;
@@ -93,6 +95,8 @@ void run(const Options& o) {
   if (std::filesystem::exists(journal))
     throw InputError(journal.string(), "(journal)", "no journal left from an earlier session (run `burrbench recover` on it, or remove it)", "exists");
   if (o.duration_s < 0) throw InputError("--duration", "value", "seconds ≥ 0");
+  data_schema::RecordingMeta burr;
+  o.burr.apply(burr);  // checked before the session, not after it
 
   rig::SessionHeader h;
   h.rig_file = o.rig;
@@ -100,6 +104,10 @@ void run(const Options& o) {
   h.rig_toml = map.source_toml;
   h.sample_id = o.sample_id;
   h.notes = o.notes;
+  h.operator_name = burr.operator_name;
+  h.burr_radius_mm = burr.burr_radius_mm;
+  if (burr.axis_stated()) h.burr_axis_rig = {burr.burr_axis_rig.x, burr.burr_axis_rig.y, burr.burr_axis_rig.z};
+  h.spin_sign = burr.spin_sign;
   if (!o.tare.empty()) {
     const auto t = rig::read_tare(o.tare);
     h.tare_file = o.tare;
@@ -195,6 +203,7 @@ void setup(CLI::App& root) {
   cmd->add_option("--duration", o->duration_s, "stop after this many seconds (default: until Ctrl-C/SIGTERM)");
   cmd->add_option("--sample-id", o->sample_id, "id of the bone sample being drilled");
   cmd->add_option("--notes", o->notes, "free text stored in the recording");
+  o->burr.add_to(cmd);
   cmd->add_option("--tare", o->tare, "tare file from `burrbench rig tare` (stored as the sensor bias)");
   cmd->add_option("--journal", o->journal, "journal path (default: OUT.journal)");
   cmd->add_flag("--keep-journal", o->keep_journal, "keep the journal after the recording is written");

@@ -22,7 +22,9 @@ nlohmann::json to_json(const SessionHeader& h) {
           {"tare_file", h.tare_file}, {"tare_sha256", h.tare_sha256}, {"bias", h.bias},
           {"bias_t_ns", h.bias_t_ns}, {"session_wall_ns", h.session_wall_ns},
           {"session_monotonic_ns", h.session_monotonic_ns}, {"command_line", h.command_line},
-          {"software_version", h.software_version}, {"created_utc", h.created_utc}};
+          {"software_version", h.software_version}, {"created_utc", h.created_utc},
+          {"operator", h.operator_name}, {"burr_radius_mm", h.burr_radius_mm}, {"burr_axis_rig", h.burr_axis_rig},
+          {"spin_sign", h.spin_sign}};
 }
 
 SessionHeader header_from_json(const std::string& text, const std::string& file) {
@@ -44,6 +46,13 @@ SessionHeader header_from_json(const std::string& text, const std::string& file)
     h.command_line = j.at("command_line");
     h.software_version = j.at("software_version");
     h.created_utc = j.at("created_utc");
+    // Since the twenty-first session; a journal written before has none of them.
+    h.operator_name = j.value("operator", std::string());
+    h.burr_radius_mm = j.value("burr_radius_mm", 0.0);
+    h.burr_axis_rig = j.value("burr_axis_rig", std::vector<double>{});
+    h.spin_sign = j.value("spin_sign", 0);
+    if (!h.burr_axis_rig.empty() && h.burr_axis_rig.size() != 3)
+      throw InputError(file, "header.burr_axis_rig", "3 numbers or none", std::to_string(h.burr_axis_rig.size()) + " numbers");
   } catch (const nlohmann::json::exception& e) {
     throw InputError(file, "header", "the JSON session header of a burrbench journal", e.what());
   }
@@ -223,6 +232,10 @@ data_schema::Recording recording_from_journal(const JournalContents& j, const st
   data_schema::Recording rec;
   auto& m = rec.meta;
   m.sample_id = h.sample_id;
+  m.operator_name = h.operator_name;
+  m.burr_radius_mm = h.burr_radius_mm;
+  if (h.burr_axis_rig.size() == 3) m.burr_axis_rig = {h.burr_axis_rig[0], h.burr_axis_rig[1], h.burr_axis_rig[2]};
+  m.spin_sign = h.spin_sign;
   m.rig_id = map.rig_id;
   m.sensor_model = map.sensor_model;
   m.sensor_serial = map.sensor_serial;

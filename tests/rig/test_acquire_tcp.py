@@ -154,3 +154,24 @@ def test_a_tare_taken_while_the_force_moves_is_flagged(tmp_path):
     # 0.01 N per device sample along x (-0.02 y, 0.03 z); 50 polls at 1 kHz apart ≈ 50 samples.
     assert 0.2 < dx < 3.0 and dy == pytest.approx(-2 * dx, rel=0.01) and dz == pytest.approx(3 * dx, rel=0.01), m.group(0)
     assert sigmas > 10, m.group(0)
+
+
+def test_the_operator_and_the_burr_stated_at_acquisition_reach_the_recording_and_its_recovery(tmp_path):
+    # As `recording import` takes them: stored in the recording's metadata (the axis
+    # normalised), carried by the journal's header so that `recover` gives them back, and
+    # refused before the session when they cannot be right.
+    burr = ["--operator", "A. Lab", "--burr-radius-mm", "1.5", "--burr-axis", "0", "0.6", "0.8", "--spin", "-1"]
+    with start_virtual_rig(["--pattern", "ramp"]) as (proc, host, port):
+        rig_map = rh.write_map(tmp_path, rh.preset("virtual", port))
+        out = rh.acquire(tmp_path, rig_map, 0.5, extra=[*burr, "--keep-journal"])
+        for bad, option in ((["--burr-axis", "0", "0", "0"], "--burr-axis"), (["--spin", "2"], "--spin"),
+                            (["--burr-radius-mm", "-1"], "--burr-radius-mm")):
+            p = rh.run(["acquire", "--rig", rig_map, "--out", str(tmp_path / "bad.h5"), "--duration", "0.5", *bad])
+            assert p.returncode == 2 and p.stderr.startswith(f"burrbench: command line: {option}: expected"), p.stderr
+            assert not (tmp_path / "bad.h5").exists() and not (tmp_path / "bad.h5.journal").exists()
+    p = rh.run(["recover", out + ".journal", "--out", str(tmp_path / "recovered.h5")])
+    assert p.returncode == 0, p.stdout + p.stderr
+    for path in (out, str(tmp_path / "recovered.h5")):
+        meta = rh.read_recording(path)["_meta"]
+        assert meta["operator"] == "A. Lab" and meta["burr_radius_mm"] == 1.5 and meta["spin_sign"] == -1, meta
+        np.testing.assert_allclose(meta["burr_axis_rig"], [0, 0.6, 0.8], rtol=0, atol=1e-12)

@@ -23,6 +23,12 @@ struct SessionHeader {
   std::int64_t bias_t_ns = 0;
   std::int64_t session_wall_ns = 0, session_monotonic_ns = 0;
   std::string command_line, software_version, created_utc;
+  // What the operator stated of the session (acquire --operator, --burr-radius-mm,
+  // --burr-axis, --spin): 0 / a zero axis = not stated. Absent from older journals.
+  std::string operator_name;
+  double burr_radius_mm = 0;
+  std::vector<double> burr_axis_rig;  // 3 values (unit vector) or empty
+  int spin_sign = 0;
 };
 nlohmann::json to_json(const SessionHeader& h);
 SessionHeader header_from_json(const std::string& text, const std::string& file_for_messages);
