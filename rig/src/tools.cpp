@@ -94,6 +94,42 @@ std::vector<CheckResult> check_rig(const RigMap& map) {
   return out;
 }
 
+void TareSums::add(const std::array<double, 6>& w) {
+  const bool second_half = 2 * n_ >= planned_;
+  for (std::size_t k = 0; k < 6; ++k) {
+    sum_[k] += w[k];
+    sq_[k] += w[k] * w[k];
+    if (second_half) second_[k] += w[k];
+  }
+  ++n_;
+}
+
+void TareSums::finish(Tare& t) const {
+  t.samples = n_;
+  t.bias.clear();
+  t.stddev.clear();
+  t.drift.clear();
+  t.drift_sigmas = 0;
+  if (n_ == 0) return;
+  const double n = static_cast<double>(n_);
+  const std::size_t first_half = std::min(n_, (planned_ + 1) / 2);
+  const double n1 = static_cast<double>(first_half), n2 = n - n1;
+  for (std::size_t k = 0; k < 6; ++k) {
+    const double mean = sum_[k] / n;
+    t.bias.push_back(mean);
+    t.stddev.push_back(std::sqrt(std::max(0.0, sq_[k] / n - mean * mean)));
+    const double m1 = (sum_[k] - second_[k]) / n1, m2 = n2 > 0 ? second_[k] / n2 : m1;
+    t.drift.push_back(m2 - m1);
+    // The noise about each half's own mean (pooled), so that the drift does not hide in a
+    // stddev it inflates; the standard error of the difference of the two half means.
+    if (k < 3 && n2 > 0 && n > 2) {
+      const double within = std::max(0.0, (sq_[k] - n1 * m1 * m1 - n2 * m2 * m2) / (n - 2));
+      const double se = std::sqrt(within * (1.0 / n1 + 1.0 / n2));
+      if (se > 0) t.drift_sigmas = std::max(t.drift_sigmas, std::abs(m2 - m1) / se);
+    }
+  }
+}
+
 Tare measure_tare(const RigMap& map, std::size_t samples) {
   const DeviceSpec* dev = nullptr;
   for (const auto& d : map.devices) {
@@ -108,8 +144,7 @@ Tare measure_tare(const RigMap& map, std::size_t samples) {
   ModbusLink link(*dev);
   std::string err;
   if (!link.connect(&err)) throw std::runtime_error(err);
-  // `second`: the sum over the second half (for the drift between the halves)
-  std::vector<double> sum(6, 0.0), sq(6, 0.0), second(6, 0.0);
+  TareSums sums(samples);
   std::size_t got = 0, failures = 0;
   std::int64_t first = 0, last = 0;
   const auto period = std::chrono::duration<double>(1.0 / dev->rate_hz);
@@ -136,11 +171,7 @@ Tare measure_tare(const RigMap& map, std::size_t samples) {
       ++failures;
       continue;
     }
-    for (std::size_t k = 0; k < 6; ++k) {
-      sum[k] += w[k];
-      sq[k] += w[k] * w[k];
-      if (2 * got >= samples) second[k] += w[k];
-    }
+    sums.add({w[0], w[1], w[2], w[3], w[4], w[5]});
     const auto mid = r.t_send_ns + (r.t_recv_ns - r.t_send_ns) / 2;
     if (got++ == 0) first = mid;
     last = mid;
@@ -148,23 +179,7 @@ Tare measure_tare(const RigMap& map, std::size_t samples) {
   }
   Tare t;
   t.device = dev->name;
-  t.samples = got;
-  const std::size_t n2 = got - (got + 1) / 2, n1 = got - n2;  // halves as the loop split them
-  for (std::size_t k = 0; k < 6; ++k) {
-    const double mean = sum[k] / static_cast<double>(got);
-    t.bias.push_back(mean);
-    t.stddev.push_back(std::sqrt(std::max(0.0, sq[k] / static_cast<double>(got) - mean * mean)));
-    const double m2 = n2 ? second[k] / static_cast<double>(n2) : mean, m1 = (sum[k] - second[k]) / static_cast<double>(n1);
-    t.drift.push_back(m2 - m1);
-    // The noise about each half's own mean (pooled), so that the drift does not hide in a
-    // stddev it inflates; the standard error of the difference of the two half means.
-    if (k < 3 && n2 && got > 2) {
-      const double within = std::max(0.0, (sq[k] - static_cast<double>(n1) * m1 * m1 - static_cast<double>(n2) * m2 * m2) /
-                                              static_cast<double>(got - 2));
-      const double se = std::sqrt(within * (1.0 / static_cast<double>(n1) + 1.0 / static_cast<double>(n2)));
-      if (se > 0) t.drift_sigmas = std::max(t.drift_sigmas, std::abs(m2 - m1) / se);
-    }
-  }
+  sums.finish(t);
   t.t_ns = first + (last - first) / 2;
   t.wall_ns = wall_ns() - (monotonic_ns() - t.t_ns);
   return t;

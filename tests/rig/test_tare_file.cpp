@@ -5,6 +5,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <random>
+#include <vector>
+#include <array>
+#include <cmath>
 #include <string>
 
 #include "burrbench/data_schema/error.hpp"
@@ -86,4 +90,55 @@ TEST(TareFile, DefectsNameFileAndKey) {
     EXPECT_EQ(error_of(p), p.string() + ": " + c.message) << bad;
   }
   fs::remove(p);
+}
+
+// The tare's statistics from its one-pass sums against a direct two-pass computation over
+// the same samples: the mean, the stddev, the drift between the halves and its size in
+// standard errors (the noise about each half's own mean). A steady sensor with white
+// noise stays under the warning; a force that rises by 20 % of its noise per 100 samples
+// is flagged.
+TEST(TareStatistics, OnePassSumsAgreeWithATwoPassComputation) {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  for (const double slope : {0.0, 4e-5}) {  // N per sample on x (the others scaled)
+    for (const std::size_t n : {std::size_t(3), std::size_t(101), std::size_t(400)}) {
+      std::vector<std::array<double, 6>> w(n);
+      TareSums sums(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t k = 0; k < 6; ++k)
+          w[i][k] = 10.0 * double(k + 1) + slope * double(k + 1) * double(i) + noise(rng);
+        sums.add(w[i]);
+      }
+      Tare t;
+      sums.finish(t);
+      ASSERT_EQ(t.samples, n);
+      const std::size_t n1 = (n + 1) / 2, n2 = n - n1;
+      double sigmas = 0;
+      for (std::size_t k = 0; k < 6; ++k) {
+        double mean = 0, m1 = 0, m2 = 0;
+        for (std::size_t i = 0; i < n; ++i) (i < n1 ? m1 : m2) += w[i][k];
+        mean = (m1 + m2) / double(n);
+        m1 /= double(n1);
+        m2 /= double(n2);
+        double ss = 0, within = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+          ss += (w[i][k] - mean) * (w[i][k] - mean);
+          within += (w[i][k] - (i < n1 ? m1 : m2)) * (w[i][k] - (i < n1 ? m1 : m2));
+        }
+        EXPECT_NEAR(t.bias[k], mean, 1e-12) << k;
+        EXPECT_NEAR(t.stddev[k], std::sqrt(ss / double(n)), 1e-7) << k;
+        EXPECT_NEAR(t.drift[k], m2 - m1, 1e-12) << k;
+        if (k < 3)
+          sigmas = std::max(sigmas, std::abs(m2 - m1) / std::sqrt(within / double(n - 2) * (1.0 / double(n1) + 1.0 / double(n2))));
+      }
+      EXPECT_NEAR(t.drift_sigmas, sigmas, 1e-6 * sigmas) << "n " << n << " slope " << slope;
+      if (n == 400) {
+        if (slope == 0) {
+          EXPECT_LT(t.drift_sigmas, kTareDriftSigmas);
+        } else {
+          EXPECT_GT(t.drift_sigmas, kTareDriftSigmas);
+        }
+      }
+    }
+  }
 }

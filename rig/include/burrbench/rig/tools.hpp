@@ -1,5 +1,6 @@
 #pragma once
 // One-shot rig tools behind `burrbench rig check` and `burrbench rig tare`.
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -41,6 +42,22 @@ struct Tare {
   std::string rig_sha256;
 };
 inline constexpr double kTareDriftSigmas = 5;
+
+// The running sums of a tare, and from them its statistics (mean, stddev, the drift
+// between its halves): one pass, nothing stored per sample. The first ceil(planned/2)
+// samples added are the first half.
+class TareSums {
+ public:
+  explicit TareSums(std::size_t planned) : planned_(planned) {}
+  void add(const std::array<double, 6>& w);
+  std::size_t count() const { return n_; }
+  // Fills t.samples, bias, stddev, drift, drift_sigmas.
+  void finish(Tare& t) const;
+
+ private:
+  std::size_t planned_, n_ = 0;
+  std::array<double, 6> sum_{}, sq_{}, second_{};  // `second_`: the sum over the second half
+};
 // Polls the device holding force_N and torque_Nmm (directly or through its calibration
 // matrix) at its rate. std::runtime_error when the device cannot deliver N samples.
 Tare measure_tare(const RigMap& map, std::size_t samples);
