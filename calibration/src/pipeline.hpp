@@ -52,7 +52,7 @@ struct Run {
   std::vector<const model::AlignedRecording*> recs;  // recordings with calibrating samples
   std::map<std::uint8_t, std::string> present;        // class label → name
   std::unique_ptr<Layout> layout;
-  std::map<std::string, ds::SampleVolume> used_samples;
+  std::map<std::string, const ds::SampleVolume*> used_samples;  // in exp.samples
   std::unique_ptr<ReplayPool> pool;
   std::vector<std::unique_ptr<ReplayRecordingModel>> owned;
   std::vector<const RecordingModel*> models;

@@ -19,12 +19,7 @@ model::ModelParams to_model_params(const PhysicsValues& v) {
 ReplayPool::ReplayPool(const std::map<std::string, data_schema::SampleVolume>& samples,
                        int threads) {
   const std::size_t n = std::size_t(std::max(1, threads));
-  volumes_.resize(n);
-  for (const auto& [id, s] : samples) {
-    model::Volume v = model::Volume::from_sample(s);
-    for (std::size_t w = 0; w + 1 < n; ++w) volumes_[w].emplace(id, v);
-    volumes_[n - 1].emplace(id, std::move(v));
-  }
+  for (std::size_t w = 0; w < n; ++w) volumes_.emplace_back(samples);
   for (std::size_t w = 0; w < n; ++w) workers_.emplace_back([this, w] { work(w); });
 }
 
@@ -70,7 +65,7 @@ void ReplayPool::run(std::vector<Job>& jobs) {
       auto at = std::find_if(queue_.begin(), queue_.end(), [&](const Queued& q) { return q.work < work; });
       queue_.insert(at, Queued{work, [this, &job, &remaining, &error](std::size_t w) {
         try {
-          auto& vol = volumes_[w].at(*job.sample_id);
+          auto& vol = volumes_[w].for_replay(*job.sample_id, job.trajectory, job.radius_mm);
           job.result = model::replay(vol, job.radius_mm, job.params, job.trajectory, job.options, true);
         } catch (...) {
           std::lock_guard lk2(mu_);

@@ -22,8 +22,8 @@ CoarseLevel& coarse_level(Run& run) {
   if (run.coarse) return *run.coarse;
   auto c = std::make_unique<CoarseLevel>();
   for (const auto& [id, s] : run.used_samples) {
-    c->samples.emplace(id, ds::import::merge_voxels(s, 2));
-    c->fine_voxel_mm = std::max(c->fine_voxel_mm, s.voxel_mm);
+    c->samples.emplace(id, ds::import::merge_voxels(*s, 2));
+    c->fine_voxel_mm = std::max(c->fine_voxel_mm, s->voxel_mm);
   }
   c->voxel_mm = 2 * c->fine_voxel_mm;
   c->pool = std::make_unique<ReplayPool>(c->samples, run.opt.threads);

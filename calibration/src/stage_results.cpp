@@ -57,7 +57,7 @@ CalibrationOutput results(Run& run) {
             {{"recording", m->id()}, {"voxel_mm", voxel_mm}, {"jacobians", m->diverged_sensitivities()}});
       }
   };
-  count(run.owned, run.used_samples.empty() ? NAN : run.used_samples.begin()->second.voxel_mm);
+  count(run.owned, run.used_samples.empty() ? NAN : run.used_samples.begin()->second->voxel_mm);
   if (run.coarse) count(run.coarse->owned, run.coarse->voxel_mm);
   if (!diverged.empty())
     run.warnings.push_back(fmt::format(

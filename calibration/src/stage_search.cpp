@@ -42,7 +42,7 @@ void choose_steps(Run& run) {
     run.steps.lag_ms = s.chosen;
   }
   if (!depth_idx.empty()) {
-    const double l = run.used_samples.begin()->second.voxel_mm;
+    const double l = run.used_samples.begin()->second->voxel_mm;
     auto s = sweep_step(obj, x, run.w_all, depth_idx[0], {0.5 * l, 0.25 * l, 0.125 * l, 0.0625 * l}, 0);
     record(s);
     run.steps.depth_mm = s.chosen;

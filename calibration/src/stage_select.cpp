@@ -148,8 +148,9 @@ void select_recordings(Run& run) {
       run.layout->add_mounting(std::move(m), groups[gi]);
     }
   }
-  for (const auto* r : run.recs) run.used_samples.emplace(r->sample_id, run.exp.samples.at(r->sample_id));
-  run.pool = std::make_unique<ReplayPool>(run.used_samples, run.opt.threads);
+  for (const auto* r : run.recs) run.used_samples.emplace(r->sample_id, &run.exp.samples.at(r->sample_id));
+  // The pool copies only what the replays reach of the samples they ask for.
+  run.pool = std::make_unique<ReplayPool>(run.exp.samples, run.opt.threads);
   for (const auto* r : run.recs) {
     run.owned.push_back(make_model(run, *r, *run.pool));
     run.models.push_back(run.owned.back().get());

@@ -148,7 +148,10 @@ inline detail::LensVoxel* lens_span(const Row& r, long x0, long x1, const LensTa
 void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) {
   const auto& dims = vol.dims();
   const double l = vol.voxel_mm(), inv_l = 1.0 / l;
-  const glm::dvec3 o = vol.origin_mm();
+  // Voxels are placed by their index in the sample's grid (a cut volume holds rows y ≥ y_off,
+  // layers z ≥ z_off of it), so a cut volume gives bit-identical sums (volume.hpp).
+  const glm::dvec3 o = vol.grid_origin_mm();
+  const long y_off = long(vol.box().lo[1]), z_off = long(vol.box().lo[2]);
   const double reach2 = tab.d2_outer(), reach = std::sqrt(reach2);
   const double R = tab.radius(), eta = tab.eta();
   const double inner = R > eta ? R - eta : -1.0;  // fully-inside radius (R > η only)
@@ -172,7 +175,8 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
     if (u >= double(n)) return long(n) - 1;
     return long(u);  // floor (u ≥ 0)
   };
-  const long z0 = lo_idx(p.z - reach, o.z, dims[2]), z1 = hi_idx(p.z + reach, o.z, dims[2]);
+  const long z0 = std::max(0L, lo_idx(p.z - reach, o.z, vol.box().hi[2]) - z_off),
+             z1 = hi_idx(p.z + reach, o.z, vol.box().hi[2]) - z_off;
 
   // Lens buffer: grown (rarely) so that a whole row always fits; it keeps its size
   // across calls, so steady-state evaluation does not allocate.
@@ -188,20 +192,20 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
   }
 
   for (long z = z0; z <= z1; ++z) {
-    const double dz = o.z + l * double(z) - p.z, dz2 = dz * dz;
+    const double dz = o.z + l * double(z + z_off) - p.z, dz2 = dz * dz;
     if (dz2 >= reach2) continue;
     // Rows of this layer that hold bone and meet the reach disc (empty layers and space
     // above a surface cost one comparison each).
     const long ly0 = vol.layer_lo(std::size_t(z)), ly1 = vol.layer_hi(std::size_t(z));
     if (ly0 > ly1) continue;
     const double yh = std::sqrt(reach2 - dz2);
-    const long y0 = std::max(ly0, lo_idx(p.y - yh, o.y, ny));
-    const long y1 = std::min(ly1, hi_idx(p.y + yh, o.y, ny));
+    const long y0 = std::max(ly0, lo_idx(p.y - yh, o.y, vol.box().hi[1]) - y_off);
+    const long y1 = std::min(ly1, hi_idx(p.y + yh, o.y, vol.box().hi[1]) - y_off);
     for (long y = y0; y <= y1; ++y) {
       const std::size_t row = std::size_t(y) + ny * std::size_t(z);
       const long rlo = vol.row_lo(row), rhi = vol.row_hi(row);
       if (rlo > rhi) continue;
-      const double dy = o.y + l * double(y) - p.y, s2 = dz2 + dy * dy;
+      const double dy = o.y + l * double(y + y_off) - p.y, s2 = dz2 + dy * dy;
       if (s2 >= reach2) continue;
       const double half = std::sqrt(reach2 - s2);
       const long xa = std::max(rlo, lo_idx(p.x - half, o.x, nx));

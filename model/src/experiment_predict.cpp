@@ -14,6 +14,7 @@
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
 #include "burrbench/model/job_queue.hpp"
+#include "burrbench/model/reach.hpp"
 #include "burrbench/model/sensitivity.hpp"
 
 namespace burrbench::model {
@@ -174,12 +175,13 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
   BURRBENCH_CHECK(options.threads >= 1, "predict_experiment needs at least one thread");
   const std::size_t n = e.recordings.size();
   const std::size_t workers = std::min<std::size_t>(std::size_t(options.threads), std::max<std::size_t>(n, 1));
-  std::map<std::string, Volume> scanned;  // read-only once the workers start
-  for (const auto& r : e.recordings)
-    if (!scanned.count(r.sample_id)) scanned.emplace(r.sample_id, Volume::from_sample(e.samples.at(r.sample_id)));
-  // Without the removed bone a recording replays in place and its undo log restores the
-  // volume, so each worker needs volumes of its own (worker 0 takes the scanned ones).
-  std::vector<std::map<std::string, Volume>> own(options.removed_bone ? 0 : workers - 1, scanned);
+  // Only the part of a sample a recording's replay reaches is copied (reach.hpp). Without
+  // the removed bone a recording replays in place and its undo log restores the volume,
+  // so each worker keeps its cut volumes for the next recording; with it, each recording
+  // erodes a fresh cut.
+  std::vector<ReachVolumes> own;
+  if (!options.removed_bone)
+    for (std::size_t w = 0; w < workers; ++w) own.emplace_back(e.samples);
   std::map<std::string, std::vector<float>> removed;
   if (options.removed_bone)
     for (const auto& [id, s] : e.samples) removed[id].assign(s.voxel_count(), 0.0f);
@@ -196,20 +198,29 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
   });
   // A failure reports the first failing recording in manifest order, as one thread would.
   run_job_queue(n, order, int(workers), [&](std::size_t w, std::size_t i) {
-    std::map<std::string, Volume>& volumes = (options.removed_bone || w == 0) ? scanned : own[w - 1];
     const AlignedRecording& r = e.recordings[i];
     try {
       const std::unique_ptr<Progress> progress = shared.child(i, r.id);
-      const Volume& as_scanned = volumes.at(r.sample_id);
+      const Trajectory tr = prediction_trajectory(r, options);
       if (options.removed_bone) {
-        Volume vol = as_scanned;  // left eroded: its difference to the scan is the removed bone
+        const data_schema::SampleVolume& s = e.samples.at(r.sample_id);
+        Volume vol = Volume::from_sample(s, reach_box(s, tr, r.radius_mm));
         out.recordings[i] = predict(r, vol, params, options, progress.get(), false);
+        // Left eroded: its difference to the scan is the removed bone.
         const std::lock_guard<std::mutex> lock(removed_mutex);
         auto& rem = removed[r.sample_id];
-        for (std::size_t v = 0; v < rem.size(); ++v)
-          rem[v] = std::max(rem[v], float(as_scanned.chi(v) - vol.chi(v)));
+        const VoxelBox& b = vol.box();
+        std::size_t v = 0;
+        for (std::size_t z = b.lo[2]; z < b.hi[2]; ++z)
+          for (std::size_t y = b.lo[1]; y < b.hi[1]; ++y)
+            for (std::size_t x = b.lo[0]; x < b.hi[0]; ++x, ++v) {
+              const std::size_t j = s.index(x, y, z);
+              const double scanned = s.labels[j] == 0 ? 0.0 : double(s.fraction[j]);
+              rem[j] = std::max(rem[j], float(scanned - vol.chi(v)));
+            }
       } else {
-        out.recordings[i] = predict(r, volumes.at(r.sample_id), params, options, progress.get(), true);
+        Volume& vol = own[w].for_replay(r.sample_id, tr, r.radius_mm);
+        out.recordings[i] = predict(r, vol, params, options, progress.get(), true);
       }
       if (const auto* ref = e.manifest.recording(r.id)) out.recordings[i].role = data_schema::to_string(ref->role);
     } catch (const InputError& err) {
@@ -223,12 +234,19 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
   return out;
 }
 
+Trajectory prediction_trajectory(const AlignedRecording& r, const PredictOptions& options) {
+  const FittedNuisances fit = options.fit ? fitted_nuisances(*options.fit, r.id) : FittedNuisances{};
+  const double lag_ms = fit.lag_ms.value_or(r.lag_s * 1000.0);
+  const double depth_mm = fit.depth_offset_mm.value_or(0.0);
+  return r.trajectory(lag_ms / 1000.0, depth_mm, fit.pose ? &*fit.pose : nullptr);
+}
+
 RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const ModelParams& params,
                             const PredictOptions& options, Progress* progress, bool restore) {
   const FittedNuisances fit = options.fit ? fitted_nuisances(*options.fit, r.id) : FittedNuisances{};
   const double lag_ms = fit.lag_ms.value_or(r.lag_s * 1000.0);
   const double depth_mm = fit.depth_offset_mm.value_or(0.0);
-  const Trajectory tr = r.trajectory(lag_ms / 1000.0, depth_mm, fit.pose ? &*fit.pose : nullptr);
+  const Trajectory tr = prediction_trajectory(r, options);
   ReplayOptions ro = options.replay;
   Sensitivities sens;
   const bool band = options.band && !options.band->directions.empty();

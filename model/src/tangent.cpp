@@ -144,13 +144,14 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   // Inside voxels with a tangent (eroded earlier, now inside) add v_in·∂χ. The first pass
   // listed the inside voxels (Scratch::keep_inside); only rows with tangents are visited.
   if (!touched_.empty()) {
-    const glm::dvec3 o = vol.origin_mm(), p = st.p;
+    const glm::dvec3 o = vol.grid_origin_mm(), p = st.p;  // as the kernel places voxels
+    const double y_off = double(vol.box().lo[1]), z_off = double(vol.box().lo[2]);
     const Scratch& sc = vol.scratch();
     auto inside = [&](std::size_t idx, std::size_t x, std::size_t row) {
       const std::int32_t s = slot_[idx];
       if (s < 0) return;
       const std::size_t y = row % ny_, z = row / ny_;
-      const glm::dvec3 vv = o + l * glm::dvec3(double(x), double(y), double(z)) - p;
+      const glm::dvec3 vv = o + l * glm::dvec3(double(x), double(y) + y_off, double(z) + z_off) - p;
       const double* tg = &dchi_[std::size_t(s) * P];
       const std::uint8_t k = vol.label(idx);
       for (const std::size_t j : act) {

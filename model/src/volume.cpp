@@ -33,7 +33,8 @@ Volume::~Volume() = default;
 Volume::Volume(Volume&&) noexcept = default;
 Volume& Volume::operator=(Volume&&) noexcept = default;
 Volume::Volume(const Volume& o)
-    : dims_(o.dims_), l_(o.l_), origin_(o.origin_), labels_(o.labels_), chi_(o.chi_),
+    : dims_(o.dims_), l_(o.l_), origin_(o.origin_), grid_origin_(o.grid_origin_), box_(o.box_),
+      outside_chi_(o.outside_chi_), labels_(o.labels_), chi_(o.chi_),
       chi_lo_(o.chi_lo_), row_lo_(o.row_lo_), row_hi_(o.row_hi_), layer_lo_(o.layer_lo_),
       layer_hi_(o.layer_hi_), row_label_(o.row_label_),
       undo_(o.undo_), touched_(o.touched_), undo_on_(o.undo_on_), classes_(o.classes_),
@@ -45,6 +46,10 @@ Volume& Volume::operator=(const Volume& o) {
 }
 
 Volume Volume::from_sample(const data_schema::SampleVolume& s) {
+  return from_sample(s, VoxelBox::whole(s.dims));
+}
+
+Volume Volume::from_sample(const data_schema::SampleVolume& s, const VoxelBox& box) {
   const std::string file = "sample volume";
   check_grid(s.dims, s.voxel_mm, s.origin_mm, file);
   const std::size_t n = s.voxel_count();
@@ -54,24 +59,42 @@ Volume Volume::from_sample(const data_schema::SampleVolume& s) {
   if (s.fraction.size() != n)
     throw InputError(file, "fraction", std::to_string(n) + " values",
                      std::to_string(s.fraction.size()));
+  BURRBENCH_CHECK(box.voxel_count() > 0 && VoxelBox::whole(s.dims).contains(box) && box.lo[0] == 0 &&
+                      box.hi[0] == s.dims[0],
+                  "voxel box outside the sample's grid, or not of whole rows along x");
   Volume v;
-  v.dims_ = s.dims;
+  v.box_ = box;
+  for (int a = 0; a < 3; ++a) v.dims_[a] = box.hi[a] - box.lo[a];
   v.l_ = s.voxel_mm;
-  v.origin_ = s.origin_mm;
-  v.labels_ = s.labels;
-  v.chi_.resize(n);
-  v.chi_lo_.assign(n, 0.0f);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (v.labels_[i] >= kMaxClasses)
-      throw InputError(file, "labels[" + std::to_string(i) + "]",
-                       "class label 0.." + std::to_string(kMaxClasses - 1),
-                       std::to_string(int(v.labels_[i])));
-    const float f = s.fraction[i];
-    if (!(f >= 0.0f && f <= 1.0f))
-      throw InputError(file, "fraction[" + std::to_string(i) + "]", "bone fraction in [0,1]",
-                       std::to_string(f));
-    v.chi_[i] = v.labels_[i] == 0 ? 0.0f : f;  // label 0 is empty by definition
-  }
+  v.grid_origin_ = s.origin_mm;
+  v.origin_ = s.origin_mm + s.voxel_mm * glm::dvec3(0.0, double(box.lo[1]), double(box.lo[2]));
+  if (box != VoxelBox::whole(s.dims))
+    for (std::size_t z = 0; z < s.dims[2]; ++z)
+      for (std::size_t y = 0; y < s.dims[1]; ++y) {
+        if (z >= box.lo[2] && z < box.hi[2] && y >= box.lo[1] && y < box.hi[1]) continue;
+        for (std::size_t j = s.index(0, y, z), x = 0; x < s.dims[0]; ++x, ++j)
+          if (s.labels[j] != 0 && s.labels[j] < kMaxClasses) v.outside_chi_[s.labels[j]] += double(s.fraction[j]);
+      }
+  const std::size_t nx = v.dims_[0], m = box.voxel_count();
+  v.labels_.resize(m);
+  v.chi_.resize(m);
+  v.chi_lo_.assign(m, 0.0f);
+  std::size_t i = 0;  // index in the box; j in the sample
+  for (std::size_t z = box.lo[2]; z < box.hi[2]; ++z)
+    for (std::size_t y = box.lo[1]; y < box.hi[1]; ++y)
+      for (std::size_t j = box.lo[0] + s.dims[0] * (y + s.dims[1] * z), x = 0; x < nx; ++x, ++i, ++j) {
+        const std::uint8_t label = s.labels[j];
+        if (label >= kMaxClasses)
+          throw InputError(file, "labels[" + std::to_string(j) + "]",
+                           "class label 0.." + std::to_string(kMaxClasses - 1),
+                           std::to_string(int(label)));
+        const float f = s.fraction[j];
+        if (!(f >= 0.0f && f <= 1.0f))
+          throw InputError(file, "fraction[" + std::to_string(j) + "]", "bone fraction in [0,1]",
+                           std::to_string(f));
+        v.labels_[i] = label;
+        v.chi_[i] = label == 0 ? 0.0f : f;  // label 0 is empty by definition
+      }
   v.classes_ = s.classes;
   v.sources_ = s.sources;
   v.segmentation_json_ = s.segmentation_json;
@@ -134,6 +157,7 @@ void Volume::set_chi(std::size_t i, double value) {
 std::array<double, kMaxClasses> Volume::bone_volume_by_class() const {
   std::array<double, kMaxClasses> v{};
   for (std::size_t i = 0; i < chi_.size(); ++i) v[labels_[i]] += chi(i);
+  for (std::size_t k = 0; k < v.size(); ++k) v[k] += outside_chi_[k];
   const double l3 = l_ * l_ * l_;
   for (auto& x : v) x *= l3;
   v[0] = 0;

@@ -24,13 +24,15 @@
 
 #include "burrbench/calibration/recording_model.hpp"
 #include "burrbench/model/experiment.hpp"
+#include "burrbench/model/reach.hpp"
 #include "burrbench/model/replay.hpp"
 #include "burrbench/model/volume.hpp"
 
 namespace burrbench::calibration {
 
-// Worker threads, each with its own copy of every sample volume (Volume is not
-// thread-safe); replays restore their volume through the undo log.
+// Worker threads, each with its own copy of the part of every sample its replays reach
+// (Volume is not thread-safe; model/reach.hpp); replays restore their volume through the
+// undo log. The samples must outlive the pool.
 class ReplayPool {
  public:
   ReplayPool(const std::map<std::string, data_schema::SampleVolume>& samples, int threads);
@@ -55,7 +57,7 @@ class ReplayPool {
 
  private:
   void work(std::size_t w);
-  std::vector<std::map<std::string, model::Volume>> volumes_;  // per worker
+  std::vector<model::ReachVolumes> volumes_;  // per worker
   std::vector<std::thread> workers_;
   std::mutex mu_;
   std::condition_variable cv_, done_cv_;

@@ -190,13 +190,17 @@ struct PredictOptions {
   Progress* progress = nullptr;
   // predict_experiment replays this many recordings at once (1..kMaxThreads). The result
   // does not depend on it (each recording starts from its sample as scanned); each further
-  // worker holds a copy of the scanned volumes.
+  // worker holds a copy of the part of each sample its replays reach (reach.hpp).
   int threads = 1;
 };
 
-// The most replays any command runs at once (--threads): each worker holds a copy of the
-// scanned volumes, so a mistyped 1000 would exhaust memory before it saved any time.
+// The most replays any command runs at once (--threads): each worker holds a copy of what
+// it replays of the scanned volumes, so a mistyped 1000 would exhaust memory before it saved any time.
 inline constexpr int kMaxThreads = 64;
+
+// The burr's path in the volume frame that predict() replays: the recording's trajectory
+// with the options' fitted lag, depth offset and pose (else the manifest's lag).
+Trajectory prediction_trajectory(const AlignedRecording& r, const PredictOptions& options);
 
 // Replays one aligned recording from the given (start-state) volume and applies the
 // options' nuisances, offsets and band. The volume is restored when `restore`, else left

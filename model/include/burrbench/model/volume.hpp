@@ -7,6 +7,7 @@
 //
 // Not thread-safe: evaluate()/step() use scratch space inside the Volume. Use one Volume
 // per thread (copies are independent).
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <map>
@@ -24,6 +25,31 @@ namespace burrbench::model {
 
 namespace detail { struct Scratch; }
 
+// A box of a sample's voxel grid: indices lo ≤ i < hi per axis (x, y, z).
+struct VoxelBox {
+  std::array<std::size_t, 3> lo{0, 0, 0}, hi{0, 0, 0};
+  static VoxelBox whole(const std::array<std::size_t, 3>& dims) { return {{0, 0, 0}, dims}; }
+  bool contains(const VoxelBox& b) const {
+    for (int a = 0; a < 3; ++a)
+      if (b.lo[a] < lo[a] || b.hi[a] > hi[a]) return false;
+    return true;
+  }
+  VoxelBox hull(const VoxelBox& b) const {
+    VoxelBox h;
+    for (int a = 0; a < 3; ++a) {
+      h.lo[a] = std::min(lo[a], b.lo[a]);
+      h.hi[a] = std::max(hi[a], b.hi[a]);
+    }
+    return h;
+  }
+  std::size_t voxel_count() const {
+    std::size_t n = 1;
+    for (int a = 0; a < 3; ++a) n *= hi[a] > lo[a] ? hi[a] - lo[a] : 0;
+    return n;
+  }
+  bool operator==(const VoxelBox&) const = default;
+};
+
 class Volume {
  public:
   Volume();
@@ -36,6 +62,13 @@ class Volume {
   // Labels ≥ kMaxClasses, χ outside [0,1] or NaN, bad dims/voxel size → InputError.
   // χ of label-0 voxels is taken as 0 (label 0 is empty by definition).
   static Volume from_sample(const data_schema::SampleVolume&);
+  // Only the voxels of `box`: whole rows along x (lo.x = 0, hi.x = nx) over a non-empty
+  // range of y and z within the grid. A replay that never comes within reach of the rest
+  // gives bit-identical results at a fraction of the memory (reach.hpp picks the box):
+  // the kernel places each voxel by its index in the sample's grid, and x, the axis its
+  // sums run along, is not cut. Indices are local to the box; origin_mm() is the centre
+  // of the box's first voxel, grid_origin_mm() the sample's.
+  static Volume from_sample(const data_schema::SampleVolume&, const VoxelBox& box);
   // The paper's 8-bit counter: χ = n/255.
   static Volume from_counters(std::array<std::size_t, 3> dims, double voxel_mm,
                               glm::dvec3 origin_mm, std::vector<std::uint8_t> labels,
@@ -47,6 +80,9 @@ class Volume {
   const std::array<std::size_t, 3>& dims() const { return dims_; }
   double voxel_mm() const { return l_; }
   const glm::dvec3& origin_mm() const { return origin_; }
+  const glm::dvec3& grid_origin_mm() const { return grid_origin_; }
+  // The part of the sample's grid this volume holds (the whole grid unless cut).
+  const VoxelBox& box() const { return box_; }
   std::size_t voxel_count() const { return labels_.size(); }
   std::size_t index(std::size_t x, std::size_t y, std::size_t z) const {
     return x + dims_[0] * (y + dims_[1] * z);
@@ -66,7 +102,8 @@ class Volume {
     chi_lo_[i] = static_cast<float>(now - double(hi));
     return old - (double(hi) + double(chi_lo_[i]));
   }
-  // Bone volume l³·Σχ per class label (mm³).
+  // Bone volume l³·Σχ per class label (mm³); of a cut volume, with the scan's bone
+  // outside its box.
   std::array<double, kMaxClasses> bone_volume_by_class() const;
 
   // Undo log: begin_undo() starts recording (clears a previous log); rollback() restores
@@ -99,7 +136,9 @@ class Volume {
 
   std::array<std::size_t, 3> dims_{0, 0, 0};
   double l_ = 0;
-  glm::dvec3 origin_{0};
+  glm::dvec3 origin_{0}, grid_origin_{0};
+  VoxelBox box_;
+  std::array<double, kMaxClasses> outside_chi_{};  // Σχ per label outside box_ (scan)
   std::vector<std::uint8_t> labels_;
   std::vector<float> chi_, chi_lo_;
   std::vector<std::int32_t> row_lo_, row_hi_, layer_lo_, layer_hi_;

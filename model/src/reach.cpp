@@ -1,0 +1,58 @@
+#include "burrbench/model/reach.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/model/geometry.hpp"
+
+namespace burrbench::model {
+
+VoxelBox reach_box(const data_schema::SampleVolume& s, const Trajectory& tr, double radius_mm,
+                   double margin_mm) {
+  const VoxelBox none{{0, 0, 0}, {s.dims[0], 1, 1}};
+  if (tr.centre_vol_mm.empty()) return none;
+  VoxelBox box;
+  glm::dvec3 lo = tr.centre_vol_mm.front(), hi = lo;
+  for (const auto& p : tr.centre_vol_mm) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  // One voxel more than R + η: the box is in whole voxels, and rounding must not drop one.
+  const double grow = radius_mm + voxel_sphere_radius(s.voxel_mm) + margin_mm + s.voxel_mm;
+  // Whole rows along x (volume.hpp: what keeps a replay on the cut bit-identical).
+  box.lo[0] = 0;
+  box.hi[0] = s.dims[0];
+  for (int a = 1; a < 3; ++a) {
+    const double n = double(s.dims[std::size_t(a)]);
+    // Voxel i's centre lies at origin + i·l.
+    const double u0 = std::floor((lo[a] - grow - s.origin_mm[a]) / s.voxel_mm);
+    const double u1 = std::ceil((hi[a] + grow - s.origin_mm[a]) / s.voxel_mm) + 1;
+    if (!(std::isfinite(u0) && std::isfinite(u1)) || u1 <= 0 || u0 >= n) return none;
+    box.lo[std::size_t(a)] = std::size_t(std::max(0.0, u0));
+    box.hi[std::size_t(a)] = std::size_t(std::min(n, u1));
+  }
+  return box;
+}
+
+Volume& ReachVolumes::for_replay(const std::string& id, const Trajectory& tr, double radius_mm) {
+  const data_schema::SampleVolume& s = samples_.at(id);
+  const VoxelBox need = reach_box(s, tr, radius_mm);
+  auto it = volumes_.find(id);
+  if (it != volumes_.end() && it->second.box().contains(need)) return it->second;
+  // Grown by the burr's radius: lags, depth offsets and pose corrections move the path by
+  // less, so a calibration cuts each volume once or twice, not at every trial point.
+  VoxelBox box = reach_box(s, tr, radius_mm, std::max(radius_mm, 4 * s.voxel_mm)).hull(need);
+  if (it != volumes_.end()) box = box.hull(it->second.box());
+  BURRBENCH_CHECK(box.contains(need), "reach box lost a voxel the replay needs");
+  ++builds_;
+  if (it != volumes_.end()) {
+    BURRBENCH_CHECK(!it->second.undo_active(), "volume cut again in the middle of a replay");
+    it->second = Volume();  // free the old cut before the new one is made
+    it->second = Volume::from_sample(s, box);
+    return it->second;
+  }
+  return volumes_.emplace(id, Volume::from_sample(s, box)).first->second;
+}
+
+}  // namespace burrbench::model

@@ -1,0 +1,183 @@
+// A replay on the part of a sample it can reach (reach.hpp) gives the forces, removed
+// volumes and sensitivities of a replay on the whole sample, bit for bit, from a fraction
+// of its voxels.
+#include <cmath>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+
+#include "burrbench/model/reach.hpp"
+#include "burrbench/model/replay.hpp"
+#include "lumpy_scene.hpp"
+
+namespace bm = burrbench::model;
+using Kind = bm::Direction::Kind;
+
+namespace {
+
+constexpr double kR = 1.0;  // burr radius, mm
+
+// A plunge 0.4 mm into the lumpy surface (z ≈ 0.8 mm) near (x0, y0), then a sweep along x.
+bm::Trajectory plunge_and_sweep(double x0, double y0, int n = 240) {
+  bm::Trajectory tr;
+  for (int i = 0; i < n; ++i) {
+    const double plunge = std::min(1.0, i / 80.0);
+    tr.t_s.push_back(i * 1e-3);
+    tr.centre_vol_mm.push_back({x0 + 0.006 * std::max(0, i - 80), y0 + 0.1 * std::sin(0.02 * i),
+                                0.8 + kR - 0.4 * plunge});
+    tr.omega_vol_rad_s.push_back(4000.0 * glm::dvec3(0.8, 0.0, 0.6));
+  }
+  return tr;
+}
+
+std::vector<bm::Direction> directions(const bm::Trajectory& tr) {
+  std::vector<bm::Direction> d{{Kind::kLogAlpha, 1, {}}, {Kind::kLogC1, 1, {}}, {Kind::kLogMu, 1, {}},
+                               {Kind::kLogAlpha, 2, {}}, {Kind::kLogC1, 2, {}}, {Kind::kPath, 0, {}}};
+  for (std::size_t k = 0; k < tr.t_s.size(); ++k)  // a depth offset: along z
+    d.back().dcentre_vol_mm.push_back({0, 0, 1});
+  return d;
+}
+
+struct Outcome {
+  bm::ReplayResult res;
+  bm::Sensitivities sens;
+};
+
+Outcome replay_on(bm::Volume& vol, const bm::Trajectory& tr) {
+  const auto dirs = directions(tr);
+  Outcome o;
+  bm::ReplayOptions opt;
+  opt.directions = &dirs;
+  opt.sensitivities = &o.sens;
+  opt.moment_sensitivities = true;
+  o.res = bm::replay(vol, kR, scenes::two_classes(), tr, opt, true);
+  return o;
+}
+
+// Bit for bit: the kernel places each voxel by its index in the sample's grid.
+void expect_same(const Outcome& whole, const Outcome& cut) {
+  double scale = 0;
+  for (const auto& s : whole.res.samples) scale = std::max(scale, glm::length(s.contact.force_N));
+  ASSERT_GT(scale, 1.0) << "the trajectory must cut bone";
+  ASSERT_EQ(whole.res.samples.size(), cut.res.samples.size());
+  for (std::size_t k = 0; k < whole.res.samples.size(); ++k) {
+    const auto &a = whole.res.samples[k].contact, &b = cut.res.samples[k].contact;
+    ASSERT_EQ(a.force_N, b.force_N) << "sample " << k;
+    ASSERT_EQ(a.moment_Nmm, b.moment_Nmm) << "sample " << k;
+    ASSERT_EQ(a.power_W_mJ_per_s, b.power_W_mJ_per_s) << "sample " << k;
+    ASSERT_EQ(a.class_mask, b.class_mask) << "sample " << k;
+  }
+  EXPECT_EQ(whole.res.removed_mm3, cut.res.removed_mm3);
+  EXPECT_EQ(whole.res.friction_energy_mJ, cut.res.friction_energy_mJ);
+  EXPECT_EQ(whole.res.steps, cut.res.steps);
+  ASSERT_EQ(whole.sens.dforce_N.size(), cut.sens.dforce_N.size());
+  for (std::size_t j = 0; j < whole.sens.dforce_N.size(); ++j) {
+    ASSERT_EQ(whole.sens.dforce_N[j], cut.sens.dforce_N[j]) << "direction " << j;
+    ASSERT_EQ(whole.sens.dmoment_Nmm[j], cut.sens.dmoment_Nmm[j]) << "direction " << j;
+  }
+  EXPECT_EQ(whole.sens.dremoved_mm3, cut.sens.dremoved_mm3);
+  EXPECT_EQ(whole.sens.carried_directions, cut.sens.carried_directions);
+}
+
+}  // namespace
+
+TEST(Reach, ACutVolumeHoldsExactlyTheVoxelsOfItsBox) {
+  const auto s = scenes::lumpy(20, 0.1, 3);
+  const bm::VoxelBox box{{0, 5, 2}, {20, 9, 17}};
+  const bm::Volume cut = bm::Volume::from_sample(s, box);
+  EXPECT_EQ(cut.box(), box);
+  EXPECT_EQ(cut.dims(), (std::array<std::size_t, 3>{20, 4, 15}));
+  EXPECT_EQ(cut.voxel_count(), 20u * 4u * 15u);
+  EXPECT_EQ(cut.grid_origin_mm(), s.origin_mm);
+  EXPECT_NEAR(cut.origin_mm().x, s.origin_mm.x, 1e-15);
+  EXPECT_NEAR(cut.origin_mm().y, s.origin_mm.y + 0.5, 1e-15);
+  EXPECT_NEAR(cut.origin_mm().z, s.origin_mm.z + 0.2, 1e-15);
+  for (std::size_t z = 0; z < 15; ++z)
+    for (std::size_t y = 0; y < 4; ++y)
+      for (std::size_t x = 0; x < 20; ++x) {
+        const std::size_t j = s.index(x, y + 5, z + 2), i = cut.index(x, y, z);
+        ASSERT_EQ(cut.label(i), s.labels[j]);
+        ASSERT_EQ(cut.chi(i), s.labels[j] ? double(s.fraction[j]) : 0.0);
+      }
+  // Its bone volume per class is the whole sample's (the bone outside kept as a sum).
+  const bm::Volume whole = bm::Volume::from_sample(s);
+  EXPECT_EQ(whole.box(), bm::VoxelBox::whole(s.dims));
+  EXPECT_EQ(whole.origin_mm(), s.origin_mm);
+  for (int k = 0; k < bm::kMaxClasses; ++k)
+    EXPECT_NEAR(cut.bone_volume_by_class()[std::size_t(k)], whole.bone_volume_by_class()[std::size_t(k)], 1e-12) << k;
+  // A box past the grid, empty, or cutting rows along x is a programming error.
+  EXPECT_THROW(bm::Volume::from_sample(s, {{0, 0, 0}, {20, 21, 20}}), std::logic_error);
+  EXPECT_THROW(bm::Volume::from_sample(s, {{0, 4, 0}, {20, 4, 20}}), std::logic_error);
+  EXPECT_THROW(bm::Volume::from_sample(s, {{3, 0, 0}, {20, 20, 20}}), std::logic_error);
+}
+
+TEST(Reach, TheBoxHoldsEveryVoxelWithinReachOfThePath) {
+  const auto s = scenes::lumpy(64, 0.1, 5);
+  const bm::Trajectory tr = plunge_and_sweep(2.0, 2.0);
+  const bm::VoxelBox box = bm::reach_box(s, tr, kR);
+  // Brute force: every voxel whose centre comes within R + η of a centre.
+  const double reach = kR + bm::voxel_sphere_radius(s.voxel_mm);
+  bm::VoxelBox need{{64, 64, 64}, {0, 0, 0}};
+  for (std::size_t z = 0; z < 64; ++z)
+    for (std::size_t y = 0; y < 64; ++y)
+      for (std::size_t x = 0; x < 64; ++x) {
+        const glm::dvec3 c = s.origin_mm + 0.1 * glm::dvec3(double(x), double(y), double(z));
+        bool near = false;
+        for (const auto& p : tr.centre_vol_mm) near = near || glm::length(c - p) < reach;
+        if (!near) continue;
+        const std::size_t i[3] = {x, y, z};
+        for (int a = 0; a < 3; ++a) {
+          need.lo[a] = std::min(need.lo[a], i[a]);
+          need.hi[a] = std::max(need.hi[a], i[a] + 1);
+        }
+      }
+  EXPECT_TRUE(box.contains(need));
+  // ... whole rows along x, and across them not much more: a few voxels of rounding.
+  EXPECT_EQ(box.lo[0], 0u);
+  EXPECT_EQ(box.hi[0], 64u);
+  for (int a = 1; a < 3; ++a) EXPECT_LE(box.hi[a] - box.lo[a], need.hi[a] - need.lo[a] + 6) << a;
+  EXPECT_LT(box.voxel_count(), s.voxel_count() / 4);
+  // A path nowhere near the sample reaches no bone: one row to replay on.
+  bm::Trajectory far = tr;
+  for (auto& p : far.centre_vol_mm) p += glm::dvec3(0, 0, 50);
+  EXPECT_EQ(bm::reach_box(s, far, kR).voxel_count(), 64u);
+}
+
+TEST(Reach, AReplayOnTheReachableBoxEqualsOneOnTheWholeSample) {
+  const auto s = scenes::lumpy(64, 0.1, 5);
+  const bm::Trajectory tr = plunge_and_sweep(2.0, 2.0);
+  bm::Volume whole = bm::Volume::from_sample(s);
+  const Outcome a = replay_on(whole, tr);
+  bm::Volume cut = bm::Volume::from_sample(s, bm::reach_box(s, tr, kR));
+  const Outcome b = replay_on(cut, tr);
+  expect_same(a, b);
+  EXPECT_GT(b.sens.tangent_voxels, 0u);
+}
+
+TEST(Reach, AWorkerCutsAgainOnlyWhenAPathLeavesItsBox) {
+  const auto s = scenes::lumpy(64, 0.1, 5);
+  std::map<std::string, burrbench::data_schema::SampleVolume> samples{{"S", s}};
+  bm::ReachVolumes worker(samples);
+  const bm::Trajectory tr = plunge_and_sweep(2.0, 2.0);
+  bm::Volume whole = bm::Volume::from_sample(s);
+
+  const Outcome first = replay_on(worker.for_replay("S", tr, kR), tr);
+  expect_same(replay_on(whole, tr), first);
+  EXPECT_EQ(worker.builds(), 1u);
+  EXPECT_LT(worker.for_replay("S", tr, kR).voxel_count(), s.voxel_count() / 2);
+
+  // A lag or depth offset moves the path by less than the burr's radius: the same cut,
+  // restored by the replay's undo log, gives the same replay again.
+  bm::Trajectory shifted = tr;
+  for (auto& p : shifted.centre_vol_mm) p += glm::dvec3(0.3, -0.2, 0.05);
+  expect_same(replay_on(whole, shifted), replay_on(worker.for_replay("S", shifted, kR), shifted));
+  expect_same(first, replay_on(worker.for_replay("S", tr, kR), tr));
+  EXPECT_EQ(worker.builds(), 1u);
+
+  // A path elsewhere in the sample: cut again, covering both.
+  const bm::Trajectory other = plunge_and_sweep(4.0, 4.5);
+  expect_same(replay_on(whole, other), replay_on(worker.for_replay("S", other, kR), other));
+  EXPECT_EQ(worker.builds(), 2u);
+  expect_same(first, replay_on(worker.for_replay("S", tr, kR), tr));
+  EXPECT_EQ(worker.builds(), 2u);
+}
