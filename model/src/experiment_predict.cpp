@@ -204,7 +204,7 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
       const Trajectory tr = prediction_trajectory(r, options);
       if (options.removed_bone) {
         const data_schema::SampleVolume& s = e.samples.at(r.sample_id);
-        Volume vol = Volume::from_sample(s, reach_box(s, tr, r.radius_mm));
+        Volume vol = Volume::from_sample(s, replay_box(s, tr, r.radius_mm));
         out.recordings[i] = predict(r, vol, params, options, progress.get(), false);
         // Left eroded: its difference to the scan is the removed bone.
         const std::lock_guard<std::mutex> lock(removed_mutex);

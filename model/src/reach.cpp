@@ -8,10 +8,9 @@
 
 namespace burrbench::model {
 
-VoxelBox reach_box(const data_schema::SampleVolume& s, const Trajectory& tr, double radius_mm,
-                   double margin_mm) {
-  const VoxelBox none{{0, 0, 0}, {s.dims[0], 1, 1}};
-  if (tr.centre_vol_mm.empty()) return none;
+std::optional<VoxelBox> reach_box(const data_schema::SampleVolume& s, const Trajectory& tr,
+                                  double radius_mm, double margin_mm) {
+  if (tr.centre_vol_mm.empty()) return std::nullopt;
   VoxelBox box;
   glm::dvec3 lo = tr.centre_vol_mm.front(), hi = lo;
   for (const auto& p : tr.centre_vol_mm) {
@@ -28,21 +27,26 @@ VoxelBox reach_box(const data_schema::SampleVolume& s, const Trajectory& tr, dou
     // Voxel i's centre lies at origin + i·l.
     const double u0 = std::floor((lo[a] - grow - s.origin_mm[a]) / s.voxel_mm);
     const double u1 = std::ceil((hi[a] + grow - s.origin_mm[a]) / s.voxel_mm) + 1;
-    if (!(std::isfinite(u0) && std::isfinite(u1)) || u1 <= 0 || u0 >= n) return none;
+    if (!(std::isfinite(u0) && std::isfinite(u1)) || u1 <= 0 || u0 >= n) return std::nullopt;
     box.lo[std::size_t(a)] = std::size_t(std::max(0.0, u0));
     box.hi[std::size_t(a)] = std::size_t(std::min(n, u1));
   }
   return box;
 }
 
+VoxelBox replay_box(const data_schema::SampleVolume& s, const Trajectory& tr, double radius_mm) {
+  return reach_box(s, tr, radius_mm).value_or(VoxelBox{{0, 0, 0}, {s.dims[0], 1, 1}});
+}
+
 Volume& ReachVolumes::for_replay(const std::string& id, const Trajectory& tr, double radius_mm) {
   const data_schema::SampleVolume& s = samples_.at(id);
-  const VoxelBox need = reach_box(s, tr, radius_mm);
   auto it = volumes_.find(id);
-  if (it != volumes_.end() && it->second.box().contains(need)) return it->second;
+  const std::optional<VoxelBox> reach = reach_box(s, tr, radius_mm);
+  if (it != volumes_.end() && (!reach || it->second.box().contains(*reach))) return it->second;
+  const VoxelBox need = replay_box(s, tr, radius_mm);
   // Grown by the burr's radius: lags, depth offsets and pose corrections move the path by
   // less, so a calibration cuts each volume once or twice, not at every trial point.
-  VoxelBox box = reach_box(s, tr, radius_mm, std::max(radius_mm, 4 * s.voxel_mm)).hull(need);
+  VoxelBox box = reach_box(s, tr, radius_mm, std::max(radius_mm, 4 * s.voxel_mm)).value_or(need).hull(need);
   if (it != volumes_.end()) box = box.hull(it->second.box());
   BURRBENCH_CHECK(box.contains(need), "reach box lost a voxel the replay needs");
   ++builds_;

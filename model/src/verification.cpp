@@ -10,7 +10,6 @@
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/import/volume.hpp"
 #include "burrbench/model/job_queue.hpp"
-#include "burrbench/model/reach.hpp"
 #include "burrbench/model/replay.hpp"
 #include "burrbench/model/volume.hpp"
 
@@ -194,9 +193,8 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
                                        1e6 * dt[i] * lv.step));
         }
         try {
+          Volume vol = Volume::from_sample(s);
           PredictOptions po;
-          // Only what this replay reaches: the finer levels hold 8× and 64× the voxels.
-          Volume vol = Volume::from_sample(s, reach_box(s, prediction_trajectory(r, po), r.radius_mm));
           po.replay.step_s = dt[i] * lv.step;
           const auto t0 = std::chrono::steady_clock::now();
           pred[j] = predict(r, vol, params, po);

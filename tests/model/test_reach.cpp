@@ -114,7 +114,7 @@ TEST(Reach, ACutVolumeHoldsExactlyTheVoxelsOfItsBox) {
 TEST(Reach, TheBoxHoldsEveryVoxelWithinReachOfThePath) {
   const auto s = scenes::lumpy(64, 0.1, 5);
   const bm::Trajectory tr = plunge_and_sweep(2.0, 2.0);
-  const bm::VoxelBox box = bm::reach_box(s, tr, kR);
+  const bm::VoxelBox box = bm::reach_box(s, tr, kR).value();
   // Brute force: every voxel whose centre comes within R + η of a centre.
   const double reach = kR + bm::voxel_sphere_radius(s.voxel_mm);
   bm::VoxelBox need{{64, 64, 64}, {0, 0, 0}};
@@ -137,10 +137,12 @@ TEST(Reach, TheBoxHoldsEveryVoxelWithinReachOfThePath) {
   EXPECT_EQ(box.hi[0], 64u);
   for (int a = 1; a < 3; ++a) EXPECT_LE(box.hi[a] - box.lo[a], need.hi[a] - need.lo[a] + 6) << a;
   EXPECT_LT(box.voxel_count(), s.voxel_count() / 4);
-  // A path nowhere near the sample reaches no bone: one row to replay on.
+  // A path nowhere near the sample reaches no voxel: any volume replays it, one row will do.
   bm::Trajectory far = tr;
   for (auto& p : far.centre_vol_mm) p += glm::dvec3(0, 0, 50);
-  EXPECT_EQ(bm::reach_box(s, far, kR).voxel_count(), 64u);
+  EXPECT_FALSE(bm::reach_box(s, far, kR).has_value());
+  EXPECT_EQ(bm::replay_box(s, far, kR).voxel_count(), 64u);
+  EXPECT_FALSE(bm::reach_box(s, bm::Trajectory{}, kR).has_value());
 }
 
 TEST(Reach, AReplayOnTheReachableBoxEqualsOneOnTheWholeSample) {
@@ -148,7 +150,7 @@ TEST(Reach, AReplayOnTheReachableBoxEqualsOneOnTheWholeSample) {
   const bm::Trajectory tr = plunge_and_sweep(2.0, 2.0);
   bm::Volume whole = bm::Volume::from_sample(s);
   const Outcome a = replay_on(whole, tr);
-  bm::Volume cut = bm::Volume::from_sample(s, bm::reach_box(s, tr, kR));
+  bm::Volume cut = bm::Volume::from_sample(s, bm::replay_box(s, tr, kR));
   const Outcome b = replay_on(cut, tr);
   expect_same(a, b);
   EXPECT_GT(b.sens.tangent_voxels, 0u);
@@ -180,4 +182,11 @@ TEST(Reach, AWorkerCutsAgainOnlyWhenAPathLeavesItsBox) {
   EXPECT_EQ(worker.builds(), 2u);
   expect_same(first, replay_on(worker.for_replay("S", tr, kR), tr));
   EXPECT_EQ(worker.builds(), 2u);
+  // A path that reaches no voxel replays on whatever the worker holds: no cut, no force.
+  bm::Trajectory far = tr;
+  for (auto& p : far.centre_vol_mm) p += glm::dvec3(0, 0, 50);
+  bm::Volume& held = worker.for_replay("S", far, kR);
+  EXPECT_EQ(worker.builds(), 2u);
+  const bm::ReplayResult none = bm::replay(held, kR, scenes::two_classes(), far, {}, true);
+  for (const auto& smp : none.samples) ASSERT_EQ(smp.contact.force_N, glm::dvec3(0));
 }

@@ -7,6 +7,7 @@
 // every worker, nor a tangent slot per voxel of it in a sensitivity replay. docs/model.md
 // "Memory".
 #include <map>
+#include <optional>
 #include <string>
 
 #include "burrbench/data_schema/sample_volume.hpp"
@@ -16,11 +17,12 @@
 namespace burrbench::model {
 
 // The rows (along x, whole) holding every voxel within radius_mm + η + margin_mm of any
-// centre of `tr`, clamped to the grid. A trajectory that reaches no voxel (empty, or
-// wholly outside) gets the first row alone: a volume to replay on whose bone the burr
-// never meets, as in the whole sample.
-VoxelBox reach_box(const data_schema::SampleVolume& sample, const Trajectory& tr, double radius_mm,
-                   double margin_mm = 0);
+// centre of `tr`, clamped to the grid; none when no voxel is in reach (an empty path, or
+// one wholly outside the sample): any volume then replays as the whole sample does.
+std::optional<VoxelBox> reach_box(const data_schema::SampleVolume& sample, const Trajectory& tr,
+                                  double radius_mm, double margin_mm = 0);
+// reach_box, or the sample's first row when nothing is in reach: a volume to replay on.
+VoxelBox replay_box(const data_schema::SampleVolume& sample, const Trajectory& tr, double radius_mm);
 
 // One worker's volumes, each cut to what the replays it was asked for can reach. A
 // trajectory beyond the box (another lag, depth offset or pose) rebuilds it from the
