@@ -42,6 +42,9 @@ print(f"{'replay: wall s, peak MiB':<52} | {rs:6.2f} {rm:7.0f} | {rb:6.2f} {rbm:
 print(f"{'calibrate, one start: wall s, peak MiB':<52} | {cs:6.2f} {cm:7.0f} | {cb:6.2f} {cbm:7.0f} | {cb / cs:.2f}x, {cbm / cm:.2f}x")
 # The block holds other bone around the drilling (its own synthetic trabecular core), so
 # the fits differ; shown so that a fit that failed on the block is not read as fast.
+def value(p):  # a constant that is not identifiable has no estimate, only the value held
+    v = p["estimate"] if p["estimate"] is not None else p["held"]
+    return f"{v:.4g}" + ("" if p["estimate"] is not None else " (held)")
 print("calibrate, estimates on the sample | on the block: " + ", ".join(
-    f"{p['class_name']} {p['name']} {p['estimate']:.4g} | {q['estimate']:.4g}" for p, q in zip(a, b)))
+    f"{p['class_name']} {p['name']} {value(p)} | {value(q)}" for p, q in zip(a, b)))
 PY
