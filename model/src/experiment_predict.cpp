@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -23,10 +24,21 @@ namespace {
 
 constexpr std::size_t kMinTareSamples = 10;
 
-// The removed bone of one sample, from its scanned state and the largest removal any
-// recording made per voxel, projected along z.
+// Per sample, the largest removal any recording made per voxel, kept over the rows its
+// recordings reach (whole rows along x, as reach.hpp cuts them): nothing is removed
+// elsewhere, and a lab's CT block would cost 4 bytes per voxel of it otherwise.
+struct RemovedChi {
+  std::optional<VoxelBox> box;  // none: no recording replayed on the sample
+  std::vector<float> chi;       // box's voxels, x fastest
+  std::size_t at(const data_schema::SampleVolume& s, std::size_t x, std::size_t y, std::size_t z) const {
+    return x + s.dims[0] * ((y - box->lo[1]) + (box->hi[1] - box->lo[1]) * (z - box->lo[2]));
+  }
+};
+
+// The removed bone of one sample projected along z. Voxels outside the box add exact
+// zeros, so they are skipped: the sums are those over the whole sample.
 data_schema::RemovedBone removed_bone(const std::string& id, const data_schema::SampleVolume& s,
-                                      const std::vector<float>& removed) {
+                                      const RemovedChi& removed) {
   data_schema::RemovedBone out;
   out.sample_id = id;
   out.voxel_mm = s.voxel_mm;
@@ -36,11 +48,12 @@ data_schema::RemovedBone removed_bone(const std::string& id, const data_schema::
   std::vector<std::array<float, kMaxClasses>> per_class(out.nx * out.ny);
   for (auto& c : per_class) c.fill(0.0f);
   double total = 0;
-  for (std::size_t z = 0; z < s.dims[2]; ++z)
-    for (std::size_t y = 0; y < out.ny; ++y)
+  const VoxelBox b = removed.box.value_or(VoxelBox{});
+  for (std::size_t z = b.lo[2]; z < b.hi[2]; ++z)
+    for (std::size_t y = b.lo[1]; y < b.hi[1]; ++y)
       for (std::size_t x = 0; x < out.nx; ++x) {
         const std::size_t i = s.index(x, y, z), col = x + out.nx * y;
-        const float v = removed[i];
+        const float v = removed.chi[removed.at(s, x, y, z)];
         out.removed_depth_mm[col] += float(v * s.voxel_mm);
         total += v;
         if (s.labels[i] < kMaxClasses) per_class[col][s.labels[i]] += v;
@@ -178,13 +191,27 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
   // Only the part of a sample a recording's replay reaches is copied (reach.hpp). Without
   // the removed bone a recording replays in place and its undo log restores the volume,
   // so each worker keeps its cut volumes for the next recording; with it, each recording
-  // erodes a fresh cut.
+  // erodes a fresh cut, and the removed bone is kept over the hull of the cuts.
   std::vector<ReachVolumes> own;
   if (!options.removed_bone)
     for (std::size_t w = 0; w < workers; ++w) own.emplace_back(e.samples);
-  std::map<std::string, std::vector<float>> removed;
-  if (options.removed_bone)
-    for (const auto& [id, s] : e.samples) removed[id].assign(s.voxel_count(), 0.0f);
+  std::map<std::string, RemovedChi> removed;
+  std::vector<VoxelBox> cut(options.removed_bone ? n : 0);  // each recording's, for the removed bone
+  if (options.removed_bone) {
+    for (const auto& [id, s] : e.samples) removed[id];  // every sample has its map, if only of zeros
+    for (std::size_t i = 0; i < n; ++i) {
+      const AlignedRecording& r = e.recordings[i];
+      try {
+        cut[i] = replay_box(e.samples.at(r.sample_id), prediction_trajectory(r, options), r.radius_mm);
+      } catch (const InputError& err) {
+        throw err.in("recording " + r.id);
+      }
+      auto& box = removed[r.sample_id].box;
+      box = box ? box->hull(cut[i]) : cut[i];
+    }
+    for (auto& [id, rm] : removed)
+      if (rm.box) rm.chi.assign(rm.box->voxel_count(), 0.0f);
+  }
 
   ExperimentPrediction out;
   out.recordings.resize(n);
@@ -201,14 +228,13 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
     const AlignedRecording& r = e.recordings[i];
     try {
       const std::unique_ptr<Progress> progress = shared.child(i, r.id);
-      const Trajectory tr = prediction_trajectory(r, options);
       if (options.removed_bone) {
         const data_schema::SampleVolume& s = e.samples.at(r.sample_id);
-        Volume vol = Volume::from_sample(s, replay_box(s, tr, r.radius_mm));
+        Volume vol = Volume::from_sample(s, cut[i]);
         out.recordings[i] = predict(r, vol, params, options, progress.get(), false);
         // Left eroded: its difference to the scan is the removed bone.
         const std::lock_guard<std::mutex> lock(removed_mutex);
-        auto& rem = removed[r.sample_id];
+        auto& rem = removed.at(r.sample_id);
         const VoxelBox& b = vol.box();
         std::size_t v = 0;
         for (std::size_t z = b.lo[2]; z < b.hi[2]; ++z)
@@ -216,10 +242,11 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
             for (std::size_t x = b.lo[0]; x < b.hi[0]; ++x, ++v) {
               const std::size_t j = s.index(x, y, z);
               const double scanned = s.labels[j] == 0 ? 0.0 : double(s.fraction[j]);
-              rem[j] = std::max(rem[j], float(scanned - vol.chi(v)));
+              float& m = rem.chi[rem.at(s, x, y, z)];
+              m = std::max(m, float(scanned - vol.chi(v)));
             }
       } else {
-        Volume& vol = own[w].for_replay(r.sample_id, tr, r.radius_mm);
+        Volume& vol = own[w].for_replay(r.sample_id, prediction_trajectory(r, options), r.radius_mm);
         out.recordings[i] = predict(r, vol, params, options, progress.get(), true);
       }
       if (const auto* ref = e.manifest.recording(r.id)) out.recordings[i].role = data_schema::to_string(ref->role);

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "burrbench/model/experiment.hpp"
 #include "burrbench/model/reach.hpp"
 #include "burrbench/model/replay.hpp"
 #include "lumpy_scene.hpp"
@@ -189,4 +190,67 @@ TEST(Reach, AWorkerCutsAgainOnlyWhenAPathLeavesItsBox) {
   EXPECT_EQ(worker.builds(), 2u);
   const bm::ReplayResult none = bm::replay(held, kR, scenes::two_classes(), far, {}, true);
   for (const auto& smp : none.samples) ASSERT_EQ(smp.contact.force_N, glm::dvec3(0));
+}
+
+namespace {
+// A recording whose stage follows `tr` (rig frame = volume frame, no tool offset).
+bm::AlignedRecording recording_along(const std::string& id, const bm::Trajectory& tr) {
+  bm::AlignedRecording r;
+  r.id = id;
+  r.sample_id = "S";
+  r.t_s = tr.t_s;
+  r.force_sensor_N.assign(tr.t_s.size(), glm::dvec3(0));
+  r.use.assign(tr.t_s.size(), 1);
+  r.use_calibrate = r.use;
+  r.use_validate.assign(tr.t_s.size(), 0);
+  r.stage_rig_mm = {tr.t_s, tr.centre_vol_mm};
+  r.spindle_rpm = {tr.t_s, std::vector<double>(tr.t_s.size(), 40000.0)};
+  r.shaft_axis_vol = glm::normalize(glm::dvec3(0.8, 0.0, 0.6));
+  r.radius_mm = kR;
+  return r;
+}
+}  // namespace
+
+// The removed bone is kept only over the rows the recordings reach; against the whole
+// sample eroded by each recording in turn (as before the cut), the same maps bit for bit.
+TEST(Reach, TheRemovedBoneOfAnExperimentIsTheWholeSamplesBitForBit) {
+  bm::Experiment e;
+  e.samples["S"] = scenes::lumpy(64, 0.1, 5);
+  e.manifest.samples.push_back({});
+  e.manifest.samples.back().id = "S";
+  e.recordings = {recording_along("a", plunge_and_sweep(1.6, 1.6)), recording_along("b", plunge_and_sweep(4.0, 4.5))};
+  bm::PredictOptions po;
+  po.removed_bone = true;
+  po.threads = 2;
+  const bm::ExperimentPrediction pred = bm::predict_experiment(e, scenes::two_classes(), po);
+  ASSERT_EQ(pred.removed.size(), 1u);
+  const auto& got = pred.removed[0];
+
+  // Brute force over the whole sample: each recording erodes a whole copy; per voxel the
+  // largest removal; summed along z in the sample's order.
+  const auto& s = e.samples.at("S");
+  std::vector<float> most(s.voxel_count(), 0.0f);
+  double removed_by_replays = 0;
+  for (const auto& r : e.recordings) {
+    bm::Volume whole = bm::Volume::from_sample(s);
+    const bm::ReplayResult res =
+        bm::replay(whole, kR, scenes::two_classes(), r.trajectory(0, 0), {}, false);
+    for (double v : res.removed_mm3) removed_by_replays += v;
+    for (std::size_t j = 0; j < most.size(); ++j)
+      most[j] = std::max(most[j], float((s.labels[j] ? double(s.fraction[j]) : 0.0) - whole.chi(j)));
+  }
+  std::vector<float> depth(s.dims[0] * s.dims[1], 0.0f);
+  double total = 0;
+  for (std::size_t z = 0; z < s.dims[2]; ++z)
+    for (std::size_t y = 0; y < s.dims[1]; ++y)
+      for (std::size_t x = 0; x < s.dims[0]; ++x) {
+        const float v = most[s.index(x, y, z)];
+        depth[x + s.dims[0] * y] += float(v * s.voxel_mm);
+        total += v;
+      }
+  EXPECT_EQ(got.removed_depth_mm, depth);
+  EXPECT_EQ(got.removed_volume_mm3, total * std::pow(s.voxel_mm, 3));
+  // The two drillings do not overlap, so the map holds what both replays removed.
+  EXPECT_GT(got.removed_volume_mm3, 0.1);
+  EXPECT_NEAR(got.removed_volume_mm3, removed_by_replays, 1e-6 * removed_by_replays);
 }
