@@ -42,21 +42,23 @@ Volume& ReachVolumes::for_replay(const std::string& id, const Trajectory& tr, do
   const data_schema::SampleVolume& s = samples_.at(id);
   auto it = volumes_.find(id);
   const std::optional<VoxelBox> reach = reach_box(s, tr, radius_mm);
-  if (it != volumes_.end() && (!reach || it->second.box().contains(*reach))) return it->second;
-  const VoxelBox need = replay_box(s, tr, radius_mm);
-  // Grown by the burr's radius: lags, depth offsets and pose corrections move the path by
-  // less, so a calibration cuts each volume once or twice, not at every trial point.
-  VoxelBox box = reach_box(s, tr, radius_mm, std::max(radius_mm, 4 * s.voxel_mm)).value_or(need).hull(need);
-  if (it != volumes_.end()) box = box.hull(it->second.box());
-  BURRBENCH_CHECK(box.contains(need), "reach box lost a voxel the replay needs");
-  ++builds_;
-  if (it != volumes_.end()) {
-    BURRBENCH_CHECK(!it->second.undo_active(), "volume cut again in the middle of a replay");
-    it->second = Volume();  // free the old cut before the new one is made
-    it->second = Volume::from_sample(s, box);
-    return it->second;
+  // A path that reaches no voxel replays on any volume: the one held, else the first row.
+  if (it != volumes_.end() && (!reach || it->second.box().contains(*reach))) return it->second.volume;
+  VoxelBox box = replay_box(s, tr, radius_mm);
+  if (reach) {
+    // Grown by the burr's radius: lags, depth offsets and pose corrections move the path
+    // by less, so a calibration cuts each volume once or twice, not at every trial point.
+    // The hull with the cut held keeps both paths' rows when recordings alternate.
+    box = reach_box(s, tr, radius_mm, std::max(radius_mm, 4 * s.voxel_mm)).value_or(*reach).hull(*reach);
+    if (it != volumes_.end() && it->second.reaches) box = box.hull(it->second.box());
   }
-  return volumes_.emplace(id, Volume::from_sample(s, box)).first->second;
+  ++builds_;
+  if (it == volumes_.end()) it = volumes_.emplace(id, Held{}).first;
+  BURRBENCH_CHECK(!it->second.volume.undo_active(), "volume cut again in the middle of a replay");
+  it->second.volume = Volume();  // free the old cut before the new one is made
+  it->second.volume = Volume::from_sample(s, box);
+  it->second.reaches = reach.has_value();
+  return it->second.volume;
 }
 
 }  // namespace burrbench::model

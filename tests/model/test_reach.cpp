@@ -190,6 +190,15 @@ TEST(Reach, AWorkerCutsAgainOnlyWhenAPathLeavesItsBox) {
   EXPECT_EQ(worker.builds(), 2u);
   const bm::ReplayResult none = bm::replay(held, kR, scenes::two_classes(), far, {}, true);
   for (const auto& smp : none.samples) ASSERT_EQ(smp.contact.force_N, glm::dvec3(0));
+
+  // A worker whose first path reached nothing holds the first row only, and its next cut
+  // is the path's own box, not the hull with that row.
+  bm::ReachVolumes fresh(samples);
+  EXPECT_EQ(fresh.for_replay("S", far, kR).voxel_count(), 64u);
+  const bm::VoxelBox own = fresh.for_replay("S", other, kR).box();
+  EXPECT_GT(own.lo[1], 0u);
+  EXPECT_EQ(fresh.builds(), 2u);
+  expect_same(replay_on(whole, other), replay_on(fresh.for_replay("S", other, kR), other));
 }
 
 namespace {

@@ -37,8 +37,13 @@ class ReachVolumes {
   std::size_t builds() const { return builds_; }  // volumes cut so far (tests, benches)
 
  private:
+  struct Held {
+    Volume volume;
+    bool reaches = false;  // cut for a path in reach (else the placeholder first row)
+    const VoxelBox& box() const { return volume.box(); }
+  };
   const std::map<std::string, data_schema::SampleVolume>& samples_;
-  std::map<std::string, Volume> volumes_;
+  std::map<std::string, Held> volumes_;
   std::size_t builds_ = 0;
 };
 
