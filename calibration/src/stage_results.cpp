@@ -17,11 +17,6 @@ nlohmann::json named(const Layout& L, const std::vector<double>& x) {
   return j;
 }
 
-std::string interval_text(double lo, double hi) {
-  auto side = [](double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : std::string("open"); };
-  return fmt::format("[{}, {}]", side(lo), side(hi));
-}
-
 }  // namespace
 
 // rms(residual/σ) above which the fit is reported as limited by model error.
@@ -267,33 +262,7 @@ CalibrationOutput results(Run& run) {
                          st["wall_s"].get<double>(), st["replays"].get<std::uint64_t>());
     s += "time by stage: " + t + "\n";
   }
-  for (const auto& p : out.parameters) {
-    if (p.fixed) {
-      s += fmt::format("  {:<12} {:<5} = {:.6g}{} (fixed)\n", p.class_name, p.name, p.estimate, data_schema::unit_suffix(p.unit));
-    } else if (!p.identifiable) {
-      s += fmt::format("  {:<12} {:<5}   {} (held {:.6g}{}): {}\n", p.class_name, p.name,
-                       p.verdict == "at_bound" ? "AT BOUND" : "NOT identifiable", p.held,
-                       p.profile.empty() ? "" : ", profile " + interval_text(p.profile_ci95_low, p.profile_ci95_high),
-                       p.reason);
-    } else {
-      s += fmt::format("  {:<12} {:<5} = {:.6g}{} {}covariance [{:.6g}, {:.6g}]{}\n",
-                       p.class_name, p.name, p.estimate, data_schema::unit_suffix(p.unit),
-                       p.profile.empty() ? std::string("95 % ")
-                                         : "profile 95 % " + interval_text(p.profile_ci95_low, p.profile_ci95_high) + "; ",
-                       p.ci95_low, p.ci95_high,
-                       std::isfinite(p.bootstrap_ci95_low)
-                           ? fmt::format("; bootstrap [{:.6g}, {:.6g}]", p.bootstrap_ci95_low, p.bootstrap_ci95_high)
-                           : "");
-      if (p.verdict == "imprecise") s += fmt::format("  {:<12} {:<5}   IMPRECISE: {}\n", p.class_name, p.name, p.reason);
-      if (p.limited_by_discretization)
-        s += std::isfinite(p.ci95_with_discretization_low)
-                 ? fmt::format("  {:<12} {:<5}   LIMITED by discretization error: {:.6g} at voxel {:.4g} mm; with "
-                               "that error [{:.6g}, {:.6g}]\n", p.class_name, p.name, p.coarse_estimate,
-                               run.coarse_voxel_mm, p.ci95_with_discretization_low, p.ci95_with_discretization_high)
-                 : fmt::format("  {:<12} {:<5}   LIMITED by discretization error: the refit at voxel {:.4g} mm ran "
-                               "into its bound; verify on a finer sample\n", p.class_name, p.name, run.coarse_voxel_mm);
-    }
-  }
+  for (const auto& p : out.parameters) s += data_schema::describe_fit_parameter(p, run.coarse_voxel_mm);
   if (out.channel_information.is_object()) {
     // What the moments and the spindle's load add, linearised at the optimum.
     s += "channels (95 % factor of the linearised interval, force alone -> all channels):";

@@ -63,6 +63,42 @@ const FitParameter* FitResult::parameter(std::uint8_t class_id, const std::strin
 
 std::string unit_suffix(std::string_view unit) { return unit == "1" ? std::string() : " " + std::string(unit); }
 
+std::string describe_fit_parameter(const FitParameter& p, double coarse_voxel_mm) {
+  auto num = [](double x) { return std::isnan(x) ? std::string("—") : fmt::format("{:.6g}", x); };
+  auto interval = [&](double lo, double hi) { return fmt::format("[{}, {}]", num(lo), num(hi)); };
+  auto profile = [](double lo, double hi) {
+    auto side = [](double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : std::string("open"); };
+    return fmt::format("profile 95 % [{}, {}]", side(lo), side(hi));
+  };
+  const std::string head = fmt::format("  {:<12} {:<5}", p.class_name, p.name), u = unit_suffix(p.unit);
+  const bool profiled = !p.profile.empty();
+  if (p.fixed) return fmt::format("{} = {}{} (fixed)\n", head, num(p.estimate), u);
+  if (!p.identifiable) {
+    const std::string v = p.verdict == "at_bound"                       ? "AT BOUND"
+                          : p.verdict == "practically_non_identifiable" ? "NOT identifiable (practically)"
+                                                                        : "NOT identifiable";
+    std::string s = fmt::format("{}   {} (held {}{}): {}\n", head, v, num(p.held), u, p.reason);
+    if (profiled) s += fmt::format("{}   {}\n", head, profile(p.profile_ci95_low, p.profile_ci95_high));
+    return s;
+  }
+  std::string s = fmt::format("{} = {}{}", head, num(p.estimate), u);
+  if (profiled) s += " " + profile(p.profile_ci95_low, p.profile_ci95_high) + ";";
+  s += fmt::format(" covariance {} (SE {})", interval(p.ci95_low, p.ci95_high), num(p.std_error));
+  if (std::isfinite(p.bootstrap_ci95_low)) s += "; bootstrap " + interval(p.bootstrap_ci95_low, p.bootstrap_ci95_high);
+  s += "\n";
+  if (p.verdict == "imprecise") s += fmt::format("{}   IMPRECISE: {}\n", head, p.reason);
+  if (p.limited_by_discretization) {
+    const std::string at = std::isfinite(coarse_voxel_mm) ? fmt::format("voxel {:.4g} mm", coarse_voxel_mm)
+                                                          : std::string("twice the voxel");
+    s += std::isfinite(p.ci95_with_discretization_low)
+             ? fmt::format("{}   LIMITED by discretization error: {} at {}; with that error {}\n", head,
+                           num(p.coarse_estimate), at, interval(p.ci95_with_discretization_low, p.ci95_with_discretization_high))
+             : fmt::format("{}   LIMITED by discretization error: the refit at {} ran into its bound; verify on a "
+                           "finer sample\n", head, at);
+  }
+  return s;
+}
+
 void validate(const FitResult& f, const std::string& file) {
   std::set<std::pair<int, std::string>> seen;
   for (std::size_t i = 0; i < f.parameters.size(); ++i) {

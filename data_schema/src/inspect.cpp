@@ -131,32 +131,6 @@ std::string describe_manifest(const std::filesystem::path& path) {
   return s;
 }
 
-// One parameter as the calibration left it: the value it holds, the intervals that
-// support it (profile first: the verdict comes from it) and, when it is not a confident
-// value, why. Mirrors `calibrate`'s summary so the file reads as the run did.
-std::string describe_fit_parameter(const FitParameter& p) {
-  const std::string head = fmt::format("  {:<12} {:<5}", p.class_name, p.name), u = unit_suffix(p.unit);
-  if (p.fixed) return fmt::format("{} = {}{} (fixed)\n", head, num(p.estimate), u);
-  if (!p.identifiable) {
-    const std::string v = p.verdict == "at_bound"                       ? "AT BOUND"
-                          : p.verdict == "practically_non_identifiable" ? "NOT identifiable (practically)"
-                                                                        : "NOT identifiable";
-    return fmt::format("{}   {} (held {}{}): {}\n", head, v, num(p.held), u, p.reason);
-  }
-  auto interval = [](double lo, double hi) { return fmt::format("[{}, {}]", num(lo), num(hi)); };
-  std::string s = fmt::format("{} = {}{}", head, num(p.estimate), u);
-  if (!std::isnan(p.profile_ci95_low) || !std::isnan(p.profile_ci95_high))
-    s += " profile 95 % " + interval(p.profile_ci95_low, p.profile_ci95_high) + ";";
-  s += fmt::format(" covariance {} (SE {})", interval(p.ci95_low, p.ci95_high), num(p.std_error));
-  if (!std::isnan(p.bootstrap_ci95_low)) s += "; bootstrap " + interval(p.bootstrap_ci95_low, p.bootstrap_ci95_high);
-  s += "\n";
-  if (p.verdict == "imprecise") s += fmt::format("{}   IMPRECISE: {}\n", head, p.reason);
-  if (p.limited_by_discretization)
-    s += fmt::format("{}   LIMITED by discretization error: {} at twice the voxel; with that error {}\n", head,
-                     num(p.coarse_estimate), interval(p.ci95_with_discretization_low, p.ci95_with_discretization_high));
-  return s;
-}
-
 std::string describe_fit(const std::filesystem::path& path) {
   const FitResult f = read_fit(path);
   std::string s = "fit result (burrbench.fit)\n";

@@ -142,3 +142,51 @@ TEST(FormatsFit, CorruptedFilesOnlyEverRaiseInputError) {
       base, dir / "c.json", 300, 777, 3, true, [](const auto& p) { bb::read_fit(p); });
   EXPECT_GT(rejected, 150);
 }
+
+// `calibrate`'s summary and `inspect fit.json` print each constant through one function:
+// the value held and why, the profile interval (an open side reads "open"), the covariance
+// interval with its SE, and the discretization limit.
+TEST(FormatsFit, AParameterReadsAsTheCalibrationLeftIt) {
+  bb::FitParameter p;
+  p.class_name = "compact";
+  p.name = "alpha";
+  p.unit = "N/mm^2";
+  p.estimate = p.held = 503.1;
+  p.std_error = 4.17;
+  p.ci95_low = 495.0;
+  p.ci95_high = 511.3;
+  p.profile = nlohmann::json::array({{{"value", 500.0}}});
+  p.profile_ci95_low = 494.9;
+  p.profile_ci95_high = 511.2;
+  p.verdict = "identifiable";
+  EXPECT_EQ(bb::describe_fit_parameter(p),
+            "  compact      alpha = 503.1 N/mm^2 profile 95 % [494.9, 511.2]; covariance [495, 511.3] (SE 4.17)\n");
+
+  p.limited_by_discretization = true;
+  p.coarse_estimate = 450.0;
+  p.ci95_with_discretization_low = 440.0;
+  p.ci95_with_discretization_high = 560.0;
+  EXPECT_NE(bb::describe_fit_parameter(p, 0.2).find(
+                "  compact      alpha   LIMITED by discretization error: 450 at voxel 0.2 mm; with that error [440, 560]\n"),
+            std::string::npos);
+  EXPECT_NE(bb::describe_fit_parameter(p).find("450 at twice the voxel;"), std::string::npos);
+  p.ci95_with_discretization_low = p.ci95_with_discretization_high = bb::kNaN;  // the refit ran into its bound
+  EXPECT_NE(bb::describe_fit_parameter(p, 0.2).find("the refit at voxel 0.2 mm ran into its bound"), std::string::npos);
+
+  bb::FitParameter m;
+  m.class_name = "trabecular";
+  m.name = "mu";
+  m.unit = "1";
+  m.held = 0.3;
+  m.identifiable = false;
+  m.verdict = "practically_non_identifiable";
+  m.reason = "the profile stays flat towards the lower bound";
+  m.profile = nlohmann::json::array({{{"value", 0.3}}});
+  m.profile_ci95_high = 0.52;  // open below
+  EXPECT_EQ(bb::describe_fit_parameter(m),
+            "  trabecular   mu      NOT identifiable (practically) (held 0.3): the profile stays flat towards the lower bound\n"
+            "  trabecular   mu      profile 95 % [open, 0.52]\n");
+  m.fixed = true;
+  m.estimate = 0.3;
+  EXPECT_EQ(bb::describe_fit_parameter(m), "  trabecular   mu    = 0.3 (fixed)\n");
+}

@@ -58,6 +58,12 @@ struct FitParameter {
 // dimensionless "1" ("mu = 0.4", not "mu = 0.4 1").
 std::string unit_suffix(std::string_view unit);
 
+// One parameter as the calibration left it, one or more lines: the value it holds, the
+// intervals that support it (profile first: the verdict comes from it; an open side reads
+// "open") and, when it is not a confident value, why. `calibrate`'s summary and `inspect`
+// print the same; coarse_voxel_mm names the discretization check's voxel when known.
+std::string describe_fit_parameter(const FitParameter& p, double coarse_voxel_mm = kNaN);
+
 struct FitNuisance {
   std::string recording_id;
   std::string name;  // "bias_x" | "bias_y" | "bias_z" | "lag" | "depth_offset"
