@@ -115,8 +115,10 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
                       {"lag", "the manifest's lag_ms per recording"}};
   }
   in.limitations = {
-      "Each recording is replayed from the sample's unmodified state (recordings are assumed "
-      "not to overlap in removed bone).",
+      fmt::format("Each recording is replayed from the sample's unmodified state, so recordings of one sample "
+                  "must drill separate spots: the replays checked that no two recordings removed the same bone "
+                  "(beyond {:g} % of the smaller removal), and a pair that did is named below.",
+                  100 * model::kOverlapShare),
       "The removed-bone picture shows, per voxel, the largest bone fraction any recording "
       "removed, summed along the volume z axis.",
       "Forces are compared in the sensor frame; the sensor's own calibration is taken as exact.",
@@ -152,6 +154,18 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   const model::BandCovariance band = band_fit ? model::band_covariance(*band_fit, params) : model::BandCovariance{};
   po.band = &band;
   model::ExperimentPrediction pred = model::predict_experiment(ex, mp, po);
+  for (const model::RemovedOverlap& o : pred.overlaps) {
+    const double smaller = std::min(o.removed_first_mm3, o.removed_second_mm3);
+    const std::string msg = fmt::format(
+        "Recordings {} and {} removed the same bone of sample {}: {:.3g} mm³, {:.0f} % of the smaller removal "
+        "({} removed {:.3g} mm³, {} {:.3g} mm³). Each recording is replayed from the sample as scanned, so the one "
+        "drilled second was predicted against bone that was already gone: its forces, and constants fitted to "
+        "them, are biased. Drill each recording into fresh bone, or leave one of the two out.",
+        o.first, o.second, o.sample_id, o.shared_mm3, 100.0 * o.shared_mm3 / smaller, o.first, o.removed_first_mm3,
+        o.second, o.removed_second_mm3);
+    in.limitations.push_back(msg);
+    fmt::print(stderr, "warning: {}\n", msg);
+  }
   std::vector<std::string> no_band;
   for (const auto& p : pred.recordings)
     if (p.band_diverged) no_band.push_back(p.recording_id);

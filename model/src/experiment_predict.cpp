@@ -6,10 +6,12 @@
 #include <array>
 #include <cmath>
 #include <exception>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
 #include <optional>
+#include <utility>
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -67,6 +69,54 @@ data_schema::RemovedBone removed_bone(const std::string& id, const data_schema::
       if (per_class[c][std::size_t(k)] > best) {
         best = per_class[c][std::size_t(k)];
         out.removed_class[c] = std::uint8_t(k);
+      }
+  }
+  return out;
+}
+
+// One recording's removal from its sample: (voxel index in the sample, removed χ) for
+// each voxel it removed from, in increasing index order.
+using Removal = std::vector<std::pair<std::size_t, float>>;
+
+// One drilling listed twice (e.g. once per role) is not two drillings of one spot.
+bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
+  if (a.empty() || b.empty()) return false;
+  std::error_code ea, eb;
+  const std::filesystem::path ca = std::filesystem::weakly_canonical(a, ea), cb = std::filesystem::weakly_canonical(b, eb);
+  return !ea && !eb && ca == cb;
+}
+
+// Pairs of recordings of one sample that removed the same bone, beyond kOverlapShare of
+// the smaller removal: Σ min over the voxels both removed from (a merge of the two sorted
+// lists, so the figure does not depend on the order the replays finished in).
+std::vector<RemovedOverlap> overlaps(const Experiment& e, const std::vector<Removal>& removal) {
+  std::vector<RemovedOverlap> out;
+  const std::size_t n = e.recordings.size();
+  std::vector<double> total(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i)
+    for (const auto& [j, d] : removal[i]) total[i] += d;
+  for (const auto& sref : e.manifest.samples) {
+    if (!e.samples.count(sref.id)) continue;
+    const double l3 = std::pow(e.samples.at(sref.id).voxel_mm, 3);
+    for (std::size_t a = 0; a < n; ++a)
+      for (std::size_t b = a + 1; b < n; ++b) {
+        const AlignedRecording &ra = e.recordings[a], &rb = e.recordings[b];
+        if (ra.sample_id != sref.id || rb.sample_id != sref.id || same_file(ra.file, rb.file)) continue;
+        double shared = 0;
+        auto p = removal[a].begin(), q = removal[b].begin();
+        while (p != removal[a].end() && q != removal[b].end()) {
+          if (p->first < q->first) {
+            ++p;
+          } else if (q->first < p->first) {
+            ++q;
+          } else {
+            shared += std::min(p->second, q->second);
+            ++p;
+            ++q;
+          }
+        }
+        if (shared > 0 && shared > kOverlapShare * std::min(total[a], total[b]))
+          out.push_back({sref.id, ra.id, rb.id, shared * l3, total[a] * l3, total[b] * l3});
       }
   }
   return out;
@@ -197,6 +247,7 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
     for (std::size_t w = 0; w < workers; ++w) own.emplace_back(e.samples);
   std::map<std::string, RemovedChi> removed;
   std::vector<VoxelBox> cut(options.removed_bone ? n : 0);  // each recording's, for the removed bone
+  std::vector<Removal> removal(options.removed_bone ? n : 0);  // each recording's, for the overlaps
   if (options.removed_bone) {
     for (const auto& [id, s] : e.samples) removed[id];  // every sample has its map, if only of zeros
     for (std::size_t i = 0; i < n; ++i) {
@@ -232,9 +283,9 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
         const data_schema::SampleVolume& s = e.samples.at(r.sample_id);
         Volume vol = Volume::from_sample(s, cut[i]);
         out.recordings[i] = predict(r, vol, params, options, progress.get(), false);
-        // Left eroded: its difference to the scan is the removed bone.
-        const std::lock_guard<std::mutex> lock(removed_mutex);
-        auto& rem = removed.at(r.sample_id);
+        // Left eroded: its difference to the scan is the removed bone (χ only falls, so
+        // the voxels it did not remove from hold exact zeros and are left out).
+        Removal& mine = removal[i];
         const VoxelBox& b = vol.box();
         std::size_t v = 0;
         for (std::size_t z = b.lo[2]; z < b.hi[2]; ++z)
@@ -242,9 +293,16 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
             for (std::size_t x = b.lo[0]; x < b.hi[0]; ++x, ++v) {
               const std::size_t j = s.index(x, y, z);
               const double scanned = s.labels[j] == 0 ? 0.0 : double(s.fraction[j]);
-              float& m = rem.chi[rem.at(s, x, y, z)];
-              m = std::max(m, float(scanned - vol.chi(v)));
+              const float d = float(scanned - vol.chi(v));
+              if (d > 0) mine.push_back({j, d});
             }
+        const std::lock_guard<std::mutex> lock(removed_mutex);
+        auto& rem = removed.at(r.sample_id);
+        const std::size_t nx = s.dims[0], ny = s.dims[1];
+        for (const auto& [j, d] : mine) {
+          float& m = rem.chi[rem.at(s, j % nx, (j / nx) % ny, j / (nx * ny))];
+          m = std::max(m, d);
+        }
       } else {
         Volume& vol = own[w].for_replay(r.sample_id, prediction_trajectory(r, options), r.radius_mm);
         out.recordings[i] = predict(r, vol, params, options, progress.get(), true);
@@ -254,10 +312,12 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
       throw err.in("recording " + r.id);
     }
   });
-  if (options.removed_bone)
+  if (options.removed_bone) {
     for (const auto& sref : e.manifest.samples)
       if (removed.count(sref.id))
         out.removed.push_back(removed_bone(sref.id, e.samples.at(sref.id), removed.at(sref.id)));
+    out.overlaps = overlaps(e, removal);
+  }
   return out;
 }
 

@@ -1,8 +1,11 @@
 // A replay on the part of a sample it can reach (reach.hpp) gives the forces, removed
 // volumes and sensitivities of a replay on the whole sample, bit for bit, from a fraction
 // of its voxels.
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <stdexcept>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -262,4 +265,88 @@ TEST(Reach, TheRemovedBoneOfAnExperimentIsTheWholeSamplesBitForBit) {
   // The two drillings do not overlap, so the map holds what both replays removed.
   EXPECT_GT(got.removed_volume_mm3, 0.1);
   EXPECT_NEAR(got.removed_volume_mm3, removed_by_replays, 1e-6 * removed_by_replays);
+}
+
+// Recordings of one sample that removed the same bone are named (each is replayed from the
+// sample as scanned, so the one drilled second was predicted against bone already gone).
+namespace {
+bm::Experiment experiment_of(std::vector<bm::AlignedRecording> recordings) {
+  bm::Experiment e;
+  e.samples["S"] = scenes::lumpy(64, 0.1, 5);
+  e.manifest.samples.push_back({});
+  e.manifest.samples.back().id = "S";
+  e.recordings = std::move(recordings);
+  return e;
+}
+
+std::vector<bm::RemovedOverlap> overlaps_of(const bm::Experiment& e) {
+  bm::PredictOptions po;
+  po.removed_bone = true;
+  po.threads = 2;
+  return bm::predict_experiment(e, scenes::two_classes(), po).overlaps;
+}
+
+// Brute force: each recording erodes a whole copy of the sample; per voxel its removal.
+std::vector<std::vector<double>> removals(const bm::Experiment& e) {
+  const auto& s = e.samples.at("S");
+  std::vector<std::vector<double>> out;
+  for (const auto& r : e.recordings) {
+    bm::Volume whole = bm::Volume::from_sample(s);
+    (void)bm::replay(whole, kR, scenes::two_classes(), r.trajectory(0, 0), {}, false);
+    out.emplace_back(s.voxel_count());
+    for (std::size_t j = 0; j < s.voxel_count(); ++j)
+      out.back()[j] = float((s.labels[j] ? double(s.fraction[j]) : 0.0) - whole.chi(j));
+  }
+  return out;
+}
+}  // namespace
+
+TEST(RemovedOverlap, TwoRecordingsThatCutTheSameBoneAreNamedWithTheBoneTheyShare) {
+  // Each plunges 0.4 mm (a footprint of radius 0.8 mm) and sweeps 1 mm along x. b runs
+  // 0.6 mm beside a: they cut the same bone. c runs 1.4 mm beside a: the holes touch, and
+  // share only a partly eroded rim voxel, which is not an overlap to report.
+  const bm::Experiment e = experiment_of({recording_along("a", plunge_and_sweep(1.6, 1.6)),
+                                          recording_along("b", plunge_and_sweep(1.6, 1.0)),
+                                          recording_along("c", plunge_and_sweep(1.6, 3.0))});
+  const auto got = overlaps_of(e);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].sample_id, "S");
+  EXPECT_EQ(got[0].first, "a");
+  EXPECT_EQ(got[0].second, "b");
+
+  const auto rem = removals(e);
+  const double l3 = std::pow(e.samples.at("S").voxel_mm, 3);
+  double shared = 0, ra = 0, rb = 0, rc = 0, ac = 0, bc = 0;
+  for (std::size_t j = 0; j < rem[0].size(); ++j) {
+    shared += std::min(rem[0][j], rem[1][j]);
+    ac += std::min(rem[0][j], rem[2][j]);
+    bc += std::min(rem[1][j], rem[2][j]);
+    ra += rem[0][j];
+    rb += rem[1][j];
+    rc += rem[2][j];
+  }
+  EXPECT_NEAR(got[0].shared_mm3, shared * l3, 1e-9 * shared * l3);
+  EXPECT_NEAR(got[0].removed_first_mm3, ra * l3, 1e-9 * ra * l3);
+  EXPECT_NEAR(got[0].removed_second_mm3, rb * l3, 1e-9 * rb * l3);
+  EXPECT_GT(shared, 0.1 * std::min(ra, rb)) << "the test needs a real overlap";
+  EXPECT_GT(rc, 0.1 * ra) << "c must cut bone";
+  EXPECT_GT(ac, 0.0) << "the test needs holes that touch";
+  EXPECT_LE(ac, bm::kOverlapShare * std::min(ra, rc));
+  EXPECT_EQ(bc, 0.0);
+}
+
+TEST(RemovedOverlap, OneFileListedTwiceIsOneDrillingAndTwoFilesOfOnePathAreTwo) {
+  const std::filesystem::path dir = testing::TempDir();
+  bm::AlignedRecording a = recording_along("plunge", plunge_and_sweep(1.6, 1.6));
+  bm::AlignedRecording b = recording_along("plunge@validate", plunge_and_sweep(1.6, 1.6));
+  a.file = dir / "plunge.h5";
+  b.file = dir / "sub" / ".." / "plunge.h5";  // the same file, spelled otherwise
+  EXPECT_TRUE(overlaps_of(experiment_of({a, b})).empty());
+
+  b.file = dir / "plunge_again.h5";  // the same path drilled twice: all of it shared
+  const auto got = overlaps_of(experiment_of({a, b}));
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_GT(got[0].shared_mm3, 0.05);
+  EXPECT_EQ(got[0].shared_mm3, got[0].removed_first_mm3);
+  EXPECT_EQ(got[0].removed_first_mm3, got[0].removed_second_mm3);
 }

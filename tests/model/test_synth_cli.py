@@ -126,7 +126,7 @@ def test_bias_and_lag_in_the_output(exp, tmp_path):
     (("depth_mm = 0.25", "depth_m = 0.25"), "moves[0].depth_m"),
     (('type = "plunge"', 'type = "drill"'), "moves[0].type"),
     (("spin_sign = 1", "spin_sign = 0"), "burr.spin_sign"),
-    (("point_mm = [4.0, 4.0, 4.5]", "point_mm = [4.0, 4.0, 2.5]"), "start.point_mm"),
+    (("point_mm = [2.5, 5.5, 4.5]", "point_mm = [2.5, 5.5, 2.5]"), "start.point_mm"),
 ])
 def test_bad_protocol_exits_2_with_the_key(exp, tmp_path, edit, message):
     text = (PROTOCOLS / "plunge.toml").read_text()

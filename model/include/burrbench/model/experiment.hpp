@@ -209,16 +209,33 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
                             const PredictOptions& options = {}, Progress* progress = nullptr,
                             bool restore = true);
 
+// Two recordings of one sample that removed the same bone. Each recording is replayed
+// from its sample as scanned, so whichever was drilled second was predicted against bone
+// the other had already removed: its force, and constants fitted to it, are biased.
+struct RemovedOverlap {
+  std::string sample_id;
+  std::string first, second;     // recording ids, in manifest order
+  double shared_mm3 = 0;         // Σ over voxels of min(first's removal, second's) · l³
+  double removed_first_mm3 = 0;  // each one's whole removal from the sample
+  double removed_second_mm3 = 0;
+};
+// An overlap is reported above this share of the smaller of the two removals: adjacent
+// holes share only the partly eroded voxels of their rims, well below it (docs/replay.md).
+inline constexpr double kOverlapShare = 0.01;
+
 // The prediction of a whole experiment: per recording (manifest order) and, with
-// PredictOptions::removed_bone, per sample the removed bone.
+// PredictOptions::removed_bone, per sample the removed bone and the pairs of recordings
+// that removed the same bone.
 struct ExperimentPrediction {
   std::vector<RecordingPrediction> recordings;
   std::vector<data_schema::RemovedBone> removed;  // manifest's sample order
+  std::vector<RemovedOverlap> overlaps;           // sample, then manifest order
 };
 
 // Every recording of the experiment, each replayed from its sample as scanned (recordings
-// of one sample are taken to drill separate spots), with the manifest's role on each,
-// PredictOptions::threads of them at once.
+// of one sample are taken to drill separate spots; with removed_bone, pairs that did not
+// are listed in `overlaps`: a recording file listed twice is one drilling, not a pair),
+// with the manifest's role on each, PredictOptions::threads of them at once.
 ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& params,
                                         const PredictOptions& options = {});
 
