@@ -95,13 +95,19 @@ std::vector<RemovedOverlap> overlaps(const Experiment& e, const std::vector<Remo
   std::vector<double> total(n, 0.0);
   for (std::size_t i = 0; i < n; ++i)
     for (const auto& [j, d] : removal[i]) total[i] += d;
+  // A file listed again is its first listing's drilling: only first listings form pairs.
+  std::vector<bool> again(n, false);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t k = 0; k < i && !again[i]; ++k)
+      again[i] = e.recordings[k].sample_id == e.recordings[i].sample_id &&
+                 same_file(e.recordings[k].file, e.recordings[i].file);
   for (const auto& sref : e.manifest.samples) {
     if (!e.samples.count(sref.id)) continue;
     const double l3 = std::pow(e.samples.at(sref.id).voxel_mm, 3);
     for (std::size_t a = 0; a < n; ++a)
       for (std::size_t b = a + 1; b < n; ++b) {
         const AlignedRecording &ra = e.recordings[a], &rb = e.recordings[b];
-        if (ra.sample_id != sref.id || rb.sample_id != sref.id || same_file(ra.file, rb.file)) continue;
+        if (ra.sample_id != sref.id || rb.sample_id != sref.id || again[a] || again[b]) continue;
         double shared = 0;
         auto p = removal[a].begin(), q = removal[b].begin();
         while (p != removal[a].end() && q != removal[b].end()) {

@@ -137,6 +137,35 @@ def test_no_verification_skips_the_study_and_says_so(exp, tmp_path):
     assert "Not computed in this run" in html[html.index('id="verif"'):html.index('id="data"')]
 
 
+def test_two_recordings_that_drill_one_spot_are_named(exp, tmp_path):
+    # Each recording is replayed from the sample as scanned, so a spot drilled twice would
+    # bias the second silently. The plunge copied to a second file is a second drilling of
+    # its spot: a warning and a line in the report's limitations name the pair. plunge.h5
+    # listed once more (one drilling, e.g. once per role) is not a pair.
+    d = tmp_path / "twice"
+    shutil.copytree(exp, d)
+    shutil.copy(d / "plunge.h5", d / "plunge_again.h5")
+    m = (d / "experiment.toml").read_text()
+    first = m.index("[[recordings]]")
+    block = m[first:m.index("[[recordings]]", first + 1)]
+    m += "\n" + block.replace('id = "plunge"', 'id = "plunge_again"').replace('"plunge.h5"', '"plunge_again.h5"')
+    m += "\n" + block.replace('id = "plunge"', 'id = "plunge_listed_again"')
+    (d / "experiment.toml").write_text(m)
+    out = tmp_path / "gate"
+    r = run("validate", "--experiment", str(d / "experiment.toml"), "--params", str(d / "params_true.toml"),
+            "--criteria", CRITERIA, "--out", str(out), "--no-verification")
+    assert r.returncode == 0, r.stdout + r.stderr
+    warned = [line for line in r.stderr.splitlines() if "removed the same bone" in line]
+    assert len(warned) == 1, r.stderr
+    assert warned[0].startswith("warning: Recordings plunge and plunge_again removed the same bone of sample S1: "), warned
+    assert "100 % of the smaller removal" in warned[0], warned
+    limitations = json.load(open(out / "analysis.json"))["limitations"]
+    assert warned[0][len("warning: "):] in limitations
+    # The shipped example drills separate spots: no pair named there.
+    assert not [line for line in limitations if "removed the same bone of" in line
+                and "plunge_again" not in line], limitations
+
+
 def test_wrong_parameters_fail(exp, tmp_path):
     text = open(exp / "params_true.toml").read()
     # friction and contact stiffness far off: the held-out forces no longer match

@@ -343,9 +343,14 @@ TEST(RemovedOverlap, OneFileListedTwiceIsOneDrillingAndTwoFilesOfOnePathAreTwo) 
   b.file = dir / "sub" / ".." / "plunge.h5";  // the same file, spelled otherwise
   EXPECT_TRUE(overlaps_of(experiment_of({a, b})).empty());
 
-  b.file = dir / "plunge_again.h5";  // the same path drilled twice: all of it shared
-  const auto got = overlaps_of(experiment_of({a, b}));
+  // The same path drilled again, from another file: all of it shared. It is one pair with
+  // the drilling listed twice, not one with each listing.
+  bm::AlignedRecording c = recording_along("plunge_again", plunge_and_sweep(1.6, 1.6));
+  c.file = dir / "plunge_again.h5";
+  const auto got = overlaps_of(experiment_of({a, b, c}));
   ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].first, "plunge");
+  EXPECT_EQ(got[0].second, "plunge_again");
   EXPECT_GT(got[0].shared_mm3, 0.05);
   EXPECT_EQ(got[0].shared_mm3, got[0].removed_first_mm3);
   EXPECT_EQ(got[0].removed_first_mm3, got[0].removed_second_mm3);
