@@ -8,14 +8,11 @@
 #include <vector>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/same_file.hpp"
 
 namespace burrbench::apps {
 
-inline bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
-  std::error_code ec;
-  if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) return std::filesystem::equivalent(a, b, ec);
-  return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
-}
+using data_schema::same_file;
 
 // InputError(out, option, ...) when `out` is one of `inputs` (empty paths are skipped).
 inline void refuse_output_over_inputs(const std::string& out, const std::string& option,

@@ -6,7 +6,6 @@
 #include <array>
 #include <cmath>
 #include <exception>
-#include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -15,6 +14,7 @@
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/same_file.hpp"
 #include "burrbench/model/experiment.hpp"
 #include "burrbench/model/job_queue.hpp"
 #include "burrbench/model/reach.hpp"
@@ -78,14 +78,6 @@ data_schema::RemovedBone removed_bone(const std::string& id, const data_schema::
 // each voxel it removed from, in increasing index order.
 using Removal = std::vector<std::pair<std::size_t, float>>;
 
-// One drilling listed twice (e.g. once per role) is not two drillings of one spot.
-bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
-  if (a.empty() || b.empty()) return false;
-  std::error_code ea, eb;
-  const std::filesystem::path ca = std::filesystem::weakly_canonical(a, ea), cb = std::filesystem::weakly_canonical(b, eb);
-  return !ea && !eb && ca == cb;
-}
-
 // Pairs of recordings of one sample that removed the same bone, beyond kOverlapShare of
 // the smaller removal: Σ min over the voxels both removed from (a merge of the two sorted
 // lists, so the figure does not depend on the order the replays finished in).
@@ -95,12 +87,14 @@ std::vector<RemovedOverlap> overlaps(const Experiment& e, const std::vector<Remo
   std::vector<double> total(n, 0.0);
   for (std::size_t i = 0; i < n; ++i)
     for (const auto& [j, d] : removal[i]) total[i] += d;
-  // A file listed again is its first listing's drilling: only first listings form pairs.
+  // A file listed again (e.g. once per role) is its first listing's drilling, not a second
+  // drilling of its spot: only first listings form pairs. Recordings built in memory
+  // (no file) are each their own.
   std::vector<bool> again(n, false);
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t k = 0; k < i && !again[i]; ++k)
-      again[i] = e.recordings[k].sample_id == e.recordings[i].sample_id &&
-                 same_file(e.recordings[k].file, e.recordings[i].file);
+      again[i] = e.recordings[k].sample_id == e.recordings[i].sample_id && !e.recordings[i].file.empty() &&
+                 !e.recordings[k].file.empty() && data_schema::same_file(e.recordings[k].file, e.recordings[i].file);
   for (const auto& sref : e.manifest.samples) {
     if (!e.samples.count(sref.id)) continue;
     const double l3 = std::pow(e.samples.at(sref.id).voxel_mm, 3);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <vector>
 
@@ -342,6 +343,16 @@ TEST(RemovedOverlap, OneFileListedTwiceIsOneDrillingAndTwoFilesOfOnePathAreTwo) 
   a.file = dir / "plunge.h5";
   b.file = dir / "sub" / ".." / "plunge.h5";  // the same file, spelled otherwise
   EXPECT_TRUE(overlaps_of(experiment_of({a, b})).empty());
+  // The same file through a hard link (both exist).
+  std::filesystem::remove(dir / "plunge.h5");
+  std::filesystem::remove(dir / "plunge_link.h5");
+  { std::ofstream(dir / "plunge.h5") << "x"; }
+  std::filesystem::create_hard_link(dir / "plunge.h5", dir / "plunge_link.h5");
+  b.file = dir / "plunge_link.h5";
+  EXPECT_TRUE(overlaps_of(experiment_of({a, b})).empty());
+  std::filesystem::remove(dir / "plunge_link.h5");
+  std::filesystem::remove(dir / "plunge.h5");
+  b.file = dir / "sub" / ".." / "plunge.h5";
 
   // The same path drilled again, from another file: all of it shared. It is one pair with
   // the drilling listed twice, not one with each listing.
