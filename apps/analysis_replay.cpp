@@ -155,16 +155,8 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   po.band = &band;
   model::ExperimentPrediction pred = model::predict_experiment(ex, mp, po);
   for (const model::RemovedOverlap& o : pred.overlaps) {
-    const double smaller = std::min(o.removed_first_mm3, o.removed_second_mm3);
-    const std::string msg = fmt::format(
-        "Recordings {} and {} removed the same bone of sample {}: {:.3g} mm³, {:.0f} % of the smaller removal "
-        "({} removed {:.3g} mm³, {} {:.3g} mm³). Each recording is replayed from the sample as scanned, so the one "
-        "drilled second was predicted against bone that was already gone: its forces, and constants fitted to "
-        "them, are biased. Drill each recording into fresh bone, or leave one of the two out.",
-        o.first, o.second, o.sample_id, o.shared_mm3, 100.0 * o.shared_mm3 / smaller, o.first, o.removed_first_mm3,
-        o.second, o.removed_second_mm3);
-    in.limitations.push_back(msg);
-    fmt::print(stderr, "warning: {}\n", msg);
+    in.limitations.push_back(o.text());
+    fmt::print(stderr, "warning: {}\n", in.limitations.back());
   }
   std::vector<std::string> no_band;
   for (const auto& p : pred.recordings)

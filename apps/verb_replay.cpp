@@ -68,6 +68,7 @@ void run(const Args& a) {
       removed[std::size_t(k)] += p.removed_mm3[std::size_t(k)];
     std::cout << fmt::format("  {}: {}\n", e.recordings[i].id, e.recordings[i].registration.text());
   }
+  for (const model::RemovedOverlap& o : prediction.overlaps) fmt::print(stderr, "warning: {}\n", o.text());
   model::write_prediction(a.out, prediction, prov);
   if (!a.csv.empty()) model::write_prediction_csv(a.csv, preds);
   std::string rem;

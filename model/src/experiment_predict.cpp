@@ -233,31 +233,46 @@ class ExperimentProgress {
 
 }  // namespace
 
+std::string RemovedOverlap::text() const {
+  const double smaller = std::min(removed_first_mm3, removed_second_mm3);
+  return fmt::format(
+      "Recordings {} and {} removed the same bone of sample {}: {:.3g} mm³, {:.0f} % of the smaller removal "
+      "({} removed {:.3g} mm³, {} {:.3g} mm³). Each recording is replayed from the sample as scanned, so the one "
+      "drilled second was predicted against bone that was already gone: its forces, and constants fitted to "
+      "them, are biased. Drill each recording into fresh bone, or leave one of the two out.",
+      first, second, sample_id, shared_mm3, 100.0 * shared_mm3 / smaller, first, removed_first_mm3, second,
+      removed_second_mm3);
+}
+
 ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& params,
                                         const PredictOptions& options) {
   BURRBENCH_CHECK(options.threads >= 1, "predict_experiment needs at least one thread");
   const std::size_t n = e.recordings.size();
   const std::size_t workers = std::min<std::size_t>(std::size_t(options.threads), std::max<std::size_t>(n, 1));
-  // Only the part of a sample a recording's replay reaches is copied (reach.hpp). Without
-  // the removed bone a recording replays in place and its undo log restores the volume,
-  // so each worker keeps its cut volumes for the next recording; with it, each recording
-  // erodes a fresh cut, and the removed bone is kept over the hull of the cuts.
+  // Only the part of a sample a recording's replay reaches is copied (reach.hpp). When the
+  // replay erodes, each recording erodes a fresh cut, whose difference to the scan is its
+  // removal: the overlaps compare them, and the removed bone is kept over the hull of the
+  // cuts. Otherwise a recording replays in place and each worker keeps its cut volumes for
+  // the next recording.
+  const bool fresh = options.removed_bone || options.replay.erosion;
   std::vector<ReachVolumes> own;
-  if (!options.removed_bone)
+  if (!fresh)
     for (std::size_t w = 0; w < workers; ++w) own.emplace_back(e.samples);
   std::map<std::string, RemovedChi> removed;
-  std::vector<VoxelBox> cut(options.removed_bone ? n : 0);  // each recording's, for the removed bone
-  std::vector<Removal> removal(options.removed_bone ? n : 0);  // each recording's, for the overlaps
+  std::vector<VoxelBox> cut(fresh ? n : 0);
+  std::vector<Removal> removal(fresh ? n : 0);  // each recording's, for the overlaps
+  for (std::size_t i = 0; i < cut.size(); ++i) {
+    const AlignedRecording& r = e.recordings[i];
+    try {
+      cut[i] = replay_box(e.samples.at(r.sample_id), prediction_trajectory(r, options), r.radius_mm);
+    } catch (const InputError& err) {
+      throw err.in("recording " + r.id);
+    }
+  }
   if (options.removed_bone) {
     for (const auto& [id, s] : e.samples) removed[id];  // every sample has its map, if only of zeros
     for (std::size_t i = 0; i < n; ++i) {
-      const AlignedRecording& r = e.recordings[i];
-      try {
-        cut[i] = replay_box(e.samples.at(r.sample_id), prediction_trajectory(r, options), r.radius_mm);
-      } catch (const InputError& err) {
-        throw err.in("recording " + r.id);
-      }
-      auto& box = removed[r.sample_id].box;
+      auto& box = removed[e.recordings[i].sample_id].box;
       box = box ? box->hull(cut[i]) : cut[i];
     }
     for (auto& [id, rm] : removed)
@@ -279,7 +294,7 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
     const AlignedRecording& r = e.recordings[i];
     try {
       const std::unique_ptr<Progress> progress = shared.child(i, r.id);
-      if (options.removed_bone) {
+      if (fresh) {
         const data_schema::SampleVolume& s = e.samples.at(r.sample_id);
         Volume vol = Volume::from_sample(s, cut[i]);
         out.recordings[i] = predict(r, vol, params, options, progress.get(), false);
@@ -296,12 +311,14 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
               const float d = float(scanned - vol.chi(v));
               if (d > 0) mine.push_back({j, d});
             }
-        const std::lock_guard<std::mutex> lock(removed_mutex);
-        auto& rem = removed.at(r.sample_id);
-        const std::size_t nx = s.dims[0], ny = s.dims[1];
-        for (const auto& [j, d] : mine) {
-          float& m = rem.chi[rem.at(s, j % nx, (j / nx) % ny, j / (nx * ny))];
-          m = std::max(m, d);
+        if (options.removed_bone) {
+          const std::lock_guard<std::mutex> lock(removed_mutex);
+          auto& rem = removed.at(r.sample_id);
+          const std::size_t nx = s.dims[0], ny = s.dims[1];
+          for (const auto& [j, d] : mine) {
+            float& m = rem.chi[rem.at(s, j % nx, (j / nx) % ny, j / (nx * ny))];
+            m = std::max(m, d);
+          }
         }
       } else {
         Volume& vol = own[w].for_replay(r.sample_id, prediction_trajectory(r, options), r.radius_mm);
@@ -316,8 +333,8 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
     for (const auto& sref : e.manifest.samples)
       if (removed.count(sref.id))
         out.removed.push_back(removed_bone(sref.id, e.samples.at(sref.id), removed.at(sref.id)));
-    out.overlaps = overlaps(e, removal);
   }
+  if (fresh) out.overlaps = overlaps(e, removal);
   return out;
 }
 

@@ -198,8 +198,7 @@ void bind_model(py::module_& m) {
         const std::string params_name = py::isinstance<py::dict>(params)
                                             ? std::string("params (Python)")
                                             : py::str(py::module_::import("os").attr("fspath")(params)).cast<std::string>();
-        std::vector<model::RecordingPrediction> preds;
-        std::vector<std::string> ids;
+        model::ExperimentPrediction pred;
         CancelToken cancel;
         const auto pp = PyProgress::from("replay()", progress, cancel);
         run_interruptible(cancel, pp.get(), [&] {
@@ -213,17 +212,21 @@ void bind_model(py::module_& m) {
           opt.threads = threads;
           opt.replay.cancel = &cancel;
           opt.progress = pp.get();
-          preds = model::predict_experiment(e, mp, opt).recordings;
+          pred = model::predict_experiment(e, mp, opt);
         });
+        // As `burrbench replay` warns on stderr; `warnings.simplefilter("error")` makes it raise.
+        for (const model::RemovedOverlap& o : pred.overlaps)
+          if (PyErr_WarnEx(PyExc_UserWarning, o.text().c_str(), 1) != 0) throw py::error_already_set();
         py::dict out;
-        for (const auto& p : preds) out[py::str(p.recording_id)] = prediction_dict(p);
+        for (const auto& p : pred.recordings) out[py::str(p.recording_id)] = prediction_dict(p);
         return out;
       },
       py::arg("experiment"), py::arg("params"), py::arg("step_us") = 0.0, py::arg("erosion") = true, py::arg("threads") = 2,
       py::arg("progress") = py::none(),
       "Replays every recording of an experiment manifest, as `burrbench replay` does: {recording id: "
       "{t_s, force_sensor_pred_N, ... (the prediction file's datasets), removed_mm3, steps}}; "
-      "progress(fraction, line) receives the progress lines.");
+      "progress(fraction, line) receives the progress lines. Two recordings of one sample that removed the "
+      "same bone give a UserWarning naming them.");
 }
 
 }  // namespace burrbench::python

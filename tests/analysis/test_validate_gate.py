@@ -18,6 +18,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import browser_check  # noqa: E402
 from bad_input import assert_refused
+from synthetic import PLUNGE_TWICE_WARNING, drill_plunge_twice
 
 BURRBENCH = os.environ.get("BURRBENCH", "burrbench")
 SRC = os.environ.get("BURRBENCH_SOURCE_DIR", os.path.join(HERE, "..", ".."))
@@ -142,22 +143,14 @@ def test_two_recordings_that_drill_one_spot_are_named(exp, tmp_path):
     # bias the second silently. The plunge copied to a second file is a second drilling of
     # its spot: a warning and a line in the report's limitations name the pair. plunge.h5
     # listed once more (one drilling, e.g. once per role) is not a pair.
-    d = tmp_path / "twice"
-    shutil.copytree(exp, d)
-    shutil.copy(d / "plunge.h5", d / "plunge_again.h5")
-    m = (d / "experiment.toml").read_text()
-    first = m.index("[[recordings]]")
-    block = m[first:m.index("[[recordings]]", first + 1)]
-    m += "\n" + block.replace('id = "plunge"', 'id = "plunge_again"').replace('"plunge.h5"', '"plunge_again.h5"')
-    m += "\n" + block.replace('id = "plunge"', 'id = "plunge_listed_again"')
-    (d / "experiment.toml").write_text(m)
+    manifest = drill_plunge_twice(exp, tmp_path / "twice")
     out = tmp_path / "gate"
-    r = run("validate", "--experiment", str(d / "experiment.toml"), "--params", str(d / "params_true.toml"),
+    r = run("validate", "--experiment", str(manifest), "--params", str(manifest.parent / "params_true.toml"),
             "--criteria", CRITERIA, "--out", str(out), "--no-verification")
     assert r.returncode == 0, r.stdout + r.stderr
     warned = [line for line in r.stderr.splitlines() if "removed the same bone" in line]
     assert len(warned) == 1, r.stderr
-    assert warned[0].startswith("warning: Recordings plunge and plunge_again removed the same bone of sample S1: "), warned
+    assert warned[0].startswith("warning: " + PLUNGE_TWICE_WARNING), warned
     assert "100 % of the smaller removal" in warned[0], warned
     limitations = json.load(open(out / "analysis.json"))["limitations"]
     assert warned[0][len("warning: "):] in limitations

@@ -280,9 +280,11 @@ bm::Experiment experiment_of(std::vector<bm::AlignedRecording> recordings) {
   return e;
 }
 
-std::vector<bm::RemovedOverlap> overlaps_of(const bm::Experiment& e) {
+std::vector<bm::RemovedOverlap> overlaps_of(const bm::Experiment& e, bool removed_bone = true,
+                                            bool erosion = true) {
   bm::PredictOptions po;
-  po.removed_bone = true;
+  po.removed_bone = removed_bone;
+  po.replay.erosion = erosion;
   po.threads = 2;
   return bm::predict_experiment(e, scenes::two_classes(), po).overlaps;
 }
@@ -334,6 +336,17 @@ TEST(RemovedOverlap, TwoRecordingsThatCutTheSameBoneAreNamedWithTheBoneTheyShare
   EXPECT_GT(ac, 0.0) << "the test needs holes that touch";
   EXPECT_LE(ac, bm::kOverlapShare * std::min(ra, rc));
   EXPECT_EQ(bc, 0.0);
+
+  // A plain replay (`replay`, Python's replay()) checks too, without the removed-bone
+  // maps: the same pair and figures. Without erosion nothing is removed, no pair.
+  const auto plain = overlaps_of(e, false);
+  ASSERT_EQ(plain.size(), 1u);
+  EXPECT_EQ(plain[0].text(), got[0].text());
+  EXPECT_EQ(plain[0].shared_mm3, got[0].shared_mm3);
+  EXPECT_TRUE(overlaps_of(e, false, false).empty());
+  EXPECT_TRUE(overlaps_of(e, true, false).empty());
+  EXPECT_NE(got[0].text().find("Recordings a and b removed the same bone of sample S: "), std::string::npos)
+      << got[0].text();
 }
 
 TEST(RemovedOverlap, OneFileListedTwiceIsOneDrillingAndTwoFilesOfOnePathAreTwo) {

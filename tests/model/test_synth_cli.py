@@ -9,6 +9,7 @@ import h5py
 import numpy as np
 import pytest
 from bad_input import assert_refused
+from synthetic import PLUNGE_TWICE_WARNING, drill_plunge_twice
 
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
@@ -161,6 +162,30 @@ def test_bad_manifest_and_arguments_exit_2(exp, tmp_path):
     p = run("synth", "--sample", exp / "sample.h5", "--protocol", PROTOCOLS / "plunge.toml", "--params",
             exp / "params_true.toml", "--out", tmp_path / "r.h5", "--truth", exp / "params_true.toml", check=False)
     assert p.returncode == 2 and (exp / "params_true.toml").read_bytes() == before
+
+
+def test_replay_names_two_recordings_that_drilled_one_spot(exp, tmp_path):
+    # Each recording is replayed from the sample as scanned: the plunge's file copied and
+    # listed as a second recording was predicted against bone the first had removed. The
+    # replay still writes its prediction (each recording's is right for a fresh spot) but
+    # warns once, naming the pair; plunge.h5 listed once more is one drilling, no pair.
+    manifest = drill_plunge_twice(exp, tmp_path / "twice")
+    out = tmp_path / "p.h5"
+    p = run("replay", manifest, "--params", manifest.parent / "params_true.toml", "--out", out)
+    warned = [l for l in p.stderr.splitlines() if "removed the same bone" in l]
+    assert len(warned) == 1 and warned[0].startswith("warning: " + PLUNGE_TWICE_WARNING), p.stderr
+    assert "100 % of the smaller removal" in warned[0], warned
+    with h5py.File(out, "r") as f:
+        recs = f["recordings"]
+        assert sorted(recs) == sorted(["plunge", "plunge_again", "plunge_listed_again", "sweep", "polish"])
+        # The copy replays as the original does: same file contents, same prediction.
+        assert np.array_equal(recs["plunge"]["force_sensor_pred_N"][()], recs["plunge_again"]["force_sensor_pred_N"][()])
+    # Without erosion nothing is removed, and the shipped example drills separate spots.
+    p = run("replay", manifest, "--params", manifest.parent / "params_true.toml", "--out", tmp_path / "q.h5",
+            "--no-erosion")
+    assert "removed the same bone" not in p.stderr, p.stderr
+    p = run("replay", exp / "experiment.toml", "--params", exp / "params_true.toml", "--out", tmp_path / "r.h5")
+    assert "removed the same bone" not in p.stderr, p.stderr
 
 
 def test_replay_refuses_one_file_for_both_outputs(exp, tmp_path):

@@ -14,7 +14,7 @@ import h5py
 import numpy as np
 import pytest
 
-from synthetic import BURRBENCH, SRC, make_synthetic, run_ok
+from synthetic import BURRBENCH, PLUNGE_TWICE_WARNING, SRC, drill_plunge_twice, make_synthetic, run_ok
 
 sys.path.insert(0, str(Path(os.environ["BURRBENCH_BUILD_DIR"]) / "python"))
 import burrbench  # noqa: E402
@@ -163,6 +163,23 @@ def test_a_bad_replay_or_contact_argument_is_named_with_what_was_expected(exp, c
     with pytest.raises(burrbench.InputError) as e:
         f(**args)
     assert str(e.value) == message
+
+
+def test_replay_warns_of_two_recordings_that_drilled_one_spot(exp, tmp_path):
+    # As `burrbench replay` warns on stderr: a UserWarning naming the pair, which a script
+    # can turn into an error with the warnings filter.
+    import warnings
+    manifest = drill_plunge_twice(exp, tmp_path / "twice")
+    with pytest.warns(UserWarning) as caught:
+        pred = burrbench.replay(manifest, manifest.parent / "params_true.toml")
+    said = [str(w.message) for w in caught if "removed the same bone" in str(w.message)]
+    assert len(said) == 1 and said[0].startswith(PLUNGE_TWICE_WARNING), said
+    assert "plunge_again" in pred and "plunge_listed_again" in pred
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(UserWarning, match="plunge_again"):
+            burrbench.replay(manifest, manifest.parent / "params_true.toml")
+        burrbench.replay(exp / "experiment.toml", exp / "params_true.toml")  # separate spots: no warning
 
 
 def test_replay_from_python_with_progress(exp):

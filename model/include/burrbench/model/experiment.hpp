@@ -182,8 +182,10 @@ struct PredictOptions {
   const BandCovariance* band = nullptr;
   // The manifest's buried policy: excluded buried samples do not count as used.
   bool exclude_buried = false;
-  // Fill the removed-bone maps (each recording then replays a copy of the scanned volume
-  // and the maps take, per voxel, the largest removal by any recording).
+  // Fill the removed-bone maps (the maps take, per voxel, the largest removal by any
+  // recording). Whenever the replay erodes, each recording replays a fresh copy of the
+  // scanned part it reaches and the pairs that removed the same bone are listed
+  // (ExperimentPrediction::overlaps), maps or not.
   bool removed_bone = false;
   // Progress of the experiment's replays: the fraction is the experiment's, each line
   // names its recording.
@@ -218,14 +220,17 @@ struct RemovedOverlap {
   double shared_mm3 = 0;         // Σ over voxels of min(first's removal, second's) · l³
   double removed_first_mm3 = 0;  // each one's whole removal from the sample
   double removed_second_mm3 = 0;
+  // One line that names the pair, the shared bone and what to do (a warning on stderr,
+  // a limitation in the report, a Python warning).
+  std::string text() const;
 };
 // An overlap is reported above this share of the smaller of the two removals: adjacent
 // holes share only the partly eroded voxels of their rims, well below it (docs/replay.md).
 inline constexpr double kOverlapShare = 0.01;
 
-// The prediction of a whole experiment: per recording (manifest order) and, with
-// PredictOptions::removed_bone, per sample the removed bone and the pairs of recordings
-// that removed the same bone.
+// The prediction of a whole experiment: per recording (manifest order), with
+// PredictOptions::removed_bone per sample the removed bone and, whenever the replay
+// erodes, the pairs of recordings that removed the same bone.
 struct ExperimentPrediction {
   std::vector<RecordingPrediction> recordings;
   std::vector<data_schema::RemovedBone> removed;  // manifest's sample order
@@ -233,8 +238,8 @@ struct ExperimentPrediction {
 };
 
 // Every recording of the experiment, each replayed from its sample as scanned (recordings
-// of one sample are taken to drill separate spots; with removed_bone, pairs that did not
-// are listed in `overlaps`: a recording file listed twice is one drilling, not a pair),
+// of one sample are taken to drill separate spots; when the replay erodes, pairs that did
+// not are listed in `overlaps`: a recording file listed twice is one drilling, not a pair),
 // with the manifest's role on each, PredictOptions::threads of them at once.
 ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& params,
                                         const PredictOptions& options = {});
