@@ -47,11 +47,14 @@ void ReplayPool::work(std::size_t w) {
 }
 
 namespace {
-// A job's work in plain-replay sample equivalents: carrying tangents costs ≈ 1.7 plain
-// replays plus ≈ 0.28 per direction (bench/sensitivity.sh, docs/calibration.md).
+// A job's work in plain-replay sample equivalents, to start the longest first: a
+// sensitivity replay costs ≈ 2.35 plain replays plus ≈ 0.22 per direction asked for
+// (bench/sensitivity.sh on 2026-11-28: 1 / 4 / 8 asked for cost 2.54 / 3.35 / 4.04 at
+// R/l = 10, 2.71 / 3.54 / 4.35 at R/l = 20; docs/model.md "Cost"). Only the order of the
+// jobs depends on it, never a result.
 double job_work(const ReplayPool::Job& job) {
   const std::size_t dirs = job.options.directions ? job.options.directions->size() : 0;
-  return double(job.trajectory.t_s.size()) * (dirs > 0 ? 2.7 + 0.28 * double(dirs) : 1.0);
+  return double(job.trajectory.t_s.size()) * (dirs > 0 ? 2.35 + 0.22 * double(dirs) : 1.0);
 }
 }  // namespace
 
