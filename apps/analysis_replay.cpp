@@ -156,7 +156,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   model::ExperimentPrediction pred = model::predict_experiment(ex, mp, po);
   for (const model::RemovedOverlap& o : pred.overlaps) {
     in.limitations.push_back(o.text());
-    fmt::print(stderr, "warning: {}\n", in.limitations.back());
+    if (opt.warn_overlaps) fmt::print(stderr, "warning: {}\n", in.limitations.back());
   }
   std::vector<std::string> no_band;
   for (const auto& p : pred.recordings)

@@ -34,6 +34,9 @@ struct ReplayInputOptions {
   // prediction.h5), when given.
   model::ExperimentPrediction* prediction = nullptr;
   int threads = 2;  // recordings replayed at once (the result does not depend on it)
+  // Print a warning on stderr for two recordings that removed the same bone (the report's
+  // limitations name them either way); calibrate's summary has already said it.
+  bool warn_overlaps = true;
 };
 
 AnalysisInput replay_experiment(const std::filesystem::path& manifest,

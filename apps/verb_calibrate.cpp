@@ -72,7 +72,7 @@ void run(const Args& a) {
     // neither the sample nor the recordings.
     model::ExperimentPrediction prediction;
     auto in = apps::replay_experiment(a.experiment, res.params, &res.fit,
-                                      {true, "", nullptr, "params.toml", nullptr, &prediction, o.threads});
+                                      {true, "", nullptr, "params.toml", nullptr, &prediction, o.threads, false});
     for (const char* name : {"fit.json", "params.toml"}) {
       const std::string sha = sha256_file(folder.staging() / name);
       in.provenance.inputs.push_back({(folder.target() / name).string(), sha});

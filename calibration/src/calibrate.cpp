@@ -115,7 +115,15 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path, const Ca
   stage("validation", detail::score_validation);
   run.out.solver.wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  return detail::results(run);
+  CalibrationOutput res = detail::results(run);
+  const auto t0 = std::chrono::steady_clock::now();
+  detail::name_overlaps(run, res);
+  const auto t1 = std::chrono::steady_clock::now();
+  res.fit.solver.stages.push_back({{"stage", "overlaps"},
+                                   {"wall_s", std::chrono::duration<double>(t1 - t0).count()},
+                                   {"replays", run.exp.recordings.size()}});
+  res.fit.solver.wall_s = std::chrono::duration<double>(t1 - t_start).count();
+  return res;
 }
 
 }  // namespace burrbench::calibration

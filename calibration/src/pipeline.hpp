@@ -128,5 +128,9 @@ void bootstrap(Run& run);
 void cross_validate(Run& run);
 void score_validation(Run& run);    // validate-role segments with their recording's nuisances
 CalibrationOutput results(Run& run);
+// After the results: replays every recording at the optimum and names, in fit.json's
+// warnings, the summary and CalibrationOutput::overlaps, two of one sample that removed the
+// same bone (model::predict_experiment, as the analysis replays them).
+void name_overlaps(const Run& run, CalibrationOutput& res);
 
 }  // namespace burrbench::calibration::detail

@@ -10,6 +10,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include "overlap_warnings.hpp"
 #include "bindings.hpp"
 #include "burrbench/calibration/calibrate.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -74,6 +75,7 @@ void bind_calibration(py::module_& m) {
         o.progress = pp.get();
         calibration::CalibrationOutput res;
         run_interruptible(cancel, pp.get(), [&] { res = calibration::calibrate(experiment, o); });
+        warn_overlaps(res.overlaps);  // also among fit.json's warnings and in the summary
         py::dict out;
         out["fit"] = json_to_python(data_schema::fit_to_json(res.fit));
         out["params"] = parameter_set_dict(res.params);
@@ -84,7 +86,8 @@ void bind_calibration(py::module_& m) {
       "Calibrates alpha, C1 and mu per bone class on an experiment manifest, as `burrbench calibrate`: "
       "{fit: fit.json's content, params: {class: {...}}, summary: str}. Options as keywords (threads, "
       "starts, profiles, cross_validate, discretization_check, derivatives, ...); progress(fraction, "
-      "line) receives the progress lines.");
+      "line) receives the progress lines. Two recordings of one sample that removed the same bone give a "
+      "UserWarning naming them.");
 }
 
 }  // namespace burrbench::python

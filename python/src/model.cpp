@@ -10,6 +10,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include "overlap_warnings.hpp"
 #include "arguments.hpp"
 #include "bindings.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -214,9 +215,7 @@ void bind_model(py::module_& m) {
           opt.progress = pp.get();
           pred = model::predict_experiment(e, mp, opt);
         });
-        // As `burrbench replay` warns on stderr; `warnings.simplefilter("error")` makes it raise.
-        for (const model::RemovedOverlap& o : pred.overlaps)
-          if (PyErr_WarnEx(PyExc_UserWarning, o.text().c_str(), 1) != 0) throw py::error_already_set();
+        warn_overlaps(pred.overlaps);  // as `burrbench replay` warns on stderr
         py::dict out;
         for (const auto& p : pred.recordings) out[py::str(p.recording_id)] = prediction_dict(p);
         return out;

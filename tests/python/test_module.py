@@ -165,7 +165,7 @@ def test_a_bad_replay_or_contact_argument_is_named_with_what_was_expected(exp, c
     assert str(e.value) == message
 
 
-def test_replay_warns_of_two_recordings_that_drilled_one_spot(exp, tmp_path):
+def test_replay_and_calibrate_warn_of_two_recordings_that_drilled_one_spot(exp, tmp_path):
     # As `burrbench replay` warns on stderr: a UserWarning naming the pair, which a script
     # can turn into an error with the warnings filter.
     import warnings
@@ -180,6 +180,13 @@ def test_replay_warns_of_two_recordings_that_drilled_one_spot(exp, tmp_path):
         with pytest.raises(UserWarning, match="plunge_again"):
             burrbench.replay(manifest, manifest.parent / "params_true.toml")
         burrbench.replay(exp / "experiment.toml", exp / "params_true.toml")  # separate spots: no warning
+    # calibrate() too: the warning, also in the summary and among fit.json's warnings.
+    with pytest.warns(UserWarning) as caught:
+        res = burrbench.calibrate(manifest, starts=1, profiles=False, cross_validate=False,
+                                  discretization_check=False)
+    said = [str(w.message) for w in caught if "removed the same bone" in str(w.message)]
+    assert len(said) == 1 and said[0].startswith(PLUNGE_TWICE_WARNING), said
+    assert said[0] in res["fit"]["settings"]["warnings"] and "warning: " + said[0] in res["summary"]
 
 
 def test_replay_from_python_with_progress(exp):

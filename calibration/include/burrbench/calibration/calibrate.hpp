@@ -5,12 +5,14 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/calibration/recording_model.hpp"
 #include "burrbench/data_schema/cancel.hpp"
 #include "burrbench/data_schema/progress.hpp"
+#include "burrbench/model/experiment.hpp"
 
 namespace burrbench::calibration {
 
@@ -49,6 +51,9 @@ struct CalibrationOutput {
   data_schema::FitResult fit;
   data_schema::ParameterSet params;  // the values held at the optimum (flags: not_identifiable)
   std::string summary;               // human-readable, several lines
+  // Recordings of one sample that removed the same bone at the optimum (also among fit.json's
+  // warnings and the summary's): the fit took each as drilled into bone as scanned.
+  std::vector<model::RemovedOverlap> overlaps;
 };
 
 // InputError on a bad manifest, recordings or samples (missing files, unknown classes,
