@@ -25,8 +25,8 @@ def run_ok(*args, timeout=900):
 def drill_plunge_twice(exp, folder):
     """A copy of the synthetic experiment `exp` in `folder` whose plunge was drilled twice:
     plunge.h5 copied to plunge_again.h5 and listed as a recording of its own (a second
-    drilling of the same spot), and plunge.h5 listed once more as plunge_listed_again (one
-    drilling, e.g. once per role: not a pair). Returns the new manifest."""
+    drilling of the same spot), and plunge.h5 listed once more as plunge_listed_again with
+    role "validate" (one drilling, once per role: not a pair). Returns the new manifest."""
     import shutil
     folder = Path(folder)
     shutil.copytree(exp, folder)
@@ -36,7 +36,9 @@ def drill_plunge_twice(exp, folder):
     first = m.index("[[recordings]]")
     block = m[first:m.index("[[recordings]]", first + 1)]
     m += "\n" + block.replace('id = "plunge"', 'id = "plunge_again"').replace('"plunge.h5"', '"plunge_again.h5"')
-    m += "\n" + block.replace('id = "plunge"', 'id = "plunge_listed_again"')
+    assert 'role = "calibrate"' in block
+    m += "\n" + block.replace('id = "plunge"', 'id = "plunge_listed_again"').replace('role = "calibrate"',
+                                                                                    'role = "validate"')
     manifest.write_text(m)
     return manifest
 

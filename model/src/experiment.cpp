@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/same_file.hpp"
 
 namespace burrbench::model {
 
@@ -336,6 +337,44 @@ std::string RegistrationSummary::text() const {
                      fle_given ? "" : ", default: set fiducial_error_mm");
 }
 
+namespace {
+
+// One file may be listed more than once (once per role, as segments may split it), but a
+// sample used for one role by two listings would count twice: twice the weight in the fit,
+// intervals too narrow by √2, pooled metrics weighted twice, and no overlap warning (a file
+// listed again is one drilling). Refused, naming the later listing.
+void check_each_sample_used_once_per_role(const Experiment& e) {
+  const auto& recs = e.recordings;
+  for (std::size_t b = 0; b < recs.size(); ++b)
+    for (std::size_t a = 0; a < b; ++a) {
+      const AlignedRecording &ra = recs[a], &rb = recs[b];
+      if (ra.file.empty() || rb.file.empty() || ra.t_s.size() != rb.t_s.size() ||
+          !data_schema::same_file(ra.file, rb.file))
+        continue;
+      for (const bool cal : {true, false}) {
+        const auto& ua = cal ? ra.use_calibrate : ra.use_validate;
+        const auto& ub = cal ? rb.use_calibrate : rb.use_validate;
+        std::size_t first = ua.size(), last = 0, n = 0;
+        for (std::size_t k = 0; k < ua.size(); ++k)
+          if (ua[k] && ub[k]) {
+            first = std::min(first, k);
+            last = k;
+            ++n;
+          }
+        if (n == 0) continue;
+        const char* role = cal ? "calibrate" : "validate";
+        throw InputError(e.manifest.file.string(), fmt::format("recordings[{}] (\"{}\")", b, rb.id),
+                         fmt::format("each sample of {} used to {} by one listing at most: recordings[{}] (\"{}\") "
+                                     "already does (give the listings different roles, or split them with segments)",
+                                     rb.file.string(), role, a, ra.id),
+                         fmt::format("{} samples used to {} by both, t = {:.6g} … {:.6g} s", n, role,
+                                     recs[b].t_s[first], recs[b].t_s[last]));
+      }
+    }
+}
+
+}  // namespace
+
 Experiment load_experiment(const std::filesystem::path& manifest_path) {
   Experiment e;
   e.manifest = data_schema::read_manifest(manifest_path);
@@ -345,6 +384,7 @@ Experiment load_experiment(const std::filesystem::path& manifest_path) {
     const auto rec = data_schema::read_recording(r.path);
     e.recordings.push_back(align_recording(e.manifest, r, rec, r.path.string()));
   }
+  check_each_sample_used_once_per_role(e);
   return e;
 }
 

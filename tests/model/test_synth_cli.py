@@ -164,6 +164,35 @@ def test_bad_manifest_and_arguments_exit_2(exp, tmp_path):
     assert p.returncode == 2 and (exp / "params_true.toml").read_bytes() == before
 
 
+@pytest.mark.parametrize("verb", ["replay", "calibrate"])
+def test_one_file_listed_twice_for_one_role_is_refused(exp, tmp_path, verb):
+    # Listed twice with the same role, the plunge's samples would count twice: twice the
+    # weight in a fit (intervals too narrow by √2) and in pooled metrics, and no overlap
+    # warning (a file listed again is one drilling). Refused before any replay, naming the
+    # later listing; with role "validate" the second listing is fine (drill_plunge_twice).
+    d = tmp_path / "twice"
+    manifest = drill_plunge_twice(exp, d)
+    text = manifest.read_text()
+    bad = d / "bad.toml"
+    bad.write_text(text.replace('id = "plunge_listed_again"\npath = "plunge.h5"\nsample = "S1"\nrole = "validate"',
+                                'id = "plunge_listed_again"\npath = "plunge.h5"\nsample = "S1"\nrole = "calibrate"'))
+    assert bad.read_text() != text
+    before = {f.name: f.read_bytes() for f in d.iterdir()}
+    args = ["--params", d / "params_true.toml", "--out", tmp_path / "p.h5"] if verb == "replay" else \
+           ["--out", tmp_path / "cal"]
+    p = run(verb, bad, *args, check=False)
+    assert_refused(p.returncode, p.stderr, bad, 'recordings[4] ("plunge_listed_again")',
+                   'used to calibrate by one listing at most: recordings[0] ("plunge") already does',
+                   "samples used to calibrate by both")
+    assert not (tmp_path / "p.h5").exists() and not (tmp_path / "cal").exists()
+    assert {f.name: f.read_bytes() for f in d.iterdir()} == before
+    if verb == "replay":  # validating twice is refused the same way
+        bad.write_text(text.replace('role = "calibrate"', 'role = "validate"', 1))
+        p = run(verb, bad, *args, check=False)
+        assert_refused(p.returncode, p.stderr, bad, 'recordings[4] ("plunge_listed_again")',
+                       'used to validate by one listing at most: recordings[0] ("plunge") already does')
+
+
 def test_replay_names_two_recordings_that_drilled_one_spot(exp, tmp_path):
     # Each recording is replayed from the sample as scanned: the plunge's file copied and
     # listed as a second recording was predicted against bone the first had removed. The
