@@ -341,8 +341,9 @@ namespace {
 
 // One file may be listed more than once (once per role, as segments may split it), but a
 // sample used for one role by two listings would count twice: twice the weight in the fit,
-// intervals too narrow by √2, pooled metrics weighted twice, and no overlap warning (a file
-// listed again is one drilling). Refused, naming the later listing.
+// intervals narrower than the data support (by up to √2), pooled metrics weighted twice,
+// and no overlap warning (a file listed again is one drilling). Refused, naming the later
+// listing.
 void check_each_sample_used_once_per_role(const Experiment& e) {
   const auto& recs = e.recordings;
   for (std::size_t b = 0; b < recs.size(); ++b)

@@ -167,7 +167,7 @@ def test_bad_manifest_and_arguments_exit_2(exp, tmp_path):
 @pytest.mark.parametrize("verb", ["replay", "calibrate"])
 def test_one_file_listed_twice_for_one_role_is_refused(exp, tmp_path, verb):
     # Listed twice with the same role, the plunge's samples would count twice: twice the
-    # weight in a fit (intervals too narrow by √2) and in pooled metrics, and no overlap
+    # weight in a fit (intervals too narrow, by up to √2) and in pooled metrics, and no overlap
     # warning (a file listed again is one drilling). Refused before any replay, naming the
     # later listing; with role "validate" the second listing is fine (drill_plunge_twice).
     d = tmp_path / "twice"
