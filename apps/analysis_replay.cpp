@@ -68,6 +68,9 @@ RecordingSeries series_of(const model::AlignedRecording& r, const ds::RecordingR
 AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet& params,
                                 const ds::FitResult* fit, const ReplayInputOptions& opt) {
   const model::Experiment ex = model::load_experiment(manifest);
+  // validate pools the listings' samples per role (calibrate has checked before its fit;
+  // an older calibrate directory is rendered as it was fitted).
+  if (!fit) model::check_each_sample_used_once_per_role(ex);
   const model::ModelParams mp = model::ModelParams::from(params);
   model::check_covers(params, ex.samples, opt.params_file);
   const bool exclude_buried = ex.manifest.fit.buried == ds::BuriedPolicy::kExclude;

@@ -49,6 +49,7 @@ bool any(const std::vector<std::uint8_t>& v) {
 void select_recordings(Run& run) {
   const auto& M = run.exp.manifest;
   const std::string& mfile = run.mfile;
+  model::check_each_sample_used_once_per_role(run.exp);  // a sample fitted twice: too narrow intervals
   std::vector<std::size_t> rec_index;
   for (std::size_t i = 0; i < run.exp.recordings.size(); ++i) {
     const auto& r = run.exp.recordings[i];

@@ -337,13 +337,18 @@ std::string RegistrationSummary::text() const {
                      fle_given ? "" : ", default: set fiducial_error_mm");
 }
 
-namespace {
+Experiment load_experiment(const std::filesystem::path& manifest_path) {
+  Experiment e;
+  e.manifest = data_schema::read_manifest(manifest_path);
+  for (const auto& s : e.manifest.samples)
+    e.samples.emplace(s.id, data_schema::read_sample(s.path));
+  for (const auto& r : e.manifest.recordings) {
+    const auto rec = data_schema::read_recording(r.path);
+    e.recordings.push_back(align_recording(e.manifest, r, rec, r.path.string()));
+  }
+  return e;
+}
 
-// One file may be listed more than once (once per role, as segments may split it), but a
-// sample used for one role by two listings would count twice: twice the weight in the fit,
-// intervals narrower than the data support (by up to √2), pooled metrics weighted twice,
-// and no overlap warning (a file listed again is one drilling). Refused, naming the later
-// listing.
 void check_each_sample_used_once_per_role(const Experiment& e) {
   const auto& recs = e.recordings;
   for (std::size_t b = 0; b < recs.size(); ++b)
@@ -374,19 +379,5 @@ void check_each_sample_used_once_per_role(const Experiment& e) {
     }
 }
 
-}  // namespace
-
-Experiment load_experiment(const std::filesystem::path& manifest_path) {
-  Experiment e;
-  e.manifest = data_schema::read_manifest(manifest_path);
-  for (const auto& s : e.manifest.samples)
-    e.samples.emplace(s.id, data_schema::read_sample(s.path));
-  for (const auto& r : e.manifest.recordings) {
-    const auto rec = data_schema::read_recording(r.path);
-    e.recordings.push_back(align_recording(e.manifest, r, rec, r.path.string()));
-  }
-  check_each_sample_used_once_per_role(e);
-  return e;
-}
 
 }  // namespace burrbench::model

@@ -164,12 +164,15 @@ def test_bad_manifest_and_arguments_exit_2(exp, tmp_path):
     assert p.returncode == 2 and (exp / "params_true.toml").read_bytes() == before
 
 
-@pytest.mark.parametrize("verb", ["replay", "calibrate"])
-def test_one_file_listed_twice_for_one_role_is_refused(exp, tmp_path, verb):
+@pytest.mark.parametrize("verb", ["validate", "calibrate"])
+def test_one_file_listed_twice_for_one_role_is_refused_where_samples_are_pooled(exp, tmp_path, verb):
     # Listed twice with the same role, the plunge's samples would count twice: twice the
-    # weight in a fit (intervals too narrow, by up to √2) and in pooled metrics, and no overlap
-    # warning (a file listed again is one drilling). Refused before any replay, naming the
-    # later listing; with role "validate" the second listing is fine (drill_plunge_twice).
+    # weight in a fit (intervals too narrow, by up to √2) and in pooled metrics, and no
+    # overlap warning (a file listed again is one drilling). The commands that pool samples
+    # refuse it before any replay, naming the later listing; with role "validate" the second
+    # listing is fine (drill_plunge_twice). `replay` pools nothing and takes it
+    # (test_replay_prints_and_stores_the_registration lists one file twice to compare two
+    # registrations).
     d = tmp_path / "twice"
     manifest = drill_plunge_twice(exp, d)
     text = manifest.read_text()
@@ -178,19 +181,22 @@ def test_one_file_listed_twice_for_one_role_is_refused(exp, tmp_path, verb):
                                 'id = "plunge_listed_again"\npath = "plunge.h5"\nsample = "S1"\nrole = "calibrate"'))
     assert bad.read_text() != text
     before = {f.name: f.read_bytes() for f in d.iterdir()}
-    args = ["--params", d / "params_true.toml", "--out", tmp_path / "p.h5"] if verb == "replay" else \
-           ["--out", tmp_path / "cal"]
-    p = run(verb, bad, *args, check=False)
-    assert_refused(p.returncode, p.stderr, bad, 'recordings[4] ("plunge_listed_again")',
-                   'used to calibrate by one listing at most: recordings[0] ("plunge") already does',
-                   "samples used to calibrate by both")
-    assert not (tmp_path / "p.h5").exists() and not (tmp_path / "cal").exists()
-    assert {f.name: f.read_bytes() for f in d.iterdir()} == before
-    if verb == "replay":  # validating twice is refused the same way
-        bad.write_text(text.replace('role = "calibrate"', 'role = "validate"', 1))
-        p = run(verb, bad, *args, check=False)
+    args = ["--params", d / "params_true.toml", "--criteria", SRC / "examples/criteria/release.toml",
+            "--no-verification"] if verb == "validate" else []
+    cases = [(bad.read_text(), "calibrate")]
+    if verb == "validate":  # validating twice is refused the same way
+        cases.append((text.replace('role = "calibrate"', 'role = "validate"', 1), "validate"))
+    for manifest_text, role in cases:
+        bad.write_text(manifest_text)
+        before["bad.toml"] = bad.read_bytes()
+        p = run(verb, bad, *args, "--out", tmp_path / "out", check=False)
         assert_refused(p.returncode, p.stderr, bad, 'recordings[4] ("plunge_listed_again")',
-                       'used to validate by one listing at most: recordings[0] ("plunge") already does')
+                       f'used to {role} by one listing at most: recordings[0] ("plunge") already does',
+                       f"samples used to {role} by both", label=role)
+        assert not (tmp_path / "out").exists()
+        assert {f.name: f.read_bytes() for f in d.iterdir()} == before
+    p = run("replay", bad, "--params", d / "params_true.toml", "--out", tmp_path / "p.h5")
+    assert (tmp_path / "p.h5").exists()
 
 
 def test_replay_names_two_recordings_that_drilled_one_spot(exp, tmp_path):

@@ -150,6 +150,14 @@ struct Experiment {
 };
 Experiment load_experiment(const std::filesystem::path& manifest_path);
 
+// InputError (naming the manifest and the later listing) when two listings of one file use
+// a sample for the same role. A file may be listed more than once (once per role, or in
+// `replay` to compare two registrations), but where samples are pooled (the fit, the
+// metrics of `validate`) such a sample would count twice: twice the weight in the fit,
+// intervals narrower than the data support (by up to √2), pooled metrics weighted twice,
+// and no overlap warning (a file listed again is one drilling).
+void check_each_sample_used_once_per_role(const Experiment& e);
+
 // ---- replay of an experiment and its prediction file (format "burrbench.prediction") ----
 
 // The replay's result for one recording: the prediction file's record (data_schema owns
