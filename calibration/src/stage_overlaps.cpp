@@ -3,8 +3,6 @@
 // offset and pose), to name any two of one sample that removed the same bone. The fit took
 // each as a drilling into bone as scanned, so the one drilled second biased the constants:
 // fit.json, the summary and CalibrationOutput::overlaps say so, whichever front end ran it.
-#include <fmt/format.h>
-
 #include "burrbench/model/model_params.hpp"
 #include "pipeline.hpp"
 

@@ -379,5 +379,4 @@ void check_each_sample_used_once_per_role(const Experiment& e) {
     }
 }
 
-
 }  // namespace burrbench::model
