@@ -10,7 +10,6 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
-#include "overlap_warnings.hpp"
 #include "bindings.hpp"
 #include "burrbench/calibration/calibrate.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -19,6 +18,7 @@
 #include "arguments.hpp"
 #include "convert.hpp"
 #include "interruptible.hpp"
+#include "overlap_warnings.hpp"
 
 namespace burrbench::python {
 namespace fs = std::filesystem;

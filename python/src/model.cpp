@@ -10,7 +10,6 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
-#include "overlap_warnings.hpp"
 #include "arguments.hpp"
 #include "bindings.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -21,6 +20,7 @@
 #include "burrbench/model/volume.hpp"
 #include "convert.hpp"
 #include "interruptible.hpp"
+#include "overlap_warnings.hpp"
 
 namespace burrbench::python {
 namespace fs = std::filesystem;

@@ -196,7 +196,18 @@ def test_one_file_listed_twice_for_one_role_is_refused_where_samples_are_pooled(
         assert not (tmp_path / "out").exists()
         assert {f.name: f.read_bytes() for f in d.iterdir()} == before
     p = run("replay", bad, "--params", d / "params_true.toml", "--out", tmp_path / "p.h5")
-    assert (tmp_path / "p.h5").exists()
+    with h5py.File(tmp_path / "p.h5", "r") as f:
+        t = f["recordings/plunge/t_s"][()]
+    # Twice over a segment only: the line counts the samples both use, and its span, as the
+    # replay's time base does (bounds off the 1 ms grid, so no sample sits on one).
+    lo, hi = 1.0005, 2.0005
+    both = t[(t >= lo) & (t <= hi)]
+    assert 900 < both.size < t.size
+    bad.write_text(cases[0][0] + f"  [[recordings.segments]]\n  start_s = {lo}\n  end_s = {hi}\n")
+    p = run(verb, bad, *args, "--out", tmp_path / "out", check=False)
+    assert_refused(p.returncode, p.stderr, bad, 'recordings[4] ("plunge_listed_again")',
+                   f"got {both.size} samples used to calibrate by both, t = {both[0]:.6g} … {both[-1]:.6g} s",
+                   label="segment")
 
 
 def test_replay_names_two_recordings_that_drilled_one_spot(exp, tmp_path):
