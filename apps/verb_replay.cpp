@@ -6,6 +6,7 @@
 #include <map>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/output_files.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/data_schema/provenance.hpp"
@@ -69,8 +70,10 @@ void run(const Args& a) {
     std::cout << fmt::format("  {}: {}\n", e.recordings[i].id, e.recordings[i].registration.text());
   }
   for (const model::RemovedOverlap& o : prediction.overlaps) fmt::print(stderr, "warning: {}\n", o.text());
-  model::write_prediction(a.out, prediction, prov);
-  if (!a.csv.empty()) model::write_prediction_csv(a.csv, preds);
+  data_schema::OutputFiles outputs;  // --out and --csv appear together or not at all
+  outputs.write(a.out, [&](const fs::path& p) { model::write_prediction(p, prediction, prov); });
+  if (!a.csv.empty()) outputs.write(a.csv, [&](const fs::path& p) { model::write_prediction_csv(p, preds); });
+  outputs.commit();
   std::string rem;
   for (int k = 1; k < model::kMaxClasses; ++k) {
     if (removed[std::size_t(k)] == 0) continue;

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/output_files.hpp"
 #include "burrbench/data_schema/import/sample_import.hpp"
 #include "burrbench/data_schema/import/segment.hpp"
 #include "burrbench/data_schema/import/synth.hpp"
@@ -205,8 +206,10 @@ void setup(CLI::App& root) {
     burrbench::apps::refuse_existing(lp, "--out-prefix", *exp_overwrite);
     burrbench::apps::refuse_existing(fp, "--out-prefix", *exp_overwrite);
     const SampleVolume s = read_sample(*in);
-    write_nrrd(lp, labels_image(s), VoxelType::kUint8);
-    write_nrrd(fp, fraction_image(s), VoxelType::kFloat32);
+    burrbench::data_schema::OutputFiles outputs;  // the pair appears together or not at all
+    outputs.write(lp, [&](const fs::path& p) { write_nrrd(p, labels_image(s), VoxelType::kUint8); });
+    outputs.write(fp, [&](const fs::path& p) { write_nrrd(p, fraction_image(s), VoxelType::kFloat32); });
+    outputs.commit();
     std::cout << fmt::format("wrote {} and {}\n", lp, fp);
   });
 }

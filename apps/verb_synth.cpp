@@ -7,6 +7,7 @@
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/output_files.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/data_schema/provenance.hpp"
@@ -67,9 +68,11 @@ void run(const Args& a) {
   auto res = apps::with_step_option(
       a.step_us, [&] { return model::synthesize(sample, protocol, params, o, prov, &progress); });
   res.recording.meta.sample_id = fs::path(a.sample).stem().string();
-  data_schema::write_recording(a.out, res.recording);
   const auto truth = model::truth_json(res, sample, protocol, params, o, prov);
-  data_schema::write_file_atomic(a.truth, truth.dump(2) + "\n");
+  data_schema::OutputFiles outputs;  // the recording and its truth appear together or not at all
+  outputs.write(a.out, [&](const fs::path& p) { data_schema::write_recording(p, res.recording); });
+  outputs.write(a.truth, [&](const fs::path& p) { data_schema::write_file_atomic(p, truth.dump(2) + "\n"); });
+  outputs.commit();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::string removed;
   for (const auto& [name, v] : truth["removed_mm3_by_class"].items())

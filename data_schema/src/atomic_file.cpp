@@ -195,11 +195,14 @@ void publish_temporary(const std::filesystem::path& tmp, const std::filesystem::
   }
   ::close(fd);
   if (::rename(tmp.c_str(), target.c_str()) != 0) failed("cannot rename the finished file onto it", errno);
-  // The rename is durable once the folder is synced (best effort: some filesystems refuse).
-  const auto dir = target.parent_path().empty() ? std::filesystem::path(".") : target.parent_path();
-  if (const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
-    ::fsync(dfd);
-    ::close(dfd);
+  sync_folder(target.parent_path());  // the rename is durable once its folder is
+}
+
+void sync_folder(const std::filesystem::path& dir) {
+  const std::filesystem::path d = dir.empty() ? std::filesystem::path(".") : dir;
+  if (const int fd = ::open(d.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
   }
 }
 

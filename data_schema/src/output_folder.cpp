@@ -16,17 +16,6 @@
 namespace burrbench::data_schema {
 namespace fs = std::filesystem;
 
-namespace {
-
-void fsync_folder(const fs::path& dir) {  // best effort: some filesystems refuse
-  if (const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
-  }
-}
-
-}  // namespace
-
 OutputFolder::OutputFolder(const fs::path& target, const std::string& option, bool overwrite) : option_(option) {
   std::error_code ec;
   target_ = fs::absolute(target, ec).lexically_normal();
@@ -115,9 +104,9 @@ void OutputFolder::commit() {
     throw std::runtime_error(fmt::format("{}: cannot move {} into it ({}); the finished files stay in {}",
                                          target_.string(), name.string(), std::strerror(err), kept.string()));
   };
-  fsync_folder(staging_);  // the staged files were fsynced by their writers; their names now
+  sync_folder(staging_);  // the staged files were fsynced by their writers; their names now
   if (whole_rename_ && ::rename(staging_.c_str(), target_.c_str()) == 0) {
-    fsync_folder(target_.parent_path());
+    sync_folder(target_.parent_path());
   } else {
     // Into an existing folder (or one a user filled meanwhile): file by file, each rename
     // atomic, so every name holds the old file or the whole new one.
@@ -127,7 +116,7 @@ void OutputFolder::commit() {
         failed(e.path().filename(), errno);
     if (ec) failed(".", ec.value());
     fs::remove(staging_, ec);
-    fsync_folder(target_);
+    sync_folder(target_);
   }
   unregister_temporary(staging_slot_);
   unregister_temporary(target_slot_);

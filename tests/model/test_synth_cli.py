@@ -264,7 +264,46 @@ def test_a_file_size_limit_fails_loudly_and_leaves_nothing_half_written(exp, tmp
     assert p.returncode == 3, p.stdout + p.stderr
     lines = [l for l in p.stderr.splitlines() if l.startswith("burrbench:")]
     assert len(lines) == 1 and ("p.csv" in lines[0] or "p.h5" in lines[0]), p.stderr
+    assert "(File too large)" in lines[0], "the system's reason, from HDF5's error stack too"
     assert sorted(x.name for x in tmp_path.iterdir()) == [], list(tmp_path.iterdir())
+
+
+def test_a_failure_on_the_csv_leaves_no_prediction_either(exp, tmp_path):
+    # `replay --out --csv` used to keep the finished .h5 when the CSV then failed: the
+    # command's outputs appear together or not at all. A file-size limit between the two
+    # files' sizes lets the .h5 be written and fails the CSV.
+    import resource
+    import signal
+
+    whole = tmp_path / "whole"
+    whole.mkdir()
+    args = ["replay", "--experiment", exp / "experiment.toml", "--params", exp / "params_true.toml"]
+    run(*args, "--out", whole / "p.h5", "--csv", whole / "p.csv")
+    h5, csv = (whole / "p.h5").stat().st_size, (whole / "p.csv").stat().st_size
+    assert csv > h5 * 1.5, (h5, csv)  # else the limit below cannot split them
+    limit = (h5 + csv) // 2
+
+    def limit_size():
+        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    failing = tmp_path / "failing"
+    failing.mkdir()
+    p = subprocess.run([BURRBENCH, *map(str, args), "--out", str(failing / "p.h5"), "--csv", str(failing / "p.csv")],
+                       capture_output=True, text=True, timeout=300, preexec_fn=limit_size)
+    assert p.returncode == 3, p.stdout + p.stderr
+    lines = [l for l in p.stderr.splitlines() if l.startswith("burrbench:")]
+    assert len(lines) == 1 and f"{failing / 'p.csv'}: write failed" in lines[0], p.stderr
+    assert ".staged" not in lines[0], "the line names the user's file, not the hidden one"
+    assert list(failing.iterdir()) == [], "no .h5 without its CSV, nothing hidden left"
+
+    # With --overwrite over an earlier pair, a failure leaves both earlier files as they were.
+    run(*args, "--out", failing / "p.h5", "--csv", failing / "p.csv", "--no-erosion")
+    before = {f.name: f.read_bytes() for f in failing.iterdir()}
+    p = subprocess.run([BURRBENCH, *map(str, args), "--out", str(failing / "p.h5"), "--csv", str(failing / "p.csv"),
+                        "--overwrite"], capture_output=True, text=True, timeout=300, preexec_fn=limit_size)
+    assert p.returncode == 3, p.stdout + p.stderr
+    assert {f.name: f.read_bytes() for f in failing.iterdir()} == before
 
 
 def test_replay_checks_its_outputs_before_replaying(exp, tmp_path):

@@ -459,9 +459,30 @@ std::string Reader::read_string(const std::string& ds_path, std::uint64_t max_by
 // ---------------------------------------------------------------- Writer
 
 namespace {
+// The operating system's reason when HDF5's file driver failed ("No space left on device"):
+// its error stack holds it as "... error message = 'REASON', ...". Empty otherwise.
+std::string system_reason() {
+  std::string reason;
+  H5Ewalk2(
+      H5E_DEFAULT, H5E_WALK_DOWNWARD,
+      [](unsigned, const H5E_error2_t* e, void* out) -> herr_t {
+        const std::string desc = e->desc ? e->desc : "";
+        const std::string key = "error message = '";
+        const auto i = desc.find(key);
+        if (i == std::string::npos) return 0;
+        const auto j = desc.find('\'', i + key.size());
+        *static_cast<std::string*>(out) = desc.substr(i + key.size(), j == std::string::npos ? j : j - i - key.size());
+        return 1;  // the first one found
+      },
+      &reason);
+  return reason;
+}
+
 // A failed write is not bad input: exit 3, naming the file (the temporary is removed).
 [[noreturn]] void write_error(const std::string& file, const std::string& field, const std::string& what) {
-  throw std::runtime_error(fmt::format("{}: {}: {}; nothing was written there", file, field, what));
+  const std::string reason = system_reason();
+  throw std::runtime_error(fmt::format("{}: {}: {}{}; nothing was written there", file, field, what,
+                                       reason.empty() ? "" : " (" + reason + ")"));
 }
 }  // namespace
 

@@ -49,6 +49,9 @@ void copy_file_atomic(const std::filesystem::path& from, const std::filesystem::
 // std::runtime_error naming `target` on failure (the temporary is then removed).
 void publish_temporary(const std::filesystem::path& tmp, const std::filesystem::path& target);
 
+// fsync a folder, so the renames in it are durable (best effort: some filesystems refuse).
+void sync_folder(const std::filesystem::path& dir);
+
 // Temporaries of other writers (HDF5) that a SIGINT/SIGTERM must remove too. register
 // returns a slot (or -1 when the list is full: the file is then only removed on error).
 int register_temporary(const std::filesystem::path& tmp, bool folder = false);

@@ -1,7 +1,7 @@
 #pragma once
 // A command's output folder (calibrate, validate, report): its files appear all together or
-// not at all, and nothing of the user's is replaced unless asked (issue 12, docs/formats.md
-// "Outputs").
+// not at all, and nothing of the user's is replaced unless asked (issue 12; README,
+// "the overwrite policy"). Several files outside a folder: output_files.hpp.
 //
 // - The folder must be new or empty; an existing folder that holds files is refused
 //   (InputError, exit 2) before any work, unless `overwrite`: then the command's files
