@@ -64,26 +64,27 @@ void run(const Args& a) {
     res.fit.settings["criteria"] = {{"path", path}, {"sha256", criteria_sha}};
     res.fit.provenance.inputs.push_back({path, criteria_sha});
   }
-  data_schema::write_fit(folder.staging() / "fit.json", res.fit);
-  data_schema::write_params(folder.staging() / "params.toml", res.params);
-  {
+  folder.write([&](const fs::path& dir) {
+    data_schema::write_fit(dir / "fit.json", res.fit);
+    data_schema::write_params(dir / "params.toml", res.params);
     // The analysis input at the optimum (fitted constants and nuisances, the prediction
     // band): `burrbench report DIR` renders it without replaying, so the report needs
     // neither the sample nor the recordings.
     model::ExperimentPrediction prediction;
-    auto in = apps::replay_experiment(a.experiment, res.params, &res.fit,
-                                      {true, "", nullptr, "params.toml", nullptr, &prediction, o.threads, false});
+    auto in = apps::replay_experiment(
+        a.experiment, res.params, &res.fit,
+        {true, "", nullptr, "params.toml", nullptr, &prediction, o.threads, false});
     for (const char* name : {"fit.json", "params.toml"}) {
-      const std::string sha = sha256_file(folder.staging() / name);
+      const std::string sha = sha256_file(dir / name);
       in.provenance.inputs.push_back({(folder.target() / name).string(), sha});
       if (std::string(name) == "params.toml") {
         in.params_path = fs::absolute(folder.target() / name).string();
         in.params_sha256 = sha;
       }
     }
-    model::write_prediction(folder.staging() / "prediction.h5", prediction, in.provenance);
-    analysis::write_analysis_input(folder.staging(), in);
-  }
+    model::write_prediction(dir / "prediction.h5", prediction, in.provenance);
+    analysis::write_analysis_input(dir, in);
+  });
   folder.commit();
   const fs::path fit = folder.target() / "fit.json", params = folder.target() / "params.toml";
   // Replays and time are the whole calibration's; the iterations the optimum's refinement's

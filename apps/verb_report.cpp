@@ -44,20 +44,23 @@ void run(const Options& o) {
   folder.refuse_inputs({out.filename().string(), "analysis.json", "predictions.csv", "wrench.csv", "band.csv",
                         "fit.json", "residuals.csv", "metrics.json", "prediction.h5"},
                        inputs);
-  fs::path dir = o.dir;
-  if (!fs::exists(dir / "analysis.json") && fs::exists(dir / "fit.json")) {
-    // An older calibrate directory: replay its fit into an analysis input and the
-    // prediction file beside the report (the report itself only reads files), as
-    // calibrate writes them today, then render that.
-    model::ExperimentPrediction prediction;
-    auto in = apps::replay_calibrate_directory(dir, o.context, &prediction);
-    model::write_prediction(folder.staging() / "prediction.h5", prediction, in.provenance);
-    analysis::write_analysis_input(folder.staging(), in);
-    data_schema::copy_file_atomic(dir / "fit.json", folder.staging() / "fit.json");
-    dir = folder.staging();
-  }
-  const auto s = analysis::write_report(dir, folder.staging() / out.filename(),
-                                        {o.assets, o.context, nullptr, apps::library_versions()});
+  analysis::ReportSummary s;
+  folder.write([&](const fs::path& staging) {
+    fs::path dir = o.dir;
+    if (!fs::exists(dir / "analysis.json") && fs::exists(dir / "fit.json")) {
+      // An older calibrate directory: replay its fit into an analysis input and the
+      // prediction file beside the report (the report itself only reads files), as
+      // calibrate writes them today, then render that.
+      model::ExperimentPrediction prediction;
+      auto in = apps::replay_calibrate_directory(dir, o.context, &prediction);
+      model::write_prediction(staging / "prediction.h5", prediction, in.provenance);
+      analysis::write_analysis_input(staging, in);
+      data_schema::copy_file_atomic(dir / "fit.json", staging / "fit.json");
+      dir = staging;
+    }
+    s = analysis::write_report(dir, staging / out.filename(),
+                               {o.assets, o.context, nullptr, apps::library_versions()});
+  });
   folder.commit();
   std::cout << "report: " << (folder.target() / out.filename()).string() << " (" << s.recordings << " recordings, "
             << s.samples << " samples)\n";

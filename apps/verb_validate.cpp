@@ -118,14 +118,17 @@ void run(const Args& a) {
     in.provenance.inputs.push_back({in.fit_path, in.fit_sha256});
     in.calibration["fit"] = in.fit_path;
   }
-  const fs::path dir = folder.staging();
-  model::write_prediction(dir / "prediction.h5", prediction, in.provenance);
-  analysis::write_analysis_input(dir, in);
-  data_schema::copy_file_atomic(a.criteria, dir / "criteria.toml");
-  if (!params_there) data_schema::copy_file_atomic(a.params, dir / "params.toml");
-  if (!a.fit.empty()) data_schema::copy_file_atomic(a.fit, dir / "fit.json");
-  const auto s = analysis::write_report(dir, dir / "report.html", {a.assets, a.context, nullptr, apps::library_versions()});
-  if (criteria_there) fs::remove(dir / "criteria.toml");  // read by the report; the folder has it
+  analysis::ReportSummary s;
+  folder.write([&](const fs::path& dir) {
+    model::write_prediction(dir / "prediction.h5", prediction, in.provenance);
+    analysis::write_analysis_input(dir, in);
+    data_schema::copy_file_atomic(a.criteria, dir / "criteria.toml");
+    if (!params_there) data_schema::copy_file_atomic(a.params, dir / "params.toml");
+    if (!a.fit.empty()) data_schema::copy_file_atomic(a.fit, dir / "fit.json");
+    s = analysis::write_report(dir, dir / "report.html",
+                               {a.assets, a.context, nullptr, apps::library_versions()});
+    if (criteria_there) fs::remove(dir / "criteria.toml");  // read by the report; the folder has it
+  });
   folder.commit();
   progress.finish(fmt::format("{} recordings, {} samples", s.recordings, s.samples));
 

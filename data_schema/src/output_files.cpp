@@ -46,13 +46,21 @@ fs::path OutputFiles::stage(const fs::path& target) {
   return f.staged;
 }
 
+void rethrow_naming(const fs::path& staged, const fs::path& target) {
+  try {
+    throw;
+  } catch (const std::runtime_error& e) {
+    if (typeid(e) != typeid(std::runtime_error)) throw;  // InputError and the like keep their exit code
+    throw std::runtime_error(replace_all(e.what(), staged.string(), target.string()));
+  }
+}
+
 void OutputFiles::write(const fs::path& target, const std::function<void(const fs::path&)>& writer) {
   const fs::path staged = stage(target);
   try {
     writer(staged);
-  } catch (const std::runtime_error& e) {
-    if (typeid(e) != typeid(std::runtime_error)) throw;  // InputError and the like keep their exit code
-    throw std::runtime_error(replace_all(e.what(), staged.string(), target.string()));
+  } catch (...) {
+    rethrow_naming(staged, target);
   }
 }
 

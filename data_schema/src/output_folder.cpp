@@ -12,6 +12,7 @@
 
 #include "burrbench/data_schema/atomic_file.hpp"
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/output_files.hpp"
 
 namespace burrbench::data_schema {
 namespace fs = std::filesystem;
@@ -90,6 +91,14 @@ void OutputFolder::refuse_inputs(const std::vector<std::string>& names, const st
                          "an output that is not one of the inputs (inputs are never replaced, not even with "
                          "--overwrite)",
                          "it is the input " + in.string());
+  }
+}
+
+void OutputFolder::write(const std::function<void(const fs::path&)>& fn) const {
+  try {
+    fn(staging_);
+  } catch (...) {
+    rethrow_naming(staging_, target_);
   }
 }
 

@@ -42,7 +42,8 @@ def users_file(path):
 
 def no_leftovers(folder):
     """No staging folder or temporary of ours is left anywhere below `folder`."""
-    left = [p for p in Path(folder).rglob("*") if ".staging-" in p.name or ".tmp-" in p.name]
+    left = [p for p in Path(folder).rglob("*")
+            if any(mark in p.name for mark in (".staging-", ".staged-", ".previous-", ".tmp-"))]
     assert not left, left
 
 
@@ -183,3 +184,25 @@ def test_outputs_appear_all_together_or_not_at_all(exp, tmp_path):
     assert {"report.html", "metrics.json", "analysis.json", "predictions.csv", "residuals.csv",
             "criteria.toml", "params.toml"} <= set(os.listdir(tmp_path / "ok"))
     no_leftovers(tmp_path)
+
+
+def test_a_failed_write_into_an_output_folder_names_the_users_path(exp, tmp_path):
+    # A full disk (here a file-size limit) while `validate` writes its folder: exit 3, the
+    # line names the file in --out, not the hidden staging folder, and nothing is left.
+    import resource
+    import signal
+
+    def limit():
+        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (64 << 10, 64 << 10))
+
+    out = tmp_path / "gate"
+    p = subprocess.run([BURRBENCH, "validate", str(exp / "experiment.toml"), "--params", str(exp / "params_true.toml"),
+                        "--criteria", str(CRITERIA), "--out", str(out), "--no-verification"],
+                       capture_output=True, text=True, timeout=300, preexec_fn=limit)
+    assert p.returncode == 3, p.stdout + p.stderr
+    lines = [l for l in p.stderr.splitlines() if l.startswith("burrbench:")]
+    assert len(lines) == 1 and lines[0].startswith(f"burrbench: error: {out}/") and "(File too large)" in lines[0], \
+        p.stderr
+    assert ".staging-" not in lines[0], lines[0]
+    assert os.listdir(tmp_path) == [], os.listdir(tmp_path)

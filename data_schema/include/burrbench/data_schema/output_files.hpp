@@ -42,4 +42,9 @@ class OutputFiles {
   std::vector<Staged> files_;
 };
 
+// In a catch block: rethrows the exception in flight; a plain std::runtime_error (a failed
+// write) with `staged` replaced by `target` in its message, so the line names the user's
+// path, not a hidden one. Shared with OutputFolder.
+[[noreturn]] void rethrow_naming(const std::filesystem::path& staged, const std::filesystem::path& target);
+
 }  // namespace burrbench::data_schema

@@ -14,6 +14,7 @@
 // - Without commit() — a failure, an exception, Ctrl-C or SIGTERM — the staging folder
 //   and a folder the command created are removed: nothing is left behind.
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,9 @@ class OutputFolder {
   // InputError(option) when a file the command will write (a name in the folder) is one
   // of its inputs: an input is never replaced, not even with --overwrite.
   void refuse_inputs(const std::vector<std::string>& names, const std::vector<std::filesystem::path>& inputs) const;
+
+  // fn(staging()); a failed write's message names the folder, not the staging folder.
+  void write(const std::function<void(const std::filesystem::path& staging)>& fn) const;
 
   // Moves the staged files into the folder (fsynced). std::runtime_error naming the folder
   // when a rename fails (exit 3).
