@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from bad_input import assert_refused
+from file_size_limit import burrbench_lines, run_with_file_size_limit
 
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
@@ -189,19 +190,11 @@ def test_outputs_appear_all_together_or_not_at_all(exp, tmp_path):
 def test_a_failed_write_into_an_output_folder_names_the_users_path(exp, tmp_path):
     # A full disk (here a file-size limit) while `validate` writes its folder: exit 3, the
     # line names the file in --out, not the hidden staging folder, and nothing is left.
-    import resource
-    import signal
-
-    def limit():
-        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)
-        resource.setrlimit(resource.RLIMIT_FSIZE, (64 << 10, 64 << 10))
-
     out = tmp_path / "gate"
-    p = subprocess.run([BURRBENCH, "validate", str(exp / "experiment.toml"), "--params", str(exp / "params_true.toml"),
-                        "--criteria", str(CRITERIA), "--out", str(out), "--no-verification"],
-                       capture_output=True, text=True, timeout=300, preexec_fn=limit)
+    p = run_with_file_size_limit(["validate", exp / "experiment.toml", "--params", exp / "params_true.toml",
+                                  "--criteria", CRITERIA, "--out", out, "--no-verification"], 64 << 10)
     assert p.returncode == 3, p.stdout + p.stderr
-    lines = [l for l in p.stderr.splitlines() if l.startswith("burrbench:")]
+    lines = burrbench_lines(p.stderr)
     assert len(lines) == 1 and lines[0].startswith(f"burrbench: error: {out}/") and "(File too large)" in lines[0], \
         p.stderr
     assert ".staging-" not in lines[0], lines[0]

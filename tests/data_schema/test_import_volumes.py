@@ -12,6 +12,7 @@ import pytest
 
 from fixtures_volumes import read_nrrd, write_metaimage, write_nrrd, write_png, write_tiff
 from bad_input import assert_refused
+from file_size_limit import run_with_file_size_limit
 
 BURRBENCH = os.environ["BURRBENCH"]
 
@@ -226,9 +227,6 @@ def test_export_nrrd_roundtrip(tmp_path):
 def test_export_nrrd_writes_the_pair_or_neither(tmp_path):
     # A file-size limit between the two files' sizes used to leave P_labels.nrrd without
     # its P_fraction.nrrd: the pair appears together or not at all.
-    import resource
-    import signal
-
     S = tmp_path / "S.h5"
     assert run("sample", "synth", "--voxel-mm", "0.1", "--extent-mm", "3,3,2", "--porosity", "0.6", "--seed", "3",
                "--out", S).returncode == 0
@@ -237,16 +235,9 @@ def test_export_nrrd_writes_the_pair_or_neither(tmp_path):
     assert run("sample", "export-nrrd", S, "--out-prefix", whole / "P").returncode == 0
     labels, fraction = ((whole / f"P_{n}.nrrd").stat().st_size for n in ("labels", "fraction"))
     assert fraction > labels * 1.5, (labels, fraction)  # else the limit below cannot split them
-    limit = (labels + fraction) // 2
-
-    def limit_size():
-        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-
     out = tmp_path / "out"
     out.mkdir()
-    r = subprocess.run([BURRBENCH, "sample", "export-nrrd", str(S), "--out-prefix", str(out / "P")],
-                       capture_output=True, text=True, timeout=120, preexec_fn=limit_size)
+    r = run_with_file_size_limit(["sample", "export-nrrd", S, "--out-prefix", out / "P"], (labels + fraction) // 2)
     assert r.returncode == 3, r.stderr
     assert r.stderr.startswith(f"burrbench: error: {out / 'P_fraction.nrrd'}: write failed"), r.stderr
     assert list(out.iterdir()) == []

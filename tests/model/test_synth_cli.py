@@ -9,6 +9,7 @@ import h5py
 import numpy as np
 import pytest
 from bad_input import assert_refused
+from file_size_limit import burrbench_lines, run_with_file_size_limit
 from synthetic import PLUNGE_TWICE_WARNING, drill_plunge_twice
 
 BURRBENCH = os.environ["BURRBENCH"]
@@ -250,19 +251,11 @@ def test_a_file_size_limit_fails_loudly_and_leaves_nothing_half_written(exp, tmp
     # Issue 12: under a full disk `replay --csv` exited 0 with the CSV cut mid-row. With
     # RLIMIT_FSIZE (a full disk without a mount) the command must fail naming the file, and
     # neither output may exist, whole or in part; no temporary is left.
-    import resource
-    import signal
-
-    def limit():
-        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)  # burrbench must ignore it itself
-        resource.setrlimit(resource.RLIMIT_FSIZE, (64 << 10, 64 << 10))
-
     out, csv = tmp_path / "p.h5", tmp_path / "p.csv"
-    p = subprocess.run([BURRBENCH, "replay", "--experiment", str(exp / "experiment.toml"), "--params",
-                        str(exp / "params_true.toml"), "--out", str(out), "--csv", str(csv)],
-                       capture_output=True, text=True, timeout=300, preexec_fn=limit)
+    p = run_with_file_size_limit(["replay", "--experiment", exp / "experiment.toml", "--params",
+                                  exp / "params_true.toml", "--out", out, "--csv", csv], 64 << 10)
     assert p.returncode == 3, p.stdout + p.stderr
-    lines = [l for l in p.stderr.splitlines() if l.startswith("burrbench:")]
+    lines = burrbench_lines(p.stderr)
     assert len(lines) == 1 and ("p.csv" in lines[0] or "p.h5" in lines[0]), p.stderr
     assert "(File too large)" in lines[0], "the system's reason, from HDF5's error stack too"
     assert sorted(x.name for x in tmp_path.iterdir()) == [], list(tmp_path.iterdir())
@@ -272,9 +265,6 @@ def test_a_failure_on_the_csv_leaves_no_prediction_either(exp, tmp_path):
     # `replay --out --csv` used to keep the finished .h5 when the CSV then failed: the
     # command's outputs appear together or not at all. A file-size limit between the two
     # files' sizes lets the .h5 be written and fails the CSV.
-    import resource
-    import signal
-
     whole = tmp_path / "whole"
     whole.mkdir()
     args = ["replay", "--experiment", exp / "experiment.toml", "--params", exp / "params_true.toml"]
@@ -282,17 +272,11 @@ def test_a_failure_on_the_csv_leaves_no_prediction_either(exp, tmp_path):
     h5, csv = (whole / "p.h5").stat().st_size, (whole / "p.csv").stat().st_size
     assert csv > h5 * 1.5, (h5, csv)  # else the limit below cannot split them
     limit = (h5 + csv) // 2
-
-    def limit_size():
-        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-
     failing = tmp_path / "failing"
     failing.mkdir()
-    p = subprocess.run([BURRBENCH, *map(str, args), "--out", str(failing / "p.h5"), "--csv", str(failing / "p.csv")],
-                       capture_output=True, text=True, timeout=300, preexec_fn=limit_size)
+    p = run_with_file_size_limit([*args, "--out", failing / "p.h5", "--csv", failing / "p.csv"], limit)
     assert p.returncode == 3, p.stdout + p.stderr
-    lines = [l for l in p.stderr.splitlines() if l.startswith("burrbench:")]
+    lines = burrbench_lines(p.stderr)
     assert len(lines) == 1 and f"{failing / 'p.csv'}: write failed" in lines[0], p.stderr
     assert ".staged" not in lines[0], "the line names the user's file, not the hidden one"
     assert list(failing.iterdir()) == [], "no .h5 without its CSV, nothing hidden left"
@@ -300,8 +284,7 @@ def test_a_failure_on_the_csv_leaves_no_prediction_either(exp, tmp_path):
     # With --overwrite over an earlier pair, a failure leaves both earlier files as they were.
     run(*args, "--out", failing / "p.h5", "--csv", failing / "p.csv", "--no-erosion")
     before = {f.name: f.read_bytes() for f in failing.iterdir()}
-    p = subprocess.run([BURRBENCH, *map(str, args), "--out", str(failing / "p.h5"), "--csv", str(failing / "p.csv"),
-                        "--overwrite"], capture_output=True, text=True, timeout=300, preexec_fn=limit_size)
+    p = run_with_file_size_limit([*args, "--out", failing / "p.h5", "--csv", failing / "p.csv", "--overwrite"], limit)
     assert p.returncode == 3, p.stdout + p.stderr
     assert {f.name: f.read_bytes() for f in failing.iterdir()} == before
 

@@ -2,19 +2,14 @@
 silent), keeps the journal, and `recover` rebuilds everything synced before the failure.
 The failure is real: the file-size limit (RLIMIT_FSIZE) makes the kernel refuse the write."""
 import os
-import resource
-import subprocess
 
 import numpy as np
 
 import rig_helpers as rh
+from file_size_limit import run_with_file_size_limit
 from virtual_helpers import start_virtual_rig
 
 LIMIT_BYTES = 150_000  # a few seconds of journal at 500 polls/s
-
-
-def limit_file_size():
-    resource.setrlimit(resource.RLIMIT_FSIZE, (LIMIT_BYTES, LIMIT_BYTES))
 
 
 def test_write_failure_stops_loudly_and_the_journal_recovers(tmp_path):
@@ -23,8 +18,8 @@ def test_write_failure_stops_loudly_and_the_journal_recovers(tmp_path):
         rig_map = rh.write_map(tmp_path, body)
         out = os.path.join(str(tmp_path), "r.h5")
         journal = out + ".journal"
-        p = subprocess.run([rh.BURRBENCH, "acquire", "--rig", rig_map, "--out", out, "--duration", "60"],
-                           capture_output=True, text=True, timeout=50, preexec_fn=limit_file_size)
+        p = run_with_file_size_limit(["acquire", "--rig", rig_map, "--out", out, "--duration", "60"], LIMIT_BYTES,
+                                     timeout=50)
     # Stopped at the failure, not at the end of the 60 s, with the reason and what to do.
     assert p.returncode == 3, (p.returncode, p.stderr)
     assert "ACQUISITION STOPPED" in p.stderr and "write failed" in p.stderr, p.stderr
