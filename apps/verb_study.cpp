@@ -191,11 +191,13 @@ void summarize(const SummarizeArgs& a) {
   folder.refuse_inputs({"population.json", "params.toml", "report.html"}, inputs);
   data_schema::ParameterSet ps = study::population_params(pop, fits.front().second);
   ps.provenance = make_provenance(inputs);
-  data_schema::write_params(folder.staging() / "params.toml", ps);
   json pj = study::population_json(s, pop, rows);
   pj["provenance"] = data_schema::provenance_json(ps.provenance);
-  data_schema::write_file_atomic(folder.staging() / "population.json", pj.dump(1) + "\n");
-  data_schema::write_file_atomic(folder.staging() / "report.html", study::study_report_html(s, pop, rows));
+  folder.write([&](const fs::path& dir) {
+    data_schema::write_params(dir / "params.toml", ps);
+    data_schema::write_file_atomic(dir / "population.json", pj.dump(1) + "\n");
+    data_schema::write_file_atomic(dir / "report.html", study::study_report_html(s, pop, rows));
+  });
   folder.commit();
   std::cout << fmt::format("population of {} specimens (random effects on ln θ, 95 % HKSJ interval):\n", fits.size());
   for (const auto& p : pop)
