@@ -8,6 +8,7 @@
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/output_files.hpp"
+#include "burrbench/data_schema/progress.hpp"
 #include "burrbench/data_schema/import/sample_import.hpp"
 #include "burrbench/data_schema/import/segment.hpp"
 #include "burrbench/data_schema/import/synth.hpp"
@@ -66,6 +67,7 @@ void run_import(const ImportArgs& a) {
   std::vector<fs::path> inputs;
   SampleVolume s;
   nlohmann::json settings;
+  std::optional<TerminalProgress> progress;  // a lab CT takes minutes to segment
   if (!a.labels.empty()) {
     const ImageVolume labels = load(a.labels, a, Interpolation::kNearest, lim, "labels");
     std::optional<ImageVolume> fraction;
@@ -80,7 +82,9 @@ void run_import(const ImportArgs& a) {
     seg.threshold = a.threshold;
     seg.empty_grey = a.empty_grey;
     seg.bone_grey = a.bone_grey;
-    Segmentation r = segment_ct(ct, seg, a.ct);
+    // Progress once the CT is read and checked, so that a refused input stays one line.
+    progress.emplace("import");
+    Segmentation r = segment_ct(ct, seg, a.ct, &*progress);
     s = std::move(r.sample);
     settings = r.settings_used;
     inputs = ct.files;
@@ -91,7 +95,9 @@ void run_import(const ImportArgs& a) {
   s.segmentation_json = settings.dump();
   s.provenance = make_provenance(inputs);
   s.sources = s.provenance.inputs;
+  if (progress) progress->stage("write", a.out);
   write_sample(a.out, s, a.encoding == "counter8" ? FractionEncoding::kCounter8 : FractionEncoding::kFloat32);
+  if (progress) progress->finish(fmt::format("{} voxels", s.labels.size()));
   std::size_t counts[3] = {0, 0, 0};
   for (auto l : s.labels) ++counts[std::min<std::size_t>(l, 2)];
   std::cout << fmt::format("wrote {}: {}x{}x{} voxels of {} mm, origin ({}, {}, {}) mm; empty {}, compact {}, other bone {}\n",
@@ -178,15 +184,20 @@ void setup(CLI::App& root) {
       throw InputError("command line", "--split/--merge", "exactly one of --split N or --merge N");
     check_out_not_input(ra->out, {ra->in});
     burrbench::apps::refuse_existing(ra->out, "--out", ra->overwrite);
-    const SampleVolume s = read_sample(ra->in);
     const bool split = ra->split != 0;
     const int n = split ? ra->split : ra->merge;
     if (n < 2 || n > 16)
       throw InputError("command line", split ? "--split" : "--merge", "an integer factor 2..16", std::to_string(n));
+    const SampleVolume s = read_sample(ra->in);
+    TerminalProgress progress("resample");  // after the input is read and checked: a refusal stays one line
+    progress.stage(split ? "split" : "merge", split ? fmt::format("every voxel into {}", n * n * n)
+                                                    : fmt::format("every block of {} voxels into one", n * n * n));
     SampleVolume r = split ? split_voxels(s, n) : merge_voxels(s, n);
     r.sources.push_back({std::filesystem::absolute(ra->in).string(), sha256_file(ra->in)});
     r.provenance = make_provenance({ra->in});
+    progress.stage("write", ra->out);
     write_sample(ra->out, r);
+    progress.finish(fmt::format("{} voxels", r.labels.size()));
     std::cout << fmt::format("wrote {}: {}x{}x{} voxels of {} mm (from {} mm, {} by {})\n", ra->out, r.dims[0],
                              r.dims[1], r.dims[2], r.voxel_mm, s.voxel_mm, split ? "split" : "merged", n);
   });

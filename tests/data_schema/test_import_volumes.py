@@ -190,6 +190,15 @@ def test_ct_segmentation_through_cli(tmp_path):
     before = sha(C)
     r = run("sample", "import", "--ct", C, "--out", out, "--empty-grey", "0", "--bone-grey", "1000")
     assert r.returncode == 0, r.stderr
+    # Progress on stderr, a line per step (a lab CT takes minutes), then the voxel count.
+    lines = r.stderr.splitlines()
+    assert all(l.startswith("import: ") for l in lines), r.stderr
+    assert [l.split(":")[1].strip() for l in lines[:3]] == ["calibrated", "compact", "write"], r.stderr
+    assert lines[0].startswith("import: calibrated: bone where grey ≥ ") and \
+        "(Otsu), χ = 0 at grey 0 and 1 at 1000 [" in lines[0], lines[0]
+    assert lines[3].startswith(f"import: {24 * 24 * 30} voxels ["), r.stderr
+    seg_threshold = load(out)["seg"]["threshold"]
+    assert f"grey ≥ {seg_threshold:.6g} (Otsu)" in lines[0], (seg_threshold, lines[0])
     s = load(out)
     lab = s["labels"]
     assert (lab[26:] == 0).mean() > 0.99          # air

@@ -21,6 +21,11 @@ def test_split_then_merge_gives_the_sample_back(tmp_path):
     assert run("sample", "synth", "--extent-mm", "2,2,1", "--voxel-mm", "0.1", "--out", s).returncode == 0
     p = run("sample", "resample", s, "--split", "2", "--out", tmp_path / "half.h5")
     assert p.returncode == 0 and "voxels of 0.05 mm (from 0.1 mm, split by 2)" in p.stdout, p.stdout + p.stderr
+    # Progress on stderr (a lab CT split takes minutes): the step, the write, the voxels made.
+    lines = p.stderr.splitlines()
+    assert lines[0].startswith("resample: split: every voxel into 8 [") and \
+        lines[1].startswith(f"resample: write: {tmp_path / 'half.h5'} [") and \
+        lines[2].startswith(f"resample: {20 * 20 * 10 * 8} voxels ["), p.stderr
     p = run("sample", "resample", tmp_path / "half.h5", "--merge", "2", "--out", tmp_path / "back.h5")
     assert p.returncode == 0, p.stdout + p.stderr
     with h5py.File(s) as a, h5py.File(tmp_path / "half.h5") as h, h5py.File(tmp_path / "back.h5") as b:

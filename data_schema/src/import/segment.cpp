@@ -61,7 +61,11 @@ int vox(double mm, double voxel_mm) { return static_cast<int>(std::lround(std::m
 
 }  // namespace
 
-Segmentation segment_ct(const ImageVolume& ct, const SegmentationSettings& s, const std::string& file) {
+Segmentation segment_ct(const ImageVolume& ct, const SegmentationSettings& s, const std::string& file,
+                        Progress* progress) {
+  const auto stage = [progress](const std::string& name, const std::string& detail) {
+    if (progress) progress->stage(name, detail);
+  };
   if (!is_cubic(ct)) throw InputError(file, "spacing", "cubic voxels (resample first: --resample)");
   const double l = ct.spacing_mm.x;
   const Dims d = ct.dims;
@@ -101,7 +105,12 @@ Segmentation segment_ct(const ImageVolume& ct, const SegmentationSettings& s, co
     throw InputError(file, "bone_grey", fmt::format("a value above empty_grey {}", *empty_grey), fmt::format("{}", *bone_grey));
   }
 
+  // The first stage only now: every refusal above stays one line.
+  stage("calibrated", fmt::format("bone where grey ≥ {:.6g} ({}), χ = 0 at grey {:.6g} and 1 at {:.6g}", threshold,
+                                  s.threshold ? "given" : "Otsu", *empty_grey, *bone_grey));
+
   // 3. local BV/TV within the envelope
+  stage("compact", fmt::format("local BV/TV in boxes of half side {} voxels, opening of {} voxels", r_bvtv, r_open));
   const auto envelope = detail::close(bone, d, r_env);
   std::vector<float> bf(bone.begin(), bone.end()), ef(envelope.begin(), envelope.end());
   const auto bsum = detail::box_sum(bf, d, r_bvtv);

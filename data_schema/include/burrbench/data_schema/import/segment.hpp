@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "burrbench/data_schema/import/volume.hpp"
+#include "burrbench/data_schema/progress.hpp"
 #include "burrbench/data_schema/sample_volume.hpp"
 
 namespace burrbench::data_schema::import {
@@ -29,7 +30,8 @@ struct Segmentation {
 };
 
 // `ct` must have cubic voxels (resample first). Throws InputError on unusable settings.
+// `progress`, when given, gets a stage per step (a lab CT of 10⁹ voxels takes minutes).
 Segmentation segment_ct(const ImageVolume& ct, const SegmentationSettings& s,
-                        const std::string& file_for_messages);
+                        const std::string& file_for_messages, Progress* progress = nullptr);
 
 }  // namespace burrbench::data_schema::import
