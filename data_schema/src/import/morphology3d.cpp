@@ -41,12 +41,40 @@ std::vector<T> z_pass(const std::vector<T>& v, const Dims& d, int r, T init, R r
 
 }  // namespace
 
-std::vector<float> box_sum(const std::vector<float>& v, const Dims& d, int r) {
-  std::vector<float> t = v;
-  per_slice(t, d, CV_32F, [r](const cv::Mat& s, cv::Mat& o) {
+std::vector<float> box_count(const std::vector<std::uint8_t>& m, const Dims& d, int r) {
+  const std::size_t plane = d[0] * d[1];
+  std::vector<float> t(m.size());
+  // x, y: OpenCV's box filter from each mask slice straight into the result's slice.
+  for (std::size_t z = 0; z < d[2]; ++z) {
+    const cv::Mat s(as_int(d[1]), as_int(d[0]), CV_8U, const_cast<std::uint8_t*>(m.data() + z * plane));
+    cv::Mat o(as_int(d[1]), as_int(d[0]), CV_32F, t.data() + z * plane);
     cv::boxFilter(s, o, CV_32F, cv::Size(2 * r + 1, 2 * r + 1), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
-  });
-  return z_pass<float>(t, d, r, 0.0f, [](float a, float b) { return a + b; });
+  }
+  if (r <= 0 || d[2] == 0) return t;
+  // z, in place: a running sum over the window. Plane z is overwritten with its window's
+  // sum; the sum later drops plane z's original, which waits in a ring of r + 1 planes
+  // (plane z - r - 1 leaves when plane z enters, so they share the slot z mod (r + 1)).
+  const auto nz = static_cast<long>(d[2]);
+  std::vector<float> acc(plane, 0.0f), ring(std::size_t(r + 1) * plane);
+  for (long k = 0; k <= std::min<long>(r, nz - 1); ++k) {
+    const float* s = t.data() + std::size_t(k) * plane;
+    for (std::size_t i = 0; i < plane; ++i) acc[i] += s[i];
+  }
+  for (long z = 0; z < nz; ++z) {
+    float* p = t.data() + std::size_t(z) * plane;
+    float* slot = ring.data() + std::size_t(z % (r + 1)) * plane;
+    if (z > 0) {
+      if (z + r < nz) {
+        const float* in = t.data() + std::size_t(z + r) * plane;
+        for (std::size_t i = 0; i < plane; ++i) acc[i] += in[i];
+      }
+      if (z - r - 1 >= 0)
+        for (std::size_t i = 0; i < plane; ++i) acc[i] -= slot[i];
+    }
+    std::copy(p, p + plane, slot);
+    std::copy(acc.begin(), acc.end(), p);
+  }
+  return t;
 }
 
 std::vector<std::uint8_t> dilate(const std::vector<std::uint8_t>& m, const Dims& d, int r) {

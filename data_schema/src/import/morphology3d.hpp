@@ -9,8 +9,10 @@ namespace burrbench::data_schema::import::detail {
 
 using Dims = std::array<std::size_t, 3>;
 
-// Sum over the (2r+1)³ box, zero outside the volume.
-std::vector<float> box_sum(const std::vector<float>& v, const Dims& d, int r);
+// The number of set voxels of a 0/1 mask in the (2r+1)³ box around each voxel, zero
+// outside the volume. Exact: every partial sum is an integer ≤ 201³ < 2²⁴. Uses 4 bytes
+// per voxel (the result) and r + 2 planes, not a float copy of the mask (a lab CT).
+std::vector<float> box_count(const std::vector<std::uint8_t>& m, const Dims& d, int r);
 // Binary (0/1) erosion/dilation with a (2r+1)³ box; outside the volume never erodes
 // and never dilates.
 std::vector<std::uint8_t> dilate(const std::vector<std::uint8_t>& m, const Dims& d, int r);

@@ -48,7 +48,8 @@ double otsu(const std::vector<float>& g) {
 }
 
 std::optional<double> median_where(const std::vector<float>& g, const std::vector<std::uint8_t>& m) {
-  std::vector<float> s;
+  std::vector<float> s;  // reserved exactly: growing by doubling could take 8 bytes a voxel
+  s.reserve(static_cast<std::size_t>(std::count_if(m.begin(), m.end(), [](std::uint8_t x) { return x != 0; })));
   for (std::size_t i = 0; i < g.size(); ++i) if (m[i]) s.push_back(g[i]);
   if (s.empty()) return std::nullopt;
   auto mid = s.begin() + static_cast<long>(s.size() / 2);
@@ -111,12 +112,12 @@ Segmentation segment_ct(const ImageVolume& ct, const SegmentationSettings& s, co
 
   // 3. local BV/TV within the envelope
   stage("compact", fmt::format("local BV/TV in boxes of half side {} voxels, opening of {} voxels", r_bvtv, r_open));
-  const auto envelope = detail::close(bone, d, r_env);
-  std::vector<float> bf(bone.begin(), bone.end()), ef(envelope.begin(), envelope.end());
-  const auto bsum = detail::box_sum(bf, d, r_bvtv);
-  const auto esum = detail::box_sum(ef, d, r_bvtv);
   std::vector<std::uint8_t> compact(n);
-  for (std::size_t i = 0; i < n; ++i) compact[i] = (esum[i] > 0 && bsum[i] >= s.compact_bvtv * esum[i]) ? 1 : 0;
+  {  // scoped: the counts (4 bytes per voxel each) are freed before the opening below
+    const auto bsum = detail::box_count(bone, d, r_bvtv);
+    const auto esum = detail::box_count(detail::close(bone, d, r_env), d, r_bvtv);  // of the envelope
+    for (std::size_t i = 0; i < n; ++i) compact[i] = (esum[i] > 0 && bsum[i] >= s.compact_bvtv * esum[i]) ? 1 : 0;
+  }
   const auto gate = detail::dilate(compact, d, r_bvtv);
   const auto solid = detail::open(detail::close(bone, d, s.compact_close_vox), d, r_open);
   for (std::size_t i = 0; i < n; ++i) compact[i] = gate[i] & solid[i];
