@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <iostream>
 #include <thread>
+#include <typeinfo>
 
 #include <fmt/format.h>
 
@@ -180,7 +181,15 @@ void run(const Options& o) {
   for (const auto& p : rep.problems) std::cerr << "warning: " << p << "\n";
   rec.provenance = make_provenance(inputs);
   data_schema::validate(rec, journal.string());  // a defect is the journal's (kept for recover)
-  data_schema::write_recording(out, rec);
+  try {
+    data_schema::write_recording(out, rec);
+  } catch (const std::runtime_error& e) {
+    // A full disk at the very end: the session is safe in the journal; say so, and how.
+    if (typeid(e) != typeid(std::runtime_error)) throw;
+    throw std::runtime_error(fmt::format("{}; the session is kept in the journal {}: run `burrbench recover {} --out {}` "
+                                         "once the cause is fixed",
+                                         e.what(), journal.string(), journal.string(), o.out));
+  }
   if (!o.keep_journal) std::filesystem::remove(journal);
 
   std::cout << fmt::format("wrote {}: {:.1f} s, {} samples ({} stale, {} with invalid values), {} events\n",

@@ -35,3 +35,35 @@ def test_write_failure_stops_loudly_and_the_journal_recovers(tmp_path):
     rh.assert_ramp_exact(ft)
     assert np.all(np.diff(ft["t_ns"]) > 0)
     rh.assert_losses_recorded(rec, "ft_sensor")  # up to the failure, nothing missing silently
+
+
+def test_a_failed_final_write_keeps_the_session_in_the_journal_and_says_how_to_recover(tmp_path):
+    # The session ran, but the recording cannot be written at the end (here the writer's
+    # temporary name is taken by a folder, as real as a full disk): exit 3, the line says
+    # the session is in the journal and gives the `recover` command, which rebuilds it.
+    import subprocess
+
+    with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "100"]) as (proc, host, port):
+        body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 500, rh.FT_CHANNELS, counter=220, timeout_ms=1000)
+        rig_map = rh.write_map(tmp_path, body)
+        out = os.path.join(str(tmp_path), "r.h5")
+        journal = out + ".journal"
+        p = subprocess.Popen([rh.BURRBENCH, "acquire", "--rig", rig_map, "--out", out, "--duration", "2"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        os.mkdir(f"{out}.tmp-{p.pid}")  # the HDF5 writer's temporary, made at the end
+        try:
+            stdout, stderr = p.communicate(timeout=50)
+        finally:
+            p.kill()
+    assert p.returncode == 3, (p.returncode, stderr)
+    lines = [l for l in stderr.splitlines() if l.startswith("burrbench:")]
+    assert len(lines) == 1, stderr
+    assert lines[0].startswith(f"burrbench: error: {out}: ") and \
+        f"the session is kept in the journal {journal}: run `burrbench recover {journal} --out {out}`" in lines[0], lines[0]
+    assert not os.path.exists(out) and os.path.getsize(journal) > 0
+    os.rmdir(f"{out}.tmp-{p.pid}")
+    r = rh.run(["recover", journal, "--out", out])
+    assert r.returncode == 0, r.stdout + r.stderr
+    ft = rh.read_recording(out)["ft_sensor"]
+    assert ft["t_ns"].size > 500  # about 2 s at 500 Hz
+    rh.assert_ramp_exact(ft)
