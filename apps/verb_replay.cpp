@@ -99,7 +99,7 @@ void setup(CLI::App& root) {
       ->required();
   cmd->add_option("--csv", a->csv, "also write the prediction as CSV");
   cmd->add_flag("--overwrite", a->overwrite, "replace an existing --out or --csv file (refused otherwise)");
-  cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")
+  cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period; at most the sample period)")
       ->capture_default_str();
   cmd->add_flag("--no-erosion", a->no_erosion, "forces only, the volume is not eroded");
   cmd->add_option("--threads", a->threads, "recordings replayed at once")->capture_default_str()->check(CLI::Range(1, model::kMaxThreads));

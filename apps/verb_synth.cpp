@@ -113,7 +113,7 @@ void setup(CLI::App& root) {
   cmd->add_option("--spindle-viscous-Nmm-per-krpm", a->spindle_viscous,
                   "viscous drag: + this × |rpm|/1000 on the spindle torque (N·mm)")->capture_default_str();
   cmd->add_option("--seed", a->seed, "noise seed")->capture_default_str();
-  cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period)")
+  cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period; at most the sample period)")
       ->capture_default_str();
   cmd->callback([a] { run(*a); });
 }

@@ -94,7 +94,7 @@ void setup(CLI::App& root) {
   cmd->add_option("--params", a->params, "parameter set (.toml)")->required();
   cmd->add_option("--out", a->out, "also write the study as JSON");
   cmd->add_flag("--overwrite", a->overwrite, "replace an existing --out file (refused otherwise)");
-  cmd->add_option("--step-us", a->step_us, "base replay step (µs; 0 = half the sample period)")->capture_default_str();
+  cmd->add_option("--step-us", a->step_us, "base replay step (µs; 0 = half the sample period; at most the sample period)")->capture_default_str();
   cmd->add_option("--sigma-N", a->sigma_N, "sensor noise per axis (N; 0 = the manifest's sensor.sigma_N, else estimated)")
       ->capture_default_str();
   cmd->add_flag("--whole-sample", a->whole_sample,

@@ -45,6 +45,12 @@ double default_step_s(const std::vector<double>& t) {
   return 0.5 * *mid;
 }
 
+double replay_step_s(double step_s, const std::vector<double>& t) {
+  const double half_period = default_step_s(t);
+  if (step_s <= 0) return half_period;
+  return half_period > 0 ? std::min(step_s, 2 * half_period) : step_s;
+}
+
 ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
                     const Trajectory& tr, const ReplayOptions& opt, bool restore,
                     Progress* progress) {
@@ -60,7 +66,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   const std::size_t n = tr.t_s.size();
   res.samples.resize(n);
   if (n == 0) return res;
-  const double h = opt.step_s > 0 ? opt.step_s : default_step_s(tr.t_s);
+  const double h = replay_step_s(opt.step_s, tr.t_s);
   // Refuse step counts that could not finish (e.g. a 1 ns step over an hour).
   if (n > 1 && (tr.t_s.back() - tr.t_s.front()) / h > 1e9)
     throw InputError("replay", "step_s", "at most 1e9 internal steps",

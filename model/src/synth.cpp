@@ -223,8 +223,8 @@ nlohmann::json truth_json(const SynthResult& r, const data_schema::SampleVolume&
       {"spindle_noise_Nmm", o.spindle_noise_Nmm},
       {"spindle_idle_Nmm", o.spindle_idle_Nmm},
       {"spindle_viscous_Nmm_per_krpm", o.spindle_viscous_Nmm_per_krpm},
-      // the step actually used: the default (0) is half the sample period (replay.hpp)
-      {"replay_step_s", o.replay.step_s > 0 ? o.replay.step_s : 0.5 / p.sample_rate_hz},
+      // the step actually used (replay.hpp): by default half the sample period, never more than it
+      {"replay_step_s", replay_step_s(o.replay.step_s, r.path.t_s)},
       {"provenance", data_schema::provenance_json(prov)},
   };
 }

@@ -163,7 +163,7 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
   };
   std::vector<double> dt(n);
   for (std::size_t i = 0; i < n; ++i)
-    dt[i] = options.step_s > 0 ? options.step_s : default_step_s(e.recordings[i].t_s);
+    dt[i] = replay_step_s(options.step_s, e.recordings[i].t_s);
 
   // Every (recording, level) replay is independent: `threads` of them run at once, at most
   // one at l/2 (its volume holds 8× the voxels, and it is the longest: the l/2 replays

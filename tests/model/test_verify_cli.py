@@ -59,6 +59,25 @@ def test_study_levels_richardson_and_verdict(synthetic):
     assert q.returncode == 0 and "is below the sensor noise (10 N)" in q.stdout, q.stdout + q.stderr
 
 
+def test_a_step_longer_than_the_sample_period_is_cut_to_it(synthetic, tmp_path):
+    # A replay takes one sub-step per sample interval at the most, so a longer --step-us
+    # was recorded as a step not taken, and its "half step" (still one sub-step) changed
+    # nothing: a step error of 0. The step is the sample period (1 ms here), halved for dt/2.
+    out = tmp_path / "v.json"
+    p = verify(synthetic, "--out", out, "--step-us", 5000)
+    assert p.returncode == 0, p.stdout + p.stderr
+    for r in json.loads(out.read_text())["recordings"]:
+        lv = {x["level"]: x for x in r["levels"]}
+        assert lv["l"]["step_us"] == pytest.approx(1000, rel=1e-9), r["id"]
+        assert lv["dt/2"]["step_us"] == pytest.approx(500, rel=1e-9), r["id"]
+        assert lv["dt/2"]["rms_change_N"] > 0 and r["step_error_N"] > 0, r["id"]
+    truth = tmp_path / "t.json"
+    run_ok("synth", "--sample", synthetic / "sample.h5", "--protocol", SRC / "examples/protocols/plunge.toml",
+           "--params", synthetic / "params_true.toml", "--out", tmp_path / "r.h5", "--truth", truth,
+           "--step-us", 5000)
+    assert json.loads(truth.read_text())["replay_step_s"] == pytest.approx(1e-3, rel=1e-9)
+
+
 def without_wall(study):
     for r in study["recordings"]:
         for lv in r["levels"]:

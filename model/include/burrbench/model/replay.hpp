@@ -51,6 +51,11 @@ struct ReplayResult {
 // The step used when ReplayOptions::step_s is 0: half the median sample period (0 for
 // fewer than 2 samples).
 double default_step_s(const std::vector<double>& t_s);
+// The step a replay takes: `step_s`, or default_step_s when 0, cut to the median sample
+// period. A longer step would still take one sub-step per interval, and a record of it
+// would name a step not taken: synth's truth, or verify's "half the step" (no finer than
+// the step itself, so its step error would read 0).
+double replay_step_s(double step_s, const std::vector<double>& t_s);
 
 // Each sample interval [t_k, t_k+1] is split into n = ceil(Δt_k/step) equal sub-steps;
 // position and ω are interpolated linearly; the contact reported at t_k is evaluated on
