@@ -2,6 +2,7 @@
 silent), keeps the journal, and `recover` rebuilds everything synced before the failure.
 The failure is real: the file-size limit (RLIMIT_FSIZE) makes the kernel refuse the write."""
 import os
+import subprocess
 
 import numpy as np
 
@@ -12,12 +13,16 @@ from virtual_helpers import start_virtual_rig
 LIMIT_BYTES = 150_000  # a few seconds of journal at 500 polls/s
 
 
+def ramp_sensor_session(tmp_path, port):
+    """A force sensor polled at 500 Hz from the virtual rig: its map, the recording and journal paths."""
+    body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 500, rh.FT_CHANNELS, counter=220, timeout_ms=1000)
+    out = os.path.join(str(tmp_path), "r.h5")
+    return rh.write_map(tmp_path, body), out, out + ".journal"
+
+
 def test_write_failure_stops_loudly_and_the_journal_recovers(tmp_path):
     with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "100"]) as (proc, host, port):
-        body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 500, rh.FT_CHANNELS, counter=220, timeout_ms=1000)
-        rig_map = rh.write_map(tmp_path, body)
-        out = os.path.join(str(tmp_path), "r.h5")
-        journal = out + ".journal"
+        rig_map, out, journal = ramp_sensor_session(tmp_path, port)
         p = run_with_file_size_limit(["acquire", "--rig", rig_map, "--out", out, "--duration", "60"], LIMIT_BYTES,
                                      timeout=50)
     # Stopped at the failure, not at the end of the 60 s, with the reason and what to do.
@@ -41,13 +46,8 @@ def test_a_failed_final_write_keeps_the_session_in_the_journal_and_says_how_to_r
     # The session ran, but the recording cannot be written at the end (here the writer's
     # temporary name is taken by a folder, as real as a full disk): exit 3, the line says
     # the session is in the journal and gives the `recover` command, which rebuilds it.
-    import subprocess
-
     with start_virtual_rig(["--pattern", "ramp", "--rate-hz", "100"]) as (proc, host, port):
-        body = rh.tcp_device("ft_sensor", port, 9, 180, 42, 500, rh.FT_CHANNELS, counter=220, timeout_ms=1000)
-        rig_map = rh.write_map(tmp_path, body)
-        out = os.path.join(str(tmp_path), "r.h5")
-        journal = out + ".journal"
+        rig_map, out, journal = ramp_sensor_session(tmp_path, port)
         p = subprocess.Popen([rh.BURRBENCH, "acquire", "--rig", rig_map, "--out", out, "--duration", "2"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         os.mkdir(f"{out}.tmp-{p.pid}")  # the HDF5 writer's temporary, made at the end
