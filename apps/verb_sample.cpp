@@ -7,12 +7,12 @@
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
-#include "burrbench/data_schema/output_files.hpp"
-#include "burrbench/data_schema/progress.hpp"
 #include "burrbench/data_schema/import/sample_import.hpp"
 #include "burrbench/data_schema/import/segment.hpp"
 #include "burrbench/data_schema/import/synth.hpp"
 #include "burrbench/data_schema/import/volume.hpp"
+#include "burrbench/data_schema/output_files.hpp"
+#include "burrbench/data_schema/progress.hpp"
 #include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/data_schema/sample_volume.hpp"
 #include "output_paths.hpp"
@@ -217,7 +217,7 @@ void setup(CLI::App& root) {
     burrbench::apps::refuse_existing(lp, "--out-prefix", *exp_overwrite);
     burrbench::apps::refuse_existing(fp, "--out-prefix", *exp_overwrite);
     const SampleVolume s = read_sample(*in);
-    burrbench::data_schema::OutputFiles outputs;  // the pair appears together or not at all
+    OutputFiles outputs;  // the pair appears together or not at all
     outputs.write(lp, [&](const fs::path& p) { write_nrrd(p, labels_image(s), VoxelType::kUint8); });
     outputs.write(fp, [&](const fs::path& p) { write_nrrd(p, fraction_image(s), VoxelType::kFloat32); });
     outputs.commit();
