@@ -159,7 +159,11 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   model::ExperimentPrediction pred = model::predict_experiment(ex, mp, po);
   for (const model::RemovedOverlap& o : pred.overlaps) {
     in.limitations.push_back(o.text());
-    if (opt.warn_overlaps) fmt::print(stderr, "warning: {}\n", in.limitations.back());
+    if (opt.warn) fmt::print(stderr, "warning: {}\n", in.limitations.back());
+  }
+  for (const std::string& w : model::position_gap_warnings(ex)) {
+    in.limitations.push_back(w);
+    if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
   }
   std::vector<std::string> no_band;
   for (const auto& p : pred.recordings)

@@ -34,9 +34,10 @@ struct ReplayInputOptions {
   // prediction.h5), when given.
   model::ExperimentPrediction* prediction = nullptr;
   int threads = 2;  // recordings replayed at once (the result does not depend on it)
-  // Print a warning on stderr for two recordings that removed the same bone (the report's
-  // limitations name them either way); calibrate's summary has already said it.
-  bool warn_overlaps = true;
+  // Print on stderr the warnings about the data (two recordings that removed the same bone,
+  // force samples the stage gave no position for); the report's limitations name them
+  // either way, and calibrate's summary has already said them.
+  bool warn = true;
 };
 
 AnalysisInput replay_experiment(const std::filesystem::path& manifest,

@@ -2,6 +2,7 @@
 #include "burrbench/model/experiment.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -128,7 +129,82 @@ std::vector<std::size_t> fresh(const data_schema::Stream& s) {
 
 double seconds(std::int64_t t_ns, std::int64_t t0_ns) { return double(t_ns - t0_ns) * 1e-9; }
 
+// The force samples whose position (at t − lag) the stage did not measure, grouped by the
+// stage's interval they fall in, and taken out of use (AlignedRecording::position_gaps).
+// One position sample gives no interval to judge by: nothing is marked then.
+void mark_position_gaps(AlignedRecording& a) {
+  const auto& ts = a.stage_rig_mm.t_s;
+  if (ts.size() < 2) return;
+  std::vector<double> d(ts.size() - 1);
+  for (std::size_t i = 0; i + 1 < ts.size(); ++i) d[i] = ts[i + 1] - ts[i];
+  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
+  a.position_period_s = d[d.size() / 2];
+  const double limit_s = kPositionGapFactor * a.position_period_s;
+  constexpr std::ptrdiff_t kMeasured = -2;
+  std::ptrdiff_t current = kMeasured;  // the stage interval of the gap being grouped
+  for (std::size_t k = 0; k < a.t_s.size(); ++k) {
+    const double tau = a.t_s[k] - a.lag_s;
+    // Which gap holds tau: −1 before the first position sample, n−1 after the last, i for
+    // the interval (ts[i], ts[i+1]); kMeasured when the position there is measured.
+    std::ptrdiff_t gap = kMeasured;
+    double gap_s = 0;
+    if (tau < ts.front()) {
+      if (ts.front() - tau > limit_s) gap = -1, gap_s = ts.front() - tau;
+    } else if (tau > ts.back()) {
+      if (tau - ts.back() > limit_s) gap = std::ptrdiff_t(ts.size()) - 1, gap_s = tau - ts.back();
+    } else {
+      const auto it = std::upper_bound(ts.begin(), ts.end(), tau);
+      if (it != ts.end() && it != ts.begin() && tau > *(it - 1)) {
+        const std::size_t j = std::size_t(it - ts.begin()) - 1;
+        if (ts[j + 1] - ts[j] > limit_s) gap = std::ptrdiff_t(j), gap_s = ts[j + 1] - ts[j];
+      }
+    }
+    if (gap == kMeasured) {
+      current = kMeasured;
+      continue;
+    }
+    if (gap != current) a.position_gaps.push_back({a.t_s[k], a.t_s[k], 0, 0});
+    current = gap;
+    auto& g = a.position_gaps.back();
+    g.to_s = a.t_s[k];
+    g.gap_s = std::max(g.gap_s, gap_s);
+    ++g.force_samples;
+    a.use_calibrate[k] = a.use_validate[k] = a.use[k] = 0;
+  }
+}
+
 }  // namespace
+
+std::size_t AlignedRecording::unmeasured_position_samples() const {
+  std::size_t n = 0;
+  for (const auto& g : position_gaps) n += g.force_samples;
+  return n;
+}
+
+std::string AlignedRecording::position_gap_text() const {
+  if (position_gaps.empty()) return "";
+  constexpr std::size_t kListed = 3;
+  std::vector<std::string> listed;
+  for (std::size_t i = 0; i < position_gaps.size() && i < kListed; ++i) {
+    const auto& g = position_gaps[i];
+    listed.push_back(fmt::format("t = {:.6g} … {:.6g} s ({:.4g} s without a position sample)", g.from_s, g.to_s,
+                                 g.gap_s));
+  }
+  if (position_gaps.size() > kListed) listed.push_back(fmt::format("{} more", position_gaps.size() - kListed));
+  return fmt::format(
+      "Recording {}: the stage measured no position for {} force samples, in {} gap(s) longer than {:g} x its "
+      "median interval of {:.4g} ms at the manifest's lag: {}. They are replayed along the straight line across "
+      "each gap and left out of the fit and the metrics.",
+      id, unmeasured_position_samples(), position_gaps.size(), kPositionGapFactor, position_period_s * 1e3,
+      fmt::join(listed, "; "));
+}
+
+std::vector<std::string> position_gap_warnings(const Experiment& e) {
+  std::vector<std::string> out;
+  for (const auto& r : e.recordings)
+    if (!r.position_gaps.empty()) out.push_back(r.position_gap_text());
+  return out;
+}
 
 AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
                                  const data_schema::RecordingRef& ref,
@@ -314,6 +390,7 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
   if (!std::isfinite(ref.lag_ms))
     throw InputError(mfile, fmt::format("recordings[{}].lag_ms", index), "a finite number");
   a.lag_s = ref.lag_ms * 1e-3;
+  mark_position_gaps(a);
   if (a.fiducial_fit) {
     // Predicted TRE along the burr's path (volume frame, as the fiducials).
     double ss = 0, mx = 0;

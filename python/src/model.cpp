@@ -200,6 +200,7 @@ void bind_model(py::module_& m) {
                                             ? std::string("params (Python)")
                                             : py::str(py::module_::import("os").attr("fspath")(params)).cast<std::string>();
         model::ExperimentPrediction pred;
+        std::vector<std::string> gaps;
         CancelToken cancel;
         const auto pp = PyProgress::from("replay()", progress, cancel);
         run_interruptible(cancel, pp.get(), [&] {
@@ -214,8 +215,10 @@ void bind_model(py::module_& m) {
           opt.replay.cancel = &cancel;
           opt.progress = pp.get();
           pred = model::predict_experiment(e, mp, opt);
+          gaps = model::position_gap_warnings(e);
         });
         warn_overlaps(pred.overlaps);  // as `burrbench replay` warns on stderr
+        for (const std::string& w : gaps) warn(w);
         py::dict out;
         for (const auto& p : pred.recordings) out[py::str(p.recording_id)] = prediction_dict(p);
         return out;
@@ -225,7 +228,7 @@ void bind_model(py::module_& m) {
       "Replays every recording of an experiment manifest, as `burrbench replay` does: {recording id: "
       "{t_s, force_sensor_pred_N, ... (the prediction file's datasets), removed_mm3, steps}}; "
       "progress(fraction, line) receives the progress lines. Two recordings of one sample that removed the "
-      "same bone give a UserWarning naming them.");
+      "same bone give a UserWarning naming them, as do force samples the stage gave no position for.");
 }
 
 }  // namespace burrbench::python

@@ -2,6 +2,7 @@
 // registration, segments, ω and the sensor-force mapping — on in-memory recordings.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -251,6 +252,80 @@ TEST(Experiment, SegmentsStaleSamplesAndFiducials) {
   ASSERT_TRUE(a.fiducial_fit.has_value());
   EXPECT_LT(a.fiducial_fit->rms_mm, 1e-10);
   EXPECT_NEAR(glm::length(a.rig_to_vol.t - t), 0, 1e-10);
+}
+
+// The fixture's stage without samples first … first + count − 1 (a stretch it missed).
+ds::Recording recording_without_stage_samples(std::size_t first, std::size_t count) {
+  auto rec = recording();
+  auto& st = rec.streams[1];
+  const auto cut = [&](auto& v, std::size_t width) {
+    v.erase(v.begin() + std::ptrdiff_t(first * width), v.begin() + std::ptrdiff_t((first + count) * width));
+  };
+  cut(st.t_ns, 1);
+  cut(st.t_send_ns, 1);
+  cut(st.t_recv_ns, 1);
+  cut(st.stale, 1);
+  cut(st.channels[0].values, 3);
+  return rec;
+}
+
+TEST(Experiment, ForceSamplesInAGapOfTheStagePositionsAreLeftOutOfUse) {
+  const auto m = manifest();
+  // Stage samples every 1.25 ms from −0.3 ms: without 40…44 the interval 39 → 45 lasts
+  // 7.5 ms, longer than 5 × 1.25 ms. The force samples inside it, counted here by brute
+  // force, have no measured position.
+  const auto rec = recording_without_stage_samples(40, 5);
+  const double from = (39 * 1.25 - 0.3) * 1e-3, to = (45 * 1.25 - 0.3) * 1e-3;
+  const auto a = align_recording(m, m.recordings[0], rec, "rec.h5");
+  EXPECT_NEAR(a.position_period_s, 1.25e-3, 1e-15);
+  ASSERT_EQ(a.position_gaps.size(), 1u);
+  std::size_t inside = 0;
+  for (std::size_t k = 0; k < a.t_s.size(); ++k) {
+    const bool in_gap = a.t_s[k] > from && a.t_s[k] < to;
+    inside += in_gap;
+    EXPECT_EQ(a.use[k], in_gap ? 0 : 1) << a.t_s[k];
+    EXPECT_EQ(a.use_calibrate[k], in_gap ? 0 : 1) << a.t_s[k];
+  }
+  EXPECT_EQ(inside, 7u);  // 49 … 55 ms
+  EXPECT_EQ(a.unmeasured_position_samples(), inside);
+  EXPECT_DOUBLE_EQ(a.position_gaps[0].from_s, 0.049);
+  EXPECT_DOUBLE_EQ(a.position_gaps[0].to_s, 0.055);
+  EXPECT_NEAR(a.position_gaps[0].gap_s, 7.5e-3, 1e-12);
+  // Still replayed: along the straight line across the gap (exact for this linear motion).
+  const glm::dmat3 R = m.recordings[0].registration.rotation;
+  const glm::dvec3 want = R * (stage_at(0.052) + m.burr.tool_offset_mm) + glm::dvec3(10, 20, 30);
+  EXPECT_NEAR(glm::length(a.trajectory().centre_vol_mm[52] - want), 0, 1e-12);
+  const std::string text = a.position_gap_text();
+  EXPECT_NE(text.find("Recording rec: the stage measured no position for 7 force samples, in 1 gap(s)"),
+            std::string::npos) << text;
+  EXPECT_NE(text.find("t = 0.049 … 0.055 s (0.0075 s without a position sample)"), std::string::npos) << text;
+
+  // Three samples missing (an interval of 5 ms) is no gap: every sample stays in use.
+  const auto b = align_recording(m, m.recordings[0], recording_without_stage_samples(40, 3), "rec.h5");
+  EXPECT_TRUE(b.position_gaps.empty());
+  EXPECT_EQ(std::count(b.use.begin(), b.use.end(), 1), 200);
+  EXPECT_EQ(b.position_gap_text(), "");
+}
+
+TEST(Experiment, ForceSamplesFarBeyondTheStagesEndsAtTheLagAreLeftOutOfUse) {
+  // Lag 12.3 ms: the force at t answers the position at t − 12.3 ms, before the first
+  // stage sample (−0.3 ms) by more than 6.25 ms for t < 5.75 ms: samples 0 … 5.
+  auto m = manifest();
+  m.recordings[0].lag_ms = 12.3;
+  const auto a = align_recording(m, m.recordings[0], recording(), "rec.h5");
+  ASSERT_EQ(a.position_gaps.size(), 1u);
+  EXPECT_EQ(a.unmeasured_position_samples(), 6u);
+  for (std::size_t k = 0; k < 10; ++k) EXPECT_EQ(a.use[k], k < 6 ? 0 : 1) << k;
+  // Lag −20 ms: past the last stage sample (210.95 ms) by more than 6.25 ms for t > 197.2 ms.
+  m.recordings[0].lag_ms = -20;
+  const auto b = align_recording(m, m.recordings[0], recording(), "rec.h5");
+  ASSERT_EQ(b.position_gaps.size(), 1u);
+  EXPECT_EQ(b.unmeasured_position_samples(), 2u);
+  EXPECT_EQ(b.use[197], 1);
+  EXPECT_EQ(b.use[198], 0);
+  EXPECT_EQ(b.use[199], 0);
+  // At the manifest's default lag (0) nothing is beyond either end.
+  EXPECT_TRUE(align_recording(manifest(), manifest().recordings[0], recording(), "rec.h5").position_gaps.empty());
 }
 
 TEST(Experiment, MissingChannelsAreInputErrors) {

@@ -88,6 +88,23 @@ struct AlignedRecording {
   };
   std::vector<SessionEvent> events;
   std::map<std::string, std::size_t> stale_rows;
+  // Stretches where the stage did not measure the burr's position: at the manifest's lag,
+  // t − lag falls in an interval between fresh position samples longer than
+  // kPositionGapFactor × their median interval, or beyond the first or last one by more
+  // than that. The replay goes on along the straight line across (erosion must follow
+  // the path), but their force samples are taken out of use, use_calibrate and
+  // use_validate: a force paired with a guessed position would be fitted and scored as if
+  // the burr had been there. docs/replay.md "Alignment and lag".
+  struct PositionGap {
+    double from_s = 0, to_s = 0;    // its first and last force sample (s, recording clock)
+    double gap_s = 0;               // the stage's interval (beyond an end: how far beyond)
+    std::size_t force_samples = 0;  // force samples in it (all taken out of use)
+  };
+  std::vector<PositionGap> position_gaps;
+  double position_period_s = 0;  // median interval of the fresh position samples
+  std::size_t unmeasured_position_samples() const;
+  // One warning line naming the recording, the gaps and the samples left out ("" if none).
+  std::string position_gap_text() const;
 
   Series<glm::dvec3> stage_rig_mm;  // stage-reported position (fresh samples only)
   Series<double> spindle_rpm;       // signed: negative = reverse spin
@@ -135,6 +152,10 @@ struct AlignedRecording {
                                             const glm::dvec3& centre_vol_mm) const;
 };
 
+// A position stream's interval longer than this many times its median interval is a gap
+// (a stage at 1 kHz: 5 ms, four samples missing in a row): docs/replay.md.
+inline constexpr double kPositionGapFactor = 5.0;
+
 // Canonical channels, alignment, segments, registration. `file_for_messages` names the
 // recording file in errors (InputError: missing channels, empty streams, ...).
 AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
@@ -157,6 +178,11 @@ Experiment load_experiment(const std::filesystem::path& manifest_path);
 // intervals narrower than the data support (by up to √2), pooled metrics weighted twice,
 // and no overlap warning (a file listed again is one drilling).
 void check_each_sample_used_once_per_role(const Experiment& e);
+
+// The position-gap warning of every recording that has one (AlignedRecording::
+// position_gap_text), in manifest order: what `replay`, `calibrate`, `validate`, `report`
+// and the Python module print.
+std::vector<std::string> position_gap_warnings(const Experiment& e);
 
 // ---- replay of an experiment and its prediction file (format "burrbench.prediction") ----
 
