@@ -45,3 +45,38 @@ def drill_plunge_twice(exp, folder):
 
 # The one warning drill_plunge_twice's experiment gives, as it begins.
 PLUNGE_TWICE_WARNING = "Recordings plunge and plunge_again removed the same bone of sample S1: "
+
+
+def drop_stage_samples(exp, folder, recording="sweep", from_s=1.0, to_s=1.3):
+    """A copy of the synthetic experiment `exp` in `folder` whose `recording` lost the stage's
+    position samples strictly between from_s and to_s (seconds from its first force
+    sample), as a stage that stopped answering would. Returns (manifest, t_a, t_b): the
+    stage samples around the gap, in seconds on the same clock."""
+    import shutil
+
+    import h5py
+    import numpy as np
+    folder = Path(folder)
+    shutil.copytree(exp, folder)
+    with h5py.File(folder / f"{recording}.h5", "r+") as f:
+        t0 = f["streams/ft_sensor/t_ns"][0]
+        stage = f["streams/stage"]
+        t = (stage["t_ns"][()] - t0) * 1e-9
+        keep = ~((t > from_s) & (t < to_s))
+
+        def cut(group):
+            for name in list(group):
+                item = group[name]
+                if isinstance(item, h5py.Group):
+                    cut(item)
+                elif item.shape and item.shape[0] == len(t):
+                    data, attrs = item[()][keep], dict(item.attrs)
+                    del group[name]
+                    group.create_dataset(name, data=data).attrs.update(attrs)
+        cut(stage)
+    kept = t[keep]
+    return folder / "experiment.toml", kept[kept <= from_s].max(), kept[kept >= to_s].min()
+
+
+# The warning drop_stage_samples's experiment gives, as it begins.
+STAGE_GAP_WARNING = "Recording sweep: the stage measured no position for "

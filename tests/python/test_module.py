@@ -14,7 +14,8 @@ import h5py
 import numpy as np
 import pytest
 
-from synthetic import BURRBENCH, PLUNGE_TWICE_WARNING, SRC, drill_plunge_twice, make_synthetic, run_ok
+from synthetic import (BURRBENCH, PLUNGE_TWICE_WARNING, SRC, STAGE_GAP_WARNING, drill_plunge_twice, drop_stage_samples,
+                       make_synthetic, run_ok)
 
 sys.path.insert(0, str(Path(os.environ["BURRBENCH_BUILD_DIR"]) / "python"))
 import burrbench  # noqa: E402
@@ -187,6 +188,18 @@ def test_replay_and_calibrate_warn_of_two_recordings_that_drilled_one_spot(exp, 
     said = [str(w.message) for w in caught if "removed the same bone" in str(w.message)]
     assert len(said) == 1 and said[0].startswith(PLUNGE_TWICE_WARNING), said
     assert said[0] in res["fit"]["settings"]["warnings"] and "warning: " + said[0] in res["summary"]
+
+
+def test_replay_warns_of_force_samples_the_stage_gave_no_position_for(exp, tmp_path):
+    # As `burrbench replay` warns on stderr; those samples are out of use.
+    manifest, t_a, t_b = drop_stage_samples(exp, tmp_path / "gap")
+    with pytest.warns(UserWarning) as caught:
+        pred = burrbench.replay(manifest, manifest.parent / "params_true.toml")
+    t = pred["sweep"]["t_s"]
+    inside = (t > t_a) & (t < t_b)
+    said = [str(w.message) for w in caught if str(w.message).startswith(STAGE_GAP_WARNING)]
+    assert said == [said[0]] and said[0].startswith(STAGE_GAP_WARNING + f"{inside.sum()} force samples"), said
+    assert inside.sum() > 250 and not pred["sweep"]["use"][inside].any() and pred["sweep"]["use"][~inside].all()
 
 
 def test_replay_from_python_with_progress(exp):

@@ -1,0 +1,77 @@
+"""Force samples whose burr position the stage did not measure (a gap in its position
+stream): replay, calibrate and validate leave them out of use and say so, naming the gap
+(model::align_recording, docs/replay.md "Alignment and lag")."""
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from synthetic import STAGE_GAP_WARNING, drop_stage_samples, make_synthetic, run_ok
+
+BURRBENCH = os.environ["BURRBENCH"]
+SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
+
+
+@pytest.fixture(scope="module")
+def exp(tmp_path_factory):
+    base = make_synthetic(tmp_path_factory.mktemp("synthetic") / "exp")
+    manifest, t_a, t_b = drop_stage_samples(base, base.parent / "gap")
+    return base, manifest, t_a, t_b
+
+
+def warnings_of(stderr):
+    return [line for line in stderr.splitlines() if line.startswith("warning: ")]
+
+
+def run(*args):
+    p = subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, timeout=600)
+    assert p.returncode in (0, 1), p.stdout + p.stderr
+    return p
+
+
+def test_replay_takes_the_force_samples_in_the_gap_out_of_use_and_says_so(exp, tmp_path):
+    base, manifest, t_a, t_b = exp
+    whole = run("replay", base / "experiment.toml", "--params", base / "params_true.toml", "--out", tmp_path / "a.h5")
+    assert warnings_of(whole.stderr) == []
+    gap = run("replay", manifest, "--params", manifest.parent / "params_true.toml", "--out", tmp_path / "b.h5")
+    said = warnings_of(gap.stderr)
+    with h5py.File(tmp_path / "a.h5") as a, h5py.File(tmp_path / "b.h5") as b:
+        t = b["recordings/sweep/t_s"][()]
+        inside = (t > t_a) & (t < t_b)  # the manifest's lag is 0: t − lag = t
+        assert 250 < inside.sum() < 310  # 0.3 s at 1 kHz
+        assert not b["recordings/sweep/use"][()][inside].any()
+        assert not b["recordings/sweep/used_validate"][()][inside].any()
+        # Every other sample, and every other recording, is used as before.
+        np.testing.assert_array_equal(b["recordings/sweep/use"][()][~inside], a["recordings/sweep/use"][()][~inside])
+        assert a["recordings/sweep/use"][()][inside].all()
+        for r in ("plunge", "polish"):
+            np.testing.assert_array_equal(b[f"recordings/{r}/use"][()], a[f"recordings/{r}/use"][()])
+    assert len(said) == 1, gap.stderr
+    assert said[0].startswith("warning: " + STAGE_GAP_WARNING + f"{inside.sum()} force samples, in 1 gap(s)"), said
+    assert f"({t_b - t_a:.4g} s without a position sample)" in said[0], said
+
+
+def test_calibrate_and_validate_leave_them_out_and_say_so(exp, tmp_path):
+    base, manifest, t_a, t_b = exp
+    out = run_ok("calibrate", manifest, "--out", tmp_path / "cal", "--starts", 2, "--no-profiles",
+                 "--no-cross-validation", "--no-discretization-check")
+    fit = json.loads((tmp_path / "cal" / "fit.json").read_text())
+    with h5py.File(tmp_path / "cal" / "prediction.h5") as p:
+        t = p["recordings/sweep/t_s"][()]
+    n = int(((t > t_a) & (t < t_b)).sum())
+    # The sweep calibrates: its samples in the gap are among the excluded (none else is).
+    assert fit["residuals_summary"]["samples_excluded"] == n
+    said = [w for w in fit["settings"]["warnings"] if w.startswith(STAGE_GAP_WARNING)]
+    assert len(said) == 1 and said[0].startswith(STAGE_GAP_WARNING + f"{n} force samples"), said
+    assert "warning: " + said[0] in out
+    analysis = json.loads((tmp_path / "cal" / "analysis.json").read_text())
+    assert said[0] in analysis["limitations"]
+
+    gate = run("validate", manifest, "--params", manifest.parent / "params_true.toml", "--criteria",
+               SRC / "examples" / "criteria" / "release.toml", "--out", tmp_path / "gate", "--no-verification")
+    assert ["warning: " + said[0]] == [w for w in warnings_of(gate.stderr) if STAGE_GAP_WARNING in w], gate.stderr
+    analysis = json.loads((tmp_path / "gate" / "analysis.json").read_text())
+    assert said[0] in analysis["limitations"]
