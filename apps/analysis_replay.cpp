@@ -18,14 +18,14 @@ namespace ds = data_schema;
 namespace {
 
 // The analysis series of one recording (one role) from its prediction.
-RecordingSeries series_of(const model::AlignedRecording& r, const ds::RecordingRef& ref,
+RecordingSeries series_of(const model::Experiment& ex, const model::AlignedRecording& r, const ds::RecordingRef& ref,
                           const model::RecordingPrediction& p, const ds::ParameterSet& params) {
   RecordingSeries rs;
   rs.id = r.id;
   rs.sample_id = r.sample_id;
   rs.role = p.role;
   rs.path = r.file.string();
-  rs.sha256 = sha256_file(r.file);
+  rs.sha256 = ex.sha256_of(r.file);
   rs.registration = r.registration.text();
   rs.notes = r.notes;
   rs.quality.dropped_force_samples = r.dropped_force_samples;
@@ -68,6 +68,16 @@ RecordingSeries series_of(const model::AlignedRecording& r, const ds::RecordingR
 AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet& params,
                                 const ds::FitResult* fit, const ReplayInputOptions& opt) {
   const model::Experiment ex = model::load_experiment(manifest);
+  // The analysis of a fit replays the files the fit was made from: one changed since (a
+  // sample re-imported, a recording re-exported) would give a report that contradicts it.
+  if (fit)
+    for (const auto& now : ex.inputs)
+      for (const auto& then : fit->provenance.inputs)
+        if (then.path == now.path && then.sha256 != now.sha256)
+          throw InputError(now.path, "file",
+                           fmt::format("the file the fit was made from (SHA-256 {}… in its fit.json)",
+                                       then.sha256.substr(0, 12)),
+                           fmt::format("changed since (now {}…)", now.sha256.substr(0, 12)));
   // validate pools the listings' samples per role (calibrate has checked before its fit;
   // an older calibrate directory is rendered as it was fitted).
   if (!fit) model::check_each_sample_used_once_per_role(ex);
@@ -80,7 +90,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   in.experiment_name = ex.manifest.name;
   in.experiment_description = ex.manifest.description;
   in.experiment_path = fs::absolute(manifest).string();
-  in.experiment_sha256 = sha256_file(manifest);
+  in.experiment_sha256 = ex.sha256_of(manifest);
   in.context_of_use = opt.context_of_use;
   in.seed = ex.manifest.fit.seed;
   const model::ReplayOptions ropt{};
@@ -184,7 +194,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     const auto& p = pred.recordings[i];
     const auto* ref = ex.manifest.recording(r.id);
     BURRBENCH_CHECK(ref, "aligned recording without manifest entry");
-    RecordingSeries rs = series_of(r, *ref, p, params);
+    RecordingSeries rs = series_of(ex, r, *ref, p, params);
     // A recording whose segments carry both roles appears once per role, each with its
     // own used samples (its fitted nuisances are the recording's, whichever the role).
     const bool cal = std::any_of(r.use_calibrate.begin(), r.use_calibrate.end(), [](auto u) { return u != 0; });
@@ -217,7 +227,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     SampleInfo si;
     si.id = rb.sample_id;
     si.path = sref->path.string();
-    si.sha256 = sha256_file(sref->path);
+    si.sha256 = ex.sha256_of(sref->path);
     si.voxel_mm = rb.voxel_mm;
     si.nx = rb.nx;
     si.ny = rb.ny;
@@ -228,10 +238,9 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     in.samples.push_back(std::move(si));
   }
 
-  std::vector<fs::path> inputs = {manifest};
-  for (const auto& s : ex.manifest.samples) inputs.push_back(s.path);
-  for (const auto& r : ex.manifest.recordings) inputs.push_back(r.path);
-  in.provenance = make_provenance(inputs);
+  // The files as they were read; and none changed while they were replayed.
+  in.provenance = make_provenance_hashed(ex.inputs);
+  check_unchanged(ex.inputs, "the replay");
   if (opt.prediction) *opt.prediction = std::move(pred);
   return in;
 }

@@ -31,7 +31,9 @@ void run(const Args& a) {
   apps::check_step_us(a.step_us);
   const auto t0 = std::chrono::steady_clock::now();
   const model::Experiment e = model::load_experiment(a.experiment);
+  InputFile params_file{a.params, sha256_before_read(a.params)};  // hashed before it is read, as e's files
   const auto params = data_schema::read_params(a.params);
+  if (params_file.sha256.empty()) params_file.sha256 = sha256_file(a.params);
   const model::ModelParams mp = model::ModelParams::from(params);
   model::check_covers(params, e.samples, a.params);
   std::vector<fs::path> inputs{a.experiment, a.params};
@@ -45,7 +47,10 @@ void run(const Args& a) {
     apps::refuse_existing(a.out, "--out", a.overwrite);
     apps::refuse_existing(a.csv, "--csv", a.overwrite);
   }
-  const Provenance prov = make_provenance(inputs);
+  // The files as read; the same order as before (experiment, parameters, samples, recordings).
+  std::vector<InputFile> hashed{e.inputs.front(), params_file};
+  hashed.insert(hashed.end(), e.inputs.begin() + 1, e.inputs.end());
+  const Provenance prov = make_provenance_hashed(hashed);
   model::PredictOptions opt;  // a plain replay: the manifest's lag, nothing added
   opt.replay.step_s = a.step_us * 1e-6;
   opt.replay.erosion = !a.no_erosion;
@@ -74,6 +79,7 @@ void run(const Args& a) {
   data_schema::OutputFiles outputs;  // --out and --csv appear together or not at all
   outputs.write(a.out, [&](const fs::path& p) { model::write_prediction(p, prediction, prov); });
   if (!a.csv.empty()) outputs.write(a.csv, [&](const fs::path& p) { model::write_prediction_csv(p, preds); });
+  check_unchanged(prov.inputs, "replay");  // else the prediction would name files it did not come from
   outputs.commit();
   std::string rem;
   for (int k = 1; k < model::kMaxClasses; ++k) {

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/provenance.hpp"
 #include "pipeline.hpp"
 
 namespace burrbench::calibration {
@@ -123,6 +124,8 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path, const Ca
                                    {"wall_s", std::chrono::duration<double>(t1 - t0).count()},
                                    {"replays", run.exp.recordings.size()}});
   res.fit.solver.wall_s = std::chrono::duration<double>(t1 - t_start).count();
+  // A file replaced while the fit ran: the results would name a file they did not come from.
+  check_unchanged(run.exp.inputs, "calibrate");
   return res;
 }
 

@@ -208,12 +208,10 @@ CalibrationOutput results(Run& run) {
   st["registration"] = reg;
   st["depth_offset_bound_mm"] = 0.5 * run.exp.manifest.burr.radius_mm;
   st["threads"] = run.opt.threads;
-  std::vector<std::filesystem::path> inputs{run.manifest_path};
-  for (const auto& s : run.exp.manifest.samples) inputs.push_back(s.path);
-  for (const auto& r : run.exp.manifest.recordings) inputs.push_back(r.path);
-  out.provenance = make_provenance(inputs);
+  // The files as they were read (hashed then), not as they are now.
+  out.provenance = make_provenance_hashed(run.exp.inputs);
   out.experiment_path = std::filesystem::absolute(run.manifest_path).string();
-  out.experiment_sha256 = sha256_file(run.manifest_path);
+  out.experiment_sha256 = run.exp.sha256_of(run.manifest_path);
 
   // The parameter set holds what the fit held at its optimum; the constants that are not
   // identifiable are flagged in it (never a start value).

@@ -61,6 +61,14 @@ std::string sha256_file(const std::filesystem::path& path) {
   return d.hex();
 }
 
+std::string sha256_before_read(const std::filesystem::path& path) {
+  try {
+    return sha256_file(path);
+  } catch (const InputError&) {
+    return "";
+  }
+}
+
 void set_invocation(int argc, const char* const* argv) {
   std::string s;
   for (int i = 0; i < argc; ++i) {
@@ -73,6 +81,12 @@ void set_invocation(int argc, const char* const* argv) {
 const std::string& invocation() { return invocation_storage(); }
 
 Provenance make_provenance(const std::vector<std::filesystem::path>& inputs) {
+  std::vector<InputFile> hashed;
+  for (const auto& f : inputs) hashed.push_back({f.string(), sha256_file(f)});
+  return make_provenance_hashed(std::move(hashed));
+}
+
+Provenance make_provenance_hashed(std::vector<InputFile> hashed_inputs) {
   Provenance p;
   p.software_version = software_version();
   p.command_line = invocation();
@@ -81,8 +95,22 @@ Provenance make_provenance(const std::vector<std::filesystem::path>& inputs) {
   gmtime_r(&now, &tm);
   p.created_utc = fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z", tm.tm_year + 1900,
                               tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec);
-  for (const auto& f : inputs) p.inputs.push_back({f.string(), sha256_file(f)});
+  p.inputs = std::move(hashed_inputs);
   return p;
+}
+
+void check_unchanged(const std::vector<InputFile>& inputs, const std::string& command) {
+  for (const auto& f : inputs) {
+    std::error_code ec;
+    const bool gone = !std::filesystem::exists(f.path, ec);
+    const std::string now = gone ? "" : sha256_file(f.path);
+    if (now != f.sha256)
+      throw InputError(f.path, "file",
+                       fmt::format("unchanged while {} ran (SHA-256 {}… when read): its results would not describe "
+                                   "the file on disk; nothing was written, run it again",
+                                   command, f.sha256.substr(0, 12)),
+                       gone ? "removed" : fmt::format("changed (now {}…)", now.substr(0, 12)));
+  }
 }
 
 }  // namespace burrbench

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/data_schema/same_file.hpp"
 
 namespace burrbench::model {
@@ -416,14 +417,30 @@ std::string RegistrationSummary::text() const {
 
 Experiment load_experiment(const std::filesystem::path& manifest_path) {
   Experiment e;
+  // Each file is hashed before it is read: a change from then on shows at check_unchanged.
+  // One that cannot be hashed is left to its reader, whose error says what is wrong.
+  const auto hashed = [&](const std::filesystem::path& p) { e.inputs.push_back({p.string(), sha256_before_read(p)}); };
+  hashed(manifest_path);
   e.manifest = data_schema::read_manifest(manifest_path);
-  for (const auto& s : e.manifest.samples)
+  for (const auto& s : e.manifest.samples) {
+    hashed(s.path);
     e.samples.emplace(s.id, data_schema::read_sample(s.path));
+  }
   for (const auto& r : e.manifest.recordings) {
+    hashed(r.path);
     const auto rec = data_schema::read_recording(r.path);
     e.recordings.push_back(align_recording(e.manifest, r, rec, r.path.string()));
   }
+  for (auto& f : e.inputs)
+    if (f.sha256.empty()) f.sha256 = sha256_file(f.path);  // read, yet not hashed: its error
   return e;
+}
+
+const std::string& Experiment::sha256_of(const std::filesystem::path& path) const {
+  for (const auto& f : inputs)
+    if (f.path == path.string()) return f.sha256;
+  BURRBENCH_CHECK(false, "an experiment file that was not read: " + path.string());
+  return inputs.front().sha256;  // not reached
 }
 
 void check_each_sample_used_once_per_role(const Experiment& e) {

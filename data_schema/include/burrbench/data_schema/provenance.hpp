@@ -22,6 +22,9 @@ struct Provenance {
 // Lowercase hex SHA-256 of a file's bytes; InputError if it cannot be read.
 std::string sha256_file(const std::filesystem::path& path);
 std::string sha256_bytes(const void* data, std::size_t size);
+// The SHA-256 of a file about to be read, or "" when it cannot be hashed: its reader then
+// says what is wrong (a file that reads yet could not be hashed: hash it after the read).
+std::string sha256_before_read(const std::filesystem::path& path);
 
 // Stored once by main(); "" in library use (e.g. tests).
 void set_invocation(int argc, const char* const* argv);
@@ -29,5 +32,13 @@ const std::string& invocation();
 
 // A Provenance for "now" with the given input files hashed.
 Provenance make_provenance(const std::vector<std::filesystem::path>& inputs);
+// A Provenance for "now" with inputs hashed before (when they were read).
+Provenance make_provenance_hashed(std::vector<InputFile> hashed_inputs);
+
+// A command's outputs describe its inputs as it read them: before they are committed it
+// hashes each input again, and one that changed meanwhile (a file replaced by another
+// program while a calibration ran) is an InputError naming it — rather than outputs whose
+// SHA-256s name files the results did not come from. `command` names the work ("calibrate").
+void check_unchanged(const std::vector<InputFile>& inputs, const std::string& command);
 
 }  // namespace burrbench

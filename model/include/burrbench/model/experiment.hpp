@@ -168,6 +168,12 @@ struct Experiment {
   data_schema::ExperimentManifest manifest;
   std::map<std::string, data_schema::SampleVolume> samples;
   std::vector<AlignedRecording> recordings;  // manifest order
+  // Every file read, hashed just before it was read: the manifest (as given), then the
+  // samples and the recordings in manifest order. Outputs record these SHA-256s, and
+  // data_schema::check_unchanged tells before they are written whether a file changed since.
+  std::vector<InputFile> inputs;
+  // The SHA-256 taken when `path` (spelled as in `inputs`) was read; InternalError if not read.
+  const std::string& sha256_of(const std::filesystem::path& path) const;
 };
 Experiment load_experiment(const std::filesystem::path& manifest_path);
 
