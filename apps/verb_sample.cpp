@@ -64,7 +64,7 @@ void run_import(const ImportArgs& a) {
   check_out_not_input(a.out, {a.labels, a.fraction, a.ct});
   burrbench::apps::refuse_existing(a.out, "--out", a.overwrite);
   const ImportLimits lim{static_cast<std::size_t>(a.budget_mb * double(1 << 20))};
-  std::vector<fs::path> inputs;
+  Provenance prov;  // the input files hashed once read, before the long work on them
   SampleVolume s;
   nlohmann::json settings;
   std::optional<TerminalProgress> progress;  // a lab CT takes minutes to segment
@@ -72,12 +72,14 @@ void run_import(const ImportArgs& a) {
     const ImageVolume labels = load(a.labels, a, Interpolation::kNearest, lim, "labels");
     std::optional<ImageVolume> fraction;
     if (!a.fraction.empty()) fraction = load(a.fraction, a, Interpolation::kTrilinear, lim, "fraction");
-    s = sample_from_labels(labels, fraction, a.labels, a.fraction);
-    inputs = labels.files;
+    std::vector<fs::path> inputs = labels.files;
     if (fraction) inputs.insert(inputs.end(), fraction->files.begin(), fraction->files.end());
+    prov = make_provenance(inputs);
+    s = sample_from_labels(labels, fraction, a.labels, a.fraction);
     settings = nlohmann::json::parse(s.segmentation_json);
   } else {
     const ImageVolume ct = load(a.ct, a, Interpolation::kTrilinear, lim, "CT");
+    prov = make_provenance(ct.files);
     SegmentationSettings seg = a.seg;
     seg.threshold = a.threshold;
     seg.empty_grey = a.empty_grey;
@@ -87,13 +89,14 @@ void run_import(const ImportArgs& a) {
     Segmentation r = segment_ct(ct, seg, a.ct, &*progress);
     s = std::move(r.sample);
     settings = r.settings_used;
-    inputs = ct.files;
   }
   settings["resampled"] = a.resample || a.voxel_mm > 0;
   if (!a.spacing.empty()) settings["spacing_mm_given"] = a.spacing;
   settings["memory_budget_bytes"] = lim.max_bytes;
   s.segmentation_json = settings.dump();
-  s.provenance = make_provenance(inputs);
+  // A CT re-exported while it was segmented: the sample would name a scan it was not made of.
+  check_unchanged(prov.inputs, "import");
+  s.provenance = make_provenance_hashed(prov.inputs);  // created now, of the files as read
   s.sources = s.provenance.inputs;
   if (progress) progress->stage("write", a.out);
   write_sample(a.out, s, a.encoding == "counter8" ? FractionEncoding::kCounter8 : FractionEncoding::kFloat32);

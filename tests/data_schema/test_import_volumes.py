@@ -271,3 +271,33 @@ def test_synth_same_seed_same_contents(tmp_path):
     core = a["fraction"][:15]
     assert core.mean() == pytest.approx(0.4, abs=2e-3)
     assert set(np.unique(a["labels"][:15])) == {0, 2}
+
+
+def test_a_ct_replaced_while_it_is_segmented_leaves_no_sample(tmp_path):
+    # The sample would carry the SHA-256 of a scan it was not made of: the import stops,
+    # naming the CT, and writes nothing. The CT is replaced (an atomic rename, as an export
+    # would) as soon as its first stage is done; 224³ voxels take ≈ 0.7 s more here, a
+    # margin against a slow reader of the pipe.
+    n = 224
+    rng = np.random.default_rng(2)
+    ct = np.where(rng.random((n, n, n)) < 0.4, 1000, 0).astype(np.int16)
+    ct[: n // 4] = 1000
+    C, other, out = tmp_path / "CT.nrrd", tmp_path / "CT2.nrrd", tmp_path / "S.h5"
+    write_nrrd(C, ct, spacing=(0.05,) * 3)
+    ct[0, 0, 0] = 1  # one voxel differs: another export of the scan
+    write_nrrd(other, ct, spacing=(0.05,) * 3)
+    read = sha(C)
+    p = subprocess.Popen([BURRBENCH, "sample", "import", "--ct", str(C), "--out", str(out)], stderr=subprocess.PIPE,
+                         text=True)
+    lines = []
+    for line in p.stderr:
+        lines.append(line.rstrip("\n"))
+        if line.startswith("import: calibrated"):
+            os.replace(other, C)
+            break
+    lines += p.stderr.read().splitlines()
+    assert p.wait(timeout=300) == 2, "\n".join(lines)
+    assert lines[-1].startswith(f"burrbench: {C}: file: expected unchanged while import ran (SHA-256 {read[:12]}… "
+                                "when read)"), lines[-1]
+    assert lines[-1].endswith(f"got changed (now {sha(C)[:12]}…)"), lines[-1]
+    assert not out.exists() and sorted(f.name for f in tmp_path.iterdir()) == ["CT.nrrd"]
