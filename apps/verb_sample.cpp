@@ -191,13 +191,16 @@ void setup(CLI::App& root) {
     const int n = split ? ra->split : ra->merge;
     if (n < 2 || n > 16)
       throw InputError("command line", split ? "--split" : "--merge", "an integer factor 2..16", std::to_string(n));
+    std::string read_sha = sha256_before_read(ra->in);
     const SampleVolume s = read_sample(ra->in);
+    if (read_sha.empty()) read_sha = sha256_file(ra->in);  // read, yet not hashed before
     TerminalProgress progress("resample");  // after the input is read and checked: a refusal stays one line
     progress.stage(split ? "split" : "merge", split ? fmt::format("every voxel into {}", n * n * n)
                                                     : fmt::format("every block of {} voxels into one", n * n * n));
     SampleVolume r = split ? split_voxels(s, n) : merge_voxels(s, n);
-    r.sources.push_back({std::filesystem::absolute(ra->in).string(), sha256_file(ra->in)});
-    r.provenance = make_provenance({ra->in});
+    check_unchanged({{ra->in, read_sha}}, "resample");
+    r.sources.push_back({std::filesystem::absolute(ra->in).string(), read_sha});
+    r.provenance = make_provenance_hashed({{ra->in, read_sha}});
     progress.stage("write", ra->out);
     write_sample(ra->out, r);
     progress.finish(fmt::format("{} voxels", r.labels.size()));

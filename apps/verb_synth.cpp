@@ -48,9 +48,14 @@ void run(const Args& a) {
     if (!(v >= 0) || !std::isfinite(v)) throw InputError("command line", name, "a finite σ ≥ 0 (N·mm)", fmt::format("{}", v));
   apps::check_step_us(a.step_us);
   refuse_overwriting_inputs(a);
+  // Each input hashed before it is read (the recording's provenance), checked before writing.
+  std::vector<InputFile> read;
+  for (const auto& f : {a.sample, a.protocol, a.params}) read.push_back({f, sha256_before_read(f)});
   const auto sample = data_schema::read_sample(a.sample);
   const auto protocol = model::read_protocol(a.protocol);
   const auto params = data_schema::read_params(a.params);
+  for (auto& f : read)
+    if (f.sha256.empty()) f.sha256 = sha256_file(f.path);  // read, yet not hashed before
   model::SynthOptions o;
   o.noise_N = a.noise_N;
   o.bias_N = {a.bias_N[0], a.bias_N[1], a.bias_N[2]};
@@ -62,13 +67,14 @@ void run(const Args& a) {
   o.spindle_viscous_Nmm_per_krpm = a.spindle_viscous;
   o.seed = a.seed;
   o.replay.step_s = a.step_us * 1e-6;
-  const Provenance prov = make_provenance({a.sample, a.protocol, a.params});
+  const Provenance prov = make_provenance_hashed(read);
   TerminalProgress progress("synth");
   const auto t0 = std::chrono::steady_clock::now();
   auto res = apps::with_step_option(
       a.step_us, [&] { return model::synthesize(sample, protocol, params, o, prov, &progress); });
   res.recording.meta.sample_id = fs::path(a.sample).stem().string();
   const auto truth = model::truth_json(res, sample, protocol, params, o, prov);
+  check_unchanged(prov.inputs, "synth");
   data_schema::OutputFiles outputs;  // the recording and its truth appear together or not at all
   outputs.write(a.out, [&](const fs::path& p) { data_schema::write_recording(p, res.recording); });
   outputs.write(a.truth, [&](const fs::path& p) { data_schema::write_file_atomic(p, truth.dump(2) + "\n"); });
