@@ -171,7 +171,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     in.limitations.push_back(o.text());
     if (opt.warn) fmt::print(stderr, "warning: {}\n", in.limitations.back());
   }
-  for (const std::string& w : model::position_gap_warnings(ex)) {
+  for (const std::string& w : model::alignment_warnings(ex)) {
     in.limitations.push_back(w);
     if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
   }

@@ -75,7 +75,7 @@ void run(const Args& a) {
     std::cout << fmt::format("  {}: {}\n", e.recordings[i].id, e.recordings[i].registration.text());
   }
   for (const model::RemovedOverlap& o : prediction.overlaps) fmt::print(stderr, "warning: {}\n", o.text());
-  for (const std::string& w : model::position_gap_warnings(e)) fmt::print(stderr, "warning: {}\n", w);
+  for (const std::string& w : model::alignment_warnings(e)) fmt::print(stderr, "warning: {}\n", w);
   data_schema::OutputFiles outputs;  // --out and --csv appear together or not at all
   outputs.write(a.out, [&](const fs::path& p) { model::write_prediction(p, prediction, prov); });
   if (!a.csv.empty()) outputs.write(a.csv, [&](const fs::path& p) { model::write_prediction_csv(p, preds); });

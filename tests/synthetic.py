@@ -47,11 +47,12 @@ def drill_plunge_twice(exp, folder):
 PLUNGE_TWICE_WARNING = "Recordings plunge and plunge_again removed the same bone of sample S1: "
 
 
-def drop_stage_samples(exp, folder, recording="sweep", from_s=1.0, to_s=1.3):
-    """A copy of the synthetic experiment `exp` in `folder` whose `recording` lost the stage's
-    position samples strictly between from_s and to_s (seconds from its first force
-    sample), as a stage that stopped answering would. Returns (manifest, t_a, t_b): the
-    stage samples around the gap, in seconds on the same clock."""
+def drop_samples(exp, folder, recording="sweep", from_s=1.0, to_s=1.3, stream="stage"):
+    """A copy of the synthetic experiment `exp` in `folder` whose `recording` lost the samples
+    of `stream` (stage: positions; ft_sensor: forces) strictly between from_s and to_s
+    (seconds from its first force sample), as a device that stopped answering would.
+    Returns (manifest, t_a, t_b): that stream's samples around the gap, in seconds on the
+    same clock."""
     import shutil
 
     import h5py
@@ -60,7 +61,7 @@ def drop_stage_samples(exp, folder, recording="sweep", from_s=1.0, to_s=1.3):
     shutil.copytree(exp, folder)
     with h5py.File(folder / f"{recording}.h5", "r+") as f:
         t0 = f["streams/ft_sensor/t_ns"][0]
-        stage = f["streams/stage"]
+        stage = f["streams/" + stream]
         t = (stage["t_ns"][()] - t0) * 1e-9
         keep = ~((t > from_s) & (t < to_s))
 
@@ -78,5 +79,5 @@ def drop_stage_samples(exp, folder, recording="sweep", from_s=1.0, to_s=1.3):
     return folder / "experiment.toml", kept[kept <= from_s].max(), kept[kept >= to_s].min()
 
 
-# The warning drop_stage_samples's experiment gives, as it begins.
+# The warning drop_samples's experiment gives, as it begins (stage samples dropped).
 STAGE_GAP_WARNING = "Recording sweep: the stage measured no position for "

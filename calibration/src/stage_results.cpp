@@ -31,7 +31,7 @@ CalibrationOutput results(Run& run) {
   out.residuals_summary.samples_excluded = ev.samples_excluded;
   out.residuals_summary.sigma_N = run.settings.sigma_N;
   // Left out of use at alignment (model::align_recording): counted among the excluded.
-  for (const std::string& w : model::position_gap_warnings(run.exp)) run.warnings.push_back(w);
+  for (const std::string& w : model::alignment_warnings(run.exp)) run.warnings.push_back(w);
   out.residuals_summary.rms_normalised =
       ev.residuals_used ? std::sqrt(2 * ev.cost / double(ev.residuals_used)) : NAN;
   // σ comes from the manifest or from samples without contact, never from these

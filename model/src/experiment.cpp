@@ -174,7 +174,49 @@ void mark_position_gaps(AlignedRecording& a) {
   }
 }
 
+// The force stream's long intervals and how far the stage's path inside each left the line
+// the replay erodes along (AlignedRecording::force_gaps). Distances in the rig frame: the
+// registration is rigid, so they are the volume frame's.
+void find_force_gaps(AlignedRecording& a) {
+  const auto& t = a.t_s;
+  if (t.size() < 3) return;
+  std::vector<double> d(t.size() - 1);
+  for (std::size_t k = 0; k + 1 < t.size(); ++k) d[k] = t[k + 1] - t[k];
+  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
+  const double limit_s = kPositionGapFactor * d[d.size() / 2];
+  const auto& ts = a.stage_rig_mm.t_s;
+  for (std::size_t k = 0; k + 1 < t.size(); ++k) {
+    const double T = t[k + 1] - t[k];
+    if (!(T > limit_s)) continue;
+    const double t0 = t[k] - a.lag_s, t1 = t[k + 1] - a.lag_s;
+    const glm::dvec3 p0 = a.stage_rig_mm.at(t0), p1 = a.stage_rig_mm.at(t1);
+    double off = 0;
+    for (auto it = std::upper_bound(ts.begin(), ts.end(), t0); it != ts.end() && *it < t1; ++it) {
+      const double f = (*it - t0) / T;
+      off = std::max(off, glm::length(a.stage_rig_mm.value[std::size_t(it - ts.begin())] - (p0 + f * (p1 - p0))));
+    }
+    a.force_gaps.push_back({t[k], t[k + 1], off});
+  }
+}
+
 }  // namespace
+
+std::string AlignedRecording::force_gap_text(double tolerance_mm) const {
+  std::vector<const ForceGap*> off;
+  for (const auto& g : force_gaps)
+    if (g.off_line_mm > tolerance_mm) off.push_back(&g);
+  if (off.empty()) return "";
+  const ForceGap* worst = *std::max_element(off.begin(), off.end(), [](auto* a, auto* b) {
+    return a->off_line_mm < b->off_line_mm;
+  });
+  return fmt::format(
+      "Recording {}: the sensor gave no force sample for {:.4g} s (t = {:.6g} … {:.6g} s{}), while the stage's path "
+      "left the straight line the replay erodes along by up to {:.4g} mm: the bone removed then is not where the "
+      "burr went, so the forces where it comes back are approximate (leave them out with a segment, or record "
+      "without the gap).",
+      id, worst->to_s - worst->from_s, worst->from_s, worst->to_s,
+      off.size() > 1 ? fmt::format("; {} such gaps in all", off.size()) : "", worst->off_line_mm);
+}
 
 std::size_t AlignedRecording::unmeasured_position_samples() const {
   std::size_t n = 0;
@@ -200,10 +242,14 @@ std::string AlignedRecording::position_gap_text() const {
       fmt::join(listed, "; "));
 }
 
-std::vector<std::string> position_gap_warnings(const Experiment& e) {
+std::vector<std::string> alignment_warnings(const Experiment& e) {
   std::vector<std::string> out;
-  for (const auto& r : e.recordings)
+  for (const auto& r : e.recordings) {
     if (!r.position_gaps.empty()) out.push_back(r.position_gap_text());
+    const auto s = e.samples.find(r.sample_id);
+    const double tol_mm = kForceGapToleranceVoxels * (s != e.samples.end() ? s->second.voxel_mm : 0.0);
+    if (std::string w = r.force_gap_text(tol_mm); !w.empty()) out.push_back(std::move(w));
+  }
   return out;
 }
 
@@ -392,6 +438,7 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     throw InputError(mfile, fmt::format("recordings[{}].lag_ms", index), "a finite number");
   a.lag_s = ref.lag_ms * 1e-3;
   mark_position_gaps(a);
+  find_force_gaps(a);
   if (a.fiducial_fit) {
     // Predicted TRE along the burr's path (volume frame, as the fiducials).
     double ss = 0, mx = 0;

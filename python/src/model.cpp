@@ -215,7 +215,7 @@ void bind_model(py::module_& m) {
           opt.replay.cancel = &cancel;
           opt.progress = pp.get();
           pred = model::predict_experiment(e, mp, opt);
-          gaps = model::position_gap_warnings(e);
+          gaps = model::alignment_warnings(e);
         });
         warn_overlaps(pred.overlaps);  // as `burrbench replay` warns on stderr
         for (const std::string& w : gaps) warn(w);

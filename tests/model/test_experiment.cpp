@@ -328,6 +328,37 @@ TEST(Experiment, ForceSamplesFarBeyondTheStagesEndsAtTheLagAreLeftOutOfUse) {
   EXPECT_TRUE(align_recording(manifest(), manifest().recordings[0], recording(), "rec.h5").position_gaps.empty());
 }
 
+TEST(Experiment, AForceGapSaysHowFarTheStagesPathLeftTheReplaysLine) {
+  // Force samples 50 … 99 missing: the replay erodes along the line from 49 ms to 100 ms.
+  const auto m = manifest();
+  auto rec = recording();
+  auto& ft = rec.streams[0];
+  ft.t_ns.erase(ft.t_ns.begin() + 50, ft.t_ns.begin() + 100);
+  ft.t_send_ns = ft.t_recv_ns = ft.t_ns;
+  ft.stale.resize(ft.t_ns.size());
+  auto& f = ft.channels[0].values;
+  f.erase(f.begin() + 150, f.begin() + 300);
+  const auto a = align_recording(m, m.recordings[0], rec, "rec.h5");
+  ASSERT_EQ(a.force_gaps.size(), 1u);
+  EXPECT_DOUBLE_EQ(a.force_gaps[0].from_s, 0.049);
+  EXPECT_DOUBLE_EQ(a.force_gaps[0].to_s, 0.1);
+  EXPECT_LT(a.force_gaps[0].off_line_mm, 1e-12);  // the stage moves on that line: nothing to say
+  EXPECT_EQ(a.force_gap_text(1e-9), "");
+  EXPECT_TRUE(a.position_gaps.empty());  // its positions are all measured
+  // The stage 0.3 mm off that line at one of its samples inside (t = 60.95 ms, sample 49).
+  auto& p = rec.streams[1].channels[0].values;
+  p[3 * 49 + 1] += 0.3;
+  const auto b = align_recording(m, m.recordings[0], rec, "rec.h5");
+  ASSERT_EQ(b.force_gaps.size(), 1u);
+  EXPECT_NEAR(b.force_gaps[0].off_line_mm, 0.3, 1e-12);
+  EXPECT_EQ(b.force_gap_text(0.5), "");
+  EXPECT_EQ(b.force_gap_text(0.1),
+            "Recording rec: the sensor gave no force sample for 0.051 s (t = 0.049 … 0.1 s), while the stage's path "
+            "left the straight line the replay erodes along by up to 0.3 mm: the bone removed then is not where the "
+            "burr went, so the forces where it comes back are approximate (leave them out with a segment, or record "
+            "without the gap).");
+}
+
 TEST(Experiment, MissingChannelsAreInputErrors) {
   const auto m = manifest();
   auto rec = recording();

@@ -3,13 +3,14 @@ stream): replay, calibrate and validate leave them out of use and say so, naming
 (model::align_recording, docs/replay.md "Alignment and lag")."""
 import json
 import os
+import shutil
 import subprocess
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
-from synthetic import STAGE_GAP_WARNING, drop_stage_samples, make_synthetic, run_ok
+from synthetic import STAGE_GAP_WARNING, drop_samples, make_synthetic, run_ok
 
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
@@ -18,7 +19,7 @@ SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 @pytest.fixture(scope="module")
 def exp(tmp_path_factory):
     base = make_synthetic(tmp_path_factory.mktemp("synthetic") / "exp")
-    manifest, t_a, t_b = drop_stage_samples(base, base.parent / "gap")
+    manifest, t_a, t_b = drop_samples(base, base.parent / "gap")
     return base, manifest, t_a, t_b
 
 
@@ -52,6 +53,26 @@ def test_replay_takes_the_force_samples_in_the_gap_out_of_use_and_says_so(exp, t
     assert len(said) == 1, gap.stderr
     assert said[0].startswith("warning: " + STAGE_GAP_WARNING + f"{inside.sum()} force samples, in 1 gap(s)"), said
     assert f"({t_b - t_a:.4g} s without a position sample)" in said[0], said
+
+
+def test_replay_says_where_the_sensor_was_silent_while_the_stage_left_the_line(exp, tmp_path):
+    # Half a second without force samples in each recording: the plunge and the sweep move
+    # on straight lines, so the replay's line between the samples around the gap is their
+    # path; the polish strokes back and forth, and the bone it removes while the sensor is
+    # silent is not where the burr went.
+    base, _, _, _ = exp
+    folder = base.parent / "silent"
+    manifest, t_a, t_b = drop_samples(base, folder, recording="polish", from_s=1.0, to_s=1.5, stream="ft_sensor")
+    for r in ("plunge", "sweep"):
+        shutil.rmtree(tmp_path / "x", ignore_errors=True)
+        _, _, _ = drop_samples(folder, tmp_path / "x", recording=r, from_s=1.0, to_s=1.5, stream="ft_sensor")
+        shutil.copy(tmp_path / "x" / f"{r}.h5", folder / f"{r}.h5")
+    p = run("replay", manifest, "--params", folder / "params_true.toml", "--out", tmp_path / "p.h5")
+    said = warnings_of(p.stderr)
+    assert len(said) == 1, p.stderr
+    assert said[0].startswith(f"warning: Recording polish: the sensor gave no force sample for {t_b - t_a:.4g} s "
+                              f"(t = {t_a:.6g} … {t_b:.6g} s), while the stage's path left the straight line the "
+                              "replay erodes along by up to "), said
 
 
 def test_calibrate_and_validate_leave_them_out_and_say_so(exp, tmp_path):

@@ -14,7 +14,7 @@ import h5py
 import numpy as np
 import pytest
 
-from synthetic import (BURRBENCH, PLUNGE_TWICE_WARNING, SRC, STAGE_GAP_WARNING, drill_plunge_twice, drop_stage_samples,
+from synthetic import (BURRBENCH, PLUNGE_TWICE_WARNING, SRC, STAGE_GAP_WARNING, drill_plunge_twice, drop_samples,
                        make_synthetic, run_ok)
 
 sys.path.insert(0, str(Path(os.environ["BURRBENCH_BUILD_DIR"]) / "python"))
@@ -192,7 +192,7 @@ def test_replay_and_calibrate_warn_of_two_recordings_that_drilled_one_spot(exp, 
 
 def test_replay_warns_of_force_samples_the_stage_gave_no_position_for(exp, tmp_path):
     # As `burrbench replay` warns on stderr; those samples are out of use.
-    manifest, t_a, t_b = drop_stage_samples(exp, tmp_path / "gap")
+    manifest, t_a, t_b = drop_samples(exp, tmp_path / "gap")
     with pytest.warns(UserWarning) as caught:
         pred = burrbench.replay(manifest, manifest.parent / "params_true.toml")
     t = pred["sweep"]["t_s"]

@@ -105,6 +105,21 @@ struct AlignedRecording {
   std::size_t unmeasured_position_samples() const;
   // One warning line naming the recording, the gaps and the samples left out ("" if none).
   std::string position_gap_text() const;
+  // Stretches without a force sample (consecutive force samples further apart than
+  // kPositionGapFactor × their median interval): the replay erodes along the straight line
+  // between them, as it does between any two samples, while the stage may have gone
+  // elsewhere. off_line_mm: how far the stage's path (its samples inside, at the manifest's
+  // lag) was from where that line puts the burr at the same instant (0 with no stage
+  // sample inside). The bone removed then is where the line went, so the forces where the
+  // burr comes back to it are approximate.
+  struct ForceGap {
+    double from_s = 0, to_s = 0;  // the force samples around it (s, recording clock)
+    double off_line_mm = 0;
+  };
+  std::vector<ForceGap> force_gaps;
+  // One warning line for the force gaps whose stage path left the line by more than
+  // `tolerance_mm` ("" if none).
+  std::string force_gap_text(double tolerance_mm) const;
 
   Series<glm::dvec3> stage_rig_mm;  // stage-reported position (fresh samples only)
   Series<double> spindle_rpm;       // signed: negative = reverse spin
@@ -185,10 +200,12 @@ Experiment load_experiment(const std::filesystem::path& manifest_path);
 // and no overlap warning (a file listed again is one drilling).
 void check_each_sample_used_once_per_role(const Experiment& e);
 
-// The position-gap warning of every recording that has one (AlignedRecording::
-// position_gap_text), in manifest order: what `replay`, `calibrate`, `validate`, `report`
-// and the Python module print.
-std::vector<std::string> position_gap_warnings(const Experiment& e);
+// The warnings of the alignment, in manifest order: every recording's position gaps
+// (AlignedRecording::position_gap_text) and force gaps whose stage path left the replay's
+// line by more than kForceGapToleranceVoxels of its sample's voxel (force_gap_text). What
+// `replay`, `calibrate`, `validate`, `report` and the Python module print.
+inline constexpr double kForceGapToleranceVoxels = 0.1;
+std::vector<std::string> alignment_warnings(const Experiment& e);
 
 // ---- replay of an experiment and its prediction file (format "burrbench.prediction") ----
 
