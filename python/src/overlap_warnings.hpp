@@ -1,6 +1,6 @@
 #pragma once
-// Warnings about the data (two recordings of one sample that removed the same bone, force
-// samples the stage gave no position for) as Python warnings: the CLI
+// Warnings about the data (two recordings of one sample that removed the same bone, the
+// alignment's warnings: model::alignment_warnings) as Python warnings: the CLI
 // prints them on stderr, a script gets a UserWarning it can filter or turn into an error.
 // Call with the GIL held, after the work.
 #include <string>
