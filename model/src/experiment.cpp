@@ -130,16 +130,16 @@ std::vector<std::size_t> fresh(const data_schema::Stream& s) {
 
 double seconds(std::int64_t t_ns, std::int64_t t0_ns) { return double(t_ns - t0_ns) * 1e-9; }
 
+// The median interval between consecutive instants (twice the replay's default step).
+double median_interval_s(const std::vector<double>& t) { return 2 * default_step_s(t); }
+
 // The force samples whose position (at t − lag) the stage did not measure, grouped by the
 // stage's interval they fall in, and taken out of use (AlignedRecording::position_gaps).
 // One position sample gives no interval to judge by: nothing is marked then.
 void mark_position_gaps(AlignedRecording& a) {
   const auto& ts = a.stage_rig_mm.t_s;
   if (ts.size() < 2) return;
-  std::vector<double> d(ts.size() - 1);
-  for (std::size_t i = 0; i + 1 < ts.size(); ++i) d[i] = ts[i + 1] - ts[i];
-  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
-  a.position_period_s = d[d.size() / 2];
+  a.position_period_s = median_interval_s(ts);
   const double limit_s = kPositionGapFactor * a.position_period_s;
   constexpr std::ptrdiff_t kMeasured = -2;
   std::ptrdiff_t current = kMeasured;  // the stage interval of the gap being grouped
@@ -180,10 +180,7 @@ void mark_position_gaps(AlignedRecording& a) {
 void find_force_gaps(AlignedRecording& a) {
   const auto& t = a.t_s;
   if (t.size() < 3) return;
-  std::vector<double> d(t.size() - 1);
-  for (std::size_t k = 0; k + 1 < t.size(); ++k) d[k] = t[k + 1] - t[k];
-  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
-  const double limit_s = kPositionGapFactor * d[d.size() / 2];
+  const double limit_s = kPositionGapFactor * median_interval_s(t);
   const auto& ts = a.stage_rig_mm.t_s;
   for (std::size_t k = 0; k + 1 < t.size(); ++k) {
     const double T = t[k + 1] - t[k];
