@@ -79,6 +79,7 @@ void run(const Args& a) {
                            std::isfinite(study.sigma_N) ? fmt::format("{:.3g} N", study.sigma_N) : "unknown",
                            study.sigma_source);
   std::cout << "verdict: " << study.verdict() << "\n";
+  for (const std::string& w : model::alignment_warnings(e)) fmt::print(stderr, "warning: {}\n", w);
   if (!a.out.empty()) {
     data_schema::write_file_atomic(a.out, model::to_json(study).dump(2) + "\n");
     std::cout << "wrote " << a.out << "\n";

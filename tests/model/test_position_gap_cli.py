@@ -53,6 +53,9 @@ def test_replay_takes_the_force_samples_in_the_gap_out_of_use_and_says_so(exp, t
     assert len(said) == 1, gap.stderr
     assert said[0].startswith("warning: " + STAGE_GAP_WARNING + f"{inside.sum()} force samples, in 1 gap(s)"), said
     assert f"({t_b - t_a:.4g} s without a position sample)" in said[0], said
+    # verify, which leaves them out of its figures too, says the same.
+    checked = run("verify", manifest, "--params", manifest.parent / "params_true.toml")
+    assert warnings_of(checked.stderr) == said, checked.stderr
 
 
 def test_replay_says_where_the_sensor_was_silent_while_the_stage_left_the_line(exp, tmp_path):
