@@ -35,7 +35,7 @@ struct ReplayInputOptions {
   model::ExperimentPrediction* prediction = nullptr;
   int threads = 2;  // recordings replayed at once (the result does not depend on it)
   // Print on stderr the warnings about the data (two recordings that removed the same bone,
-  // force samples the stage gave no position for); the report's limitations name them
+  // the alignment's: model::alignment_warnings); the report's limitations name them
   // either way, and calibrate's summary has already said them.
   bool warn = true;
 };

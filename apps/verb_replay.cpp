@@ -31,9 +31,8 @@ void run(const Args& a) {
   apps::check_step_us(a.step_us);
   const auto t0 = std::chrono::steady_clock::now();
   const model::Experiment e = model::load_experiment(a.experiment);
-  InputFile params_file{a.params, sha256_before_read(a.params)};  // hashed before it is read, as e's files
-  const auto params = data_schema::read_params(a.params);
-  if (params_file.sha256.empty()) params_file.sha256 = sha256_file(a.params);
+  std::vector<InputFile> params_file;  // hashed as it is read, as e's files
+  const auto params = read_hashed(a.params, params_file, data_schema::read_params);
   const model::ModelParams mp = model::ModelParams::from(params);
   model::check_covers(params, e.samples, a.params);
   std::vector<fs::path> inputs{a.experiment, a.params};
@@ -48,7 +47,7 @@ void run(const Args& a) {
     apps::refuse_existing(a.csv, "--csv", a.overwrite);
   }
   // The files as read; the same order as before (experiment, parameters, samples, recordings).
-  std::vector<InputFile> hashed{e.inputs.front(), params_file};
+  std::vector<InputFile> hashed{e.inputs.front(), params_file.front()};
   hashed.insert(hashed.end(), e.inputs.begin() + 1, e.inputs.end());
   const Provenance prov = make_provenance_hashed(hashed);
   model::PredictOptions opt;  // a plain replay: the manifest's lag, nothing added

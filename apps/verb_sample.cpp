@@ -191,16 +191,15 @@ void setup(CLI::App& root) {
     const int n = split ? ra->split : ra->merge;
     if (n < 2 || n > 16)
       throw InputError("command line", split ? "--split" : "--merge", "an integer factor 2..16", std::to_string(n));
-    std::string read_sha = sha256_before_read(ra->in);
-    const SampleVolume s = read_sample(ra->in);
-    if (read_sha.empty()) read_sha = sha256_file(ra->in);  // read, yet not hashed before
+    std::vector<InputFile> read;
+    const SampleVolume s = read_hashed(ra->in, read, read_sample);
     TerminalProgress progress("resample");  // after the input is read and checked: a refusal stays one line
     progress.stage(split ? "split" : "merge", split ? fmt::format("every voxel into {}", n * n * n)
                                                     : fmt::format("every block of {} voxels into one", n * n * n));
     SampleVolume r = split ? split_voxels(s, n) : merge_voxels(s, n);
-    check_unchanged({{ra->in, read_sha}}, "resample");
-    r.sources.push_back({std::filesystem::absolute(ra->in).string(), read_sha});
-    r.provenance = make_provenance_hashed({{ra->in, read_sha}});
+    check_unchanged(read, "resample");
+    r.sources.push_back({std::filesystem::absolute(ra->in).string(), read.front().sha256});
+    r.provenance = make_provenance_hashed(read);
     progress.stage("write", ra->out);
     write_sample(ra->out, r);
     progress.finish(fmt::format("{} voxels", r.labels.size()));

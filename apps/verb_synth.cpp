@@ -48,14 +48,11 @@ void run(const Args& a) {
     if (!(v >= 0) || !std::isfinite(v)) throw InputError("command line", name, "a finite σ ≥ 0 (N·mm)", fmt::format("{}", v));
   apps::check_step_us(a.step_us);
   refuse_overwriting_inputs(a);
-  // Each input hashed before it is read (the recording's provenance), checked before writing.
+  // Each input hashed as it is read (the recording's provenance), checked before writing.
   std::vector<InputFile> read;
-  for (const auto& f : {a.sample, a.protocol, a.params}) read.push_back({f, sha256_before_read(f)});
-  const auto sample = data_schema::read_sample(a.sample);
-  const auto protocol = model::read_protocol(a.protocol);
-  const auto params = data_schema::read_params(a.params);
-  for (auto& f : read)
-    if (f.sha256.empty()) f.sha256 = sha256_file(f.path);  // read, yet not hashed before
+  const auto sample = read_hashed(a.sample, read, data_schema::read_sample);
+  const auto protocol = read_hashed(a.protocol, read, model::read_protocol);
+  const auto params = read_hashed(a.params, read, data_schema::read_params);
   model::SynthOptions o;
   o.noise_N = a.noise_N;
   o.bias_N = {a.bias_N[0], a.bias_N[1], a.bias_N[2]};

@@ -59,18 +59,15 @@ void run(const Args& a) {
   // Everything that can be checked cheaply is checked before the replay. Each file is
   // hashed as it is read: the report records those SHA-256s, and none may change before
   // it is written (check_unchanged).
-  std::string criteria_sha = sha256_before_read(a.criteria), params_sha = sha256_before_read(a.params), fit_sha;
-  const auto criteria = analysis::read_criteria(a.criteria);
-  const auto params = data_schema::read_params(a.params);
+  std::vector<InputFile> read;  // criteria, parameters, fit
+  const auto criteria = read_hashed(a.criteria, read, analysis::read_criteria);
+  const auto params = read_hashed(a.params, read, data_schema::read_params);
   const auto manifest = data_schema::read_manifest(a.experiment);
   std::optional<data_schema::FitResult> fit;
   if (!a.fit.empty()) {
-    fit_sha = sha256_before_read(a.fit);
-    fit = data_schema::read_fit(a.fit);
+    fit = read_hashed(a.fit, read, data_schema::read_fit);
     check_params_from_fit(params, a.params, *fit, a.fit);
   }
-  for (auto [sha, file] : {std::pair{&criteria_sha, &a.criteria}, {&params_sha, &a.params}, {&fit_sha, &a.fit}})
-    if (sha->empty() && !file->empty()) *sha = sha256_file(*file);  // read, yet not hashed before
   // Written whole at the end, or not at all (a failed or interrupted replay leaves nothing).
   data_schema::OutputFolder folder(a.out, "--out", a.overwrite);
   // The criteria and parameters are copied beside the report, unless they already are
@@ -114,14 +111,14 @@ void run(const Args& a) {
                                                                model::ModelParams::from(params), vo, &vp));
   }
   in.params_path = fs::absolute(a.params).string();
-  in.params_sha256 = params_sha;
+  in.params_sha256 = read[1].sha256;
   in.criteria_path = fs::absolute(a.criteria).string();
-  in.criteria_sha256 = criteria_sha;
+  in.criteria_sha256 = read[0].sha256;
   in.provenance.inputs.push_back({in.params_path, in.params_sha256});
   in.provenance.inputs.push_back({in.criteria_path, in.criteria_sha256});
   if (!a.fit.empty()) {
     in.fit_path = fs::absolute(a.fit).string();
-    in.fit_sha256 = fit_sha;
+    in.fit_sha256 = read[2].sha256;
     in.provenance.inputs.push_back({in.fit_path, in.fit_sha256});
     in.calibration["fit"] = in.fit_path;
   }

@@ -47,36 +47,40 @@ def drill_plunge_twice(exp, folder):
 PLUNGE_TWICE_WARNING = "Recordings plunge and plunge_again removed the same bone of sample S1: "
 
 
-def drop_samples(exp, folder, recording="sweep", from_s=1.0, to_s=1.3, stream="stage"):
-    """A copy of the synthetic experiment `exp` in `folder` whose `recording` lost the samples
-    of `stream` (stage: positions; ft_sensor: forces) strictly between from_s and to_s
-    (seconds from its first force sample), as a device that stopped answering would.
-    Returns (manifest, t_a, t_b): that stream's samples around the gap, in seconds on the
-    same clock."""
-    import shutil
-
+def cut_stream(recording, stream, from_s, to_s):
+    """Removes, in place, the samples of `stream` (stage: positions; ft_sensor: forces) of
+    the recording file `recording` strictly between from_s and to_s (seconds from its first
+    force sample), as a device that stopped answering would leave them. Returns (t_a, t_b):
+    that stream's samples around the gap, in seconds on the same clock."""
     import h5py
-    import numpy as np
-    folder = Path(folder)
-    shutil.copytree(exp, folder)
-    with h5py.File(folder / f"{recording}.h5", "r+") as f:
+    with h5py.File(recording, "r+") as f:
         t0 = f["streams/ft_sensor/t_ns"][0]
-        stage = f["streams/" + stream]
-        t = (stage["t_ns"][()] - t0) * 1e-9
+        group = f["streams/" + stream]
+        t = (group["t_ns"][()] - t0) * 1e-9
         keep = ~((t > from_s) & (t < to_s))
 
-        def cut(group):
-            for name in list(group):
-                item = group[name]
+        def cut(g):
+            for name in list(g):
+                item = g[name]
                 if isinstance(item, h5py.Group):
                     cut(item)
                 elif item.shape and item.shape[0] == len(t):
                     data, attrs = item[()][keep], dict(item.attrs)
-                    del group[name]
-                    group.create_dataset(name, data=data).attrs.update(attrs)
-        cut(stage)
+                    del g[name]
+                    g.create_dataset(name, data=data).attrs.update(attrs)
+        cut(group)
     kept = t[keep]
-    return folder / "experiment.toml", kept[kept <= from_s].max(), kept[kept >= to_s].min()
+    return kept[kept <= from_s].max(), kept[kept >= to_s].min()
+
+
+def drop_samples(exp, folder, recording="sweep", from_s=1.0, to_s=1.3, stream="stage"):
+    """A copy of the synthetic experiment `exp` in `folder` whose `recording` lost the samples
+    of `stream` between from_s and to_s (cut_stream). Returns (manifest, t_a, t_b)."""
+    import shutil
+    folder = Path(folder)
+    shutil.copytree(exp, folder)
+    t_a, t_b = cut_stream(folder / f"{recording}.h5", stream, from_s, to_s)
+    return folder / "experiment.toml", t_a, t_b
 
 
 # The warning drop_samples's experiment gives, as it begins (stage samples dropped).

@@ -30,7 +30,7 @@ CalibrationOutput results(Run& run) {
   out.residuals_summary.samples_buried = ev.samples_buried;
   out.residuals_summary.samples_excluded = ev.samples_excluded;
   out.residuals_summary.sigma_N = run.settings.sigma_N;
-  // Left out of use at alignment (model::align_recording): counted among the excluded.
+  // The alignment's warnings; the samples it left out of use count among the excluded.
   for (const std::string& w : model::alignment_warnings(run.exp)) run.warnings.push_back(w);
   out.residuals_summary.rms_normalised =
       ev.residuals_used ? std::sqrt(2 * ev.cost / double(ev.residuals_used)) : NAN;

@@ -461,22 +461,13 @@ std::string RegistrationSummary::text() const {
 
 Experiment load_experiment(const std::filesystem::path& manifest_path) {
   Experiment e;
-  // Each file is hashed before it is read: a change from then on shows at check_unchanged.
-  // One that cannot be hashed is left to its reader, whose error says what is wrong.
-  const auto hashed = [&](const std::filesystem::path& p) { e.inputs.push_back({p.string(), sha256_before_read(p)}); };
-  hashed(manifest_path);
-  e.manifest = data_schema::read_manifest(manifest_path);
-  for (const auto& s : e.manifest.samples) {
-    hashed(s.path);
-    e.samples.emplace(s.id, data_schema::read_sample(s.path));
-  }
+  // Each file is hashed as it is read: a change from then on shows at check_unchanged.
+  e.manifest = read_hashed(manifest_path, e.inputs, data_schema::read_manifest);
+  for (const auto& s : e.manifest.samples) e.samples.emplace(s.id, read_hashed(s.path, e.inputs, data_schema::read_sample));
   for (const auto& r : e.manifest.recordings) {
-    hashed(r.path);
-    const auto rec = data_schema::read_recording(r.path);
+    const auto rec = read_hashed(r.path, e.inputs, data_schema::read_recording);
     e.recordings.push_back(align_recording(e.manifest, r, rec, r.path.string()));
   }
-  for (auto& f : e.inputs)
-    if (f.sha256.empty()) f.sha256 = sha256_file(f.path);  // read, yet not hashed: its error
   return e;
 }
 

@@ -26,6 +26,16 @@ std::string sha256_bytes(const void* data, std::size_t size);
 // says what is wrong (a file that reads yet could not be hashed: hash it after the read).
 std::string sha256_before_read(const std::filesystem::path& path);
 
+// `read(path)`, with the file hashed just before it is read: appends to `hashed` the
+// InputFile that outputs record (the file as read) and check_unchanged compares with.
+template <class Read>
+auto read_hashed(const std::filesystem::path& path, std::vector<InputFile>& hashed, Read&& read) {
+  std::string sha = sha256_before_read(path);
+  auto value = read(path);
+  hashed.push_back({path.string(), sha.empty() ? sha256_file(path) : std::move(sha)});
+  return value;
+}
+
 // Stored once by main(); "" in library use (e.g. tests).
 void set_invocation(int argc, const char* const* argv);
 const std::string& invocation();

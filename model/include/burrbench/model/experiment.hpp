@@ -183,11 +183,11 @@ struct Experiment {
   data_schema::ExperimentManifest manifest;
   std::map<std::string, data_schema::SampleVolume> samples;
   std::vector<AlignedRecording> recordings;  // manifest order
-  // Every file read, hashed just before it was read: the manifest (as given), then the
+  // Every file read, hashed as it was read (read_hashed): the manifest (as given), then the
   // samples and the recordings in manifest order. Outputs record these SHA-256s, and
   // data_schema::check_unchanged tells before they are written whether a file changed since.
   std::vector<InputFile> inputs;
-  // The SHA-256 taken when `path` (spelled as in `inputs`) was read; InternalError if not read.
+  // The SHA-256 taken when `path` (spelled as in `inputs`) was read; InvariantError if not read.
   const std::string& sha256_of(const std::filesystem::path& path) const;
 };
 Experiment load_experiment(const std::filesystem::path& manifest_path);
@@ -203,7 +203,7 @@ void check_each_sample_used_once_per_role(const Experiment& e);
 // The warnings of the alignment, in manifest order: every recording's position gaps
 // (AlignedRecording::position_gap_text) and force gaps whose stage path left the replay's
 // line by more than kForceGapToleranceVoxels of its sample's voxel (force_gap_text). What
-// `replay`, `calibrate`, `validate`, `report` and the Python module print.
+// `replay`, `verify`, `calibrate`, `validate`, `report` and the Python module print.
 inline constexpr double kForceGapToleranceVoxels = 0.1;
 std::vector<std::string> alignment_warnings(const Experiment& e);
 
