@@ -414,14 +414,13 @@ void ReplayRecordingModel::predict_sensitivities(const EvalPoint& at, const std:
         break;
       case ColumnKind::kDepthMm:
         d.kind = model::Direction::Kind::kPath;
-        d.dcentre_vol_mm.assign(size(), -rec_.shaft_axis_vol);  // centre − depth·axis
+        d.dcentre_vol_mm.assign(size() + rec_.via_times.size(), -rec_.shaft_axis_vol);  // centre − depth·axis
         break;
       case ColumnKind::kPose: {
         d.kind = model::Direction::Kind::kPath;
-        const auto tr0 = rec_.trajectory(lag_s, at.depth_mm);  // uncorrected centres
-        d.dcentre_vol_mm.resize(size());
-        for (std::size_t k = 0; k < size(); ++k)
-          d.dcentre_vol_mm[k] = pose.derivative(int(col.label), tr0.centre_vol_mm[k]);
+        // At the uncorrected centres, the vias' too.
+        for (const auto& c : rec_.trajectory(lag_s, at.depth_mm).path_centres_vol_mm())
+          d.dcentre_vol_mm.push_back(pose.derivative(int(col.label), c));
         break;
       }
     }

@@ -61,13 +61,23 @@ Trajectory AlignedRecording::trajectory(double lag, double depth_offset_mm,
     if (pose) tr.centre_vol_mm[k] = pose->apply(tr.centre_vol_mm[k]);
     tr.omega_vol_rad_s[k] = omega_vol_rad_s(spindle_rpm.at(tau));
   }
+  for (const auto& v : via_times) {
+    const double tau = v.t_s - lag;
+    glm::dvec3 c = centre_vol_mm(stage_rig_mm.at(tau), depth_offset_mm);
+    if (pose) c = pose->apply(c);
+    tr.vias.push_back({v.after, v.t_s, c, omega_vol_rad_s(spindle_rpm.at(tau))});
+  }
   return tr;
 }
 
 std::vector<glm::dvec3> AlignedRecording::dcentre_dlag_ms(double lag) const {
-  std::vector<glm::dvec3> d(t_s.size());
-  for (std::size_t k = 0; k < t_s.size(); ++k)  // centre(t − lag): d/dlag = −R·stage'
-    d[k] = -1e-3 * (rig_to_vol.R * stage_rig_mm.slope(t_s[k] - lag));
+  std::vector<glm::dvec3> d;
+  d.reserve(t_s.size() + via_times.size());
+  auto at = [&](double t) {  // centre(t − lag): d/dlag = −R·stage'
+    d.push_back(-1e-3 * (rig_to_vol.R * stage_rig_mm.slope(t - lag)));
+  };
+  for (double t : t_s) at(t);
+  for (const auto& v : via_times) at(v.t_s);
   return d;
 }
 
@@ -174,46 +184,22 @@ void mark_position_gaps(AlignedRecording& a) {
   }
 }
 
-// The force stream's long intervals and how far the stage's path inside each left the line
-// the replay erodes along (AlignedRecording::force_gaps). Distances in the rig frame: the
-// registration is rigid, so they are the volume frame's.
-void find_force_gaps(AlignedRecording& a) {
+// The times inside the force stream's long intervals at which the trajectory follows the
+// stage (AlignedRecording::via_times): where the missing force samples would have been, at
+// the stream's median interval. They depend on the force times only, not on the lag.
+void find_via_times(AlignedRecording& a) {
   const auto& t = a.t_s;
   if (t.size() < 3) return;
-  const double limit_s = kPositionGapFactor * median_interval_s(t);
-  const auto& ts = a.stage_rig_mm.t_s;
+  const double period_s = median_interval_s(t);
   for (std::size_t k = 0; k + 1 < t.size(); ++k) {
     const double T = t[k + 1] - t[k];
-    if (!(T > limit_s)) continue;
-    const double t0 = t[k] - a.lag_s, t1 = t[k + 1] - a.lag_s;
-    const glm::dvec3 p0 = a.stage_rig_mm.at(t0), p1 = a.stage_rig_mm.at(t1);
-    double off = 0;
-    for (auto it = std::upper_bound(ts.begin(), ts.end(), t0); it != ts.end() && *it < t1; ++it) {
-      const double f = (*it - t0) / T;
-      off = std::max(off, glm::length(a.stage_rig_mm.value[std::size_t(it - ts.begin())] - (p0 + f * (p1 - p0))));
-    }
-    a.force_gaps.push_back({t[k], t[k + 1], off});
+    if (!(T > kPositionGapFactor * period_s)) continue;
+    const std::size_t m = std::size_t(std::llround(T / period_s));
+    for (std::size_t j = 1; j < m; ++j) a.via_times.push_back({k, t[k] + T * double(j) / double(m)});
   }
 }
 
 }  // namespace
-
-std::string AlignedRecording::force_gap_text(double tolerance_mm) const {
-  std::vector<const ForceGap*> off;
-  for (const auto& g : force_gaps)
-    if (g.off_line_mm > tolerance_mm) off.push_back(&g);
-  if (off.empty()) return "";
-  const ForceGap* worst = *std::max_element(off.begin(), off.end(), [](auto* a, auto* b) {
-    return a->off_line_mm < b->off_line_mm;
-  });
-  return fmt::format(
-      "Recording {}: the sensor gave no force sample for {:.4g} s (t = {:.6g} … {:.6g} s{}), while the stage's path "
-      "left the straight line the replay erodes along by up to {:.4g} mm: the bone removed then is not where the "
-      "burr went, so the forces where it comes back are approximate (leave them out with a segment, or record "
-      "without the gap).",
-      id, worst->to_s - worst->from_s, worst->from_s, worst->to_s,
-      off.size() > 1 ? fmt::format("; {} such gaps in all", off.size()) : "", worst->off_line_mm);
-}
 
 std::size_t AlignedRecording::unmeasured_position_samples() const {
   std::size_t n = 0;
@@ -243,9 +229,6 @@ std::vector<std::string> alignment_warnings(const Experiment& e) {
   std::vector<std::string> out;
   for (const auto& r : e.recordings) {
     if (!r.position_gaps.empty()) out.push_back(r.position_gap_text());
-    const auto s = e.samples.find(r.sample_id);
-    const double tol_mm = kForceGapToleranceVoxels * (s != e.samples.end() ? s->second.voxel_mm : 0.0);
-    if (std::string w = r.force_gap_text(tol_mm); !w.empty()) out.push_back(std::move(w));
   }
   return out;
 }
@@ -435,7 +418,7 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     throw InputError(mfile, fmt::format("recordings[{}].lag_ms", index), "a finite number");
   a.lag_s = ref.lag_ms * 1e-3;
   mark_position_gaps(a);
-  find_force_gaps(a);
+  find_via_times(a);
   if (a.fiducial_fit) {
     // Predicted TRE along the burr's path (volume frame, as the fiducials).
     double ss = 0, mx = 0;

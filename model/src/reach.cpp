@@ -13,7 +13,7 @@ std::optional<VoxelBox> reach_box(const data_schema::SampleVolume& s, const Traj
   if (tr.centre_vol_mm.empty()) return std::nullopt;
   VoxelBox box;
   glm::dvec3 lo = tr.centre_vol_mm.front(), hi = lo;
-  for (const auto& p : tr.centre_vol_mm) {
+  for (const auto& p : tr.path_centres_vol_mm()) {  // the vias too: the burr erodes there
     lo = glm::min(lo, p);
     hi = glm::max(hi, p);
   }

@@ -14,6 +14,12 @@
 
 namespace burrbench::model {
 
+std::vector<glm::dvec3> Trajectory::path_centres_vol_mm() const {
+  std::vector<glm::dvec3> out = centre_vol_mm;
+  for (const auto& v : vias) out.push_back(v.centre_vol_mm);
+  return out;
+}
+
 namespace {
 
 void check_trajectory(const Trajectory& tr) {
@@ -31,6 +37,19 @@ void check_trajectory(const Trajectory& tr) {
     if (i > 0 && !(tr.t_s[i] > tr.t_s[i - 1]))
       throw InputError(file, "t_s[" + std::to_string(i) + "]", "strictly increasing times",
                        fmt::format("{} after {}", tr.t_s[i], tr.t_s[i - 1]));
+  }
+  for (std::size_t v = 0; v < tr.vias.size(); ++v) {
+    const auto& via = tr.vias[v];
+    const std::string field = "vias[" + std::to_string(v) + "]";
+    if (!std::isfinite(via.t_s) || !std::isfinite(via.centre_vol_mm.x + via.centre_vol_mm.y + via.centre_vol_mm.z) ||
+        !std::isfinite(via.omega_vol_rad_s.x + via.omega_vol_rad_s.y + via.omega_vol_rad_s.z))
+      throw InputError(file, field, "finite time, centre and omega");
+    const double after_s = v > 0 && tr.vias[v - 1].after == via.after ? tr.vias[v - 1].t_s
+                           : via.after < n ? tr.t_s[via.after] : NAN;
+    if (!(via.after + 1 < n && via.t_s > after_s && via.t_s < tr.t_s[via.after + 1]) ||
+        (v > 0 && via.after < tr.vias[v - 1].after))
+      throw InputError(file, field, "a time inside its interval, after the via before it",
+                       fmt::format("t = {} after sample {}", via.t_s, via.after));
   }
 }
 
@@ -83,9 +102,9 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   if (sens) {
     const auto& dirs = *opt.directions;
     for (std::size_t j = 0; j < dirs.size(); ++j)
-      if (dirs[j].kind == Direction::Kind::kPath && dirs[j].dcentre_vol_mm.size() != n)
+      if (dirs[j].kind == Direction::Kind::kPath && dirs[j].dcentre_vol_mm.size() != n + tr.vias.size())
         throw InputError("replay", fmt::format("directions[{}].dcentre_vol_mm", j),
-                         fmt::format("one entry per trajectory sample ({})", n),
+                         fmt::format("one entry per trajectory sample and via ({})", n + tr.vias.size()),
                          std::to_string(dirs[j].dcentre_vol_mm.size()));
     if (dirs.size() > kMaxDirections)
       throw InputError("replay", "directions", fmt::format("at most {}", kMaxDirections),
@@ -102,14 +121,19 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
       dT.assign(P, glm::dvec3(0));
     }
   }
-  // ∂p/∂θ_j at a fraction f of interval k (linear, like the centre).
-  auto path_at = [&](std::size_t k, double f) {
+  // ∂p/∂θ_j at a fraction f of the way from path point a to b (linear, like the centre;
+  // points numbered as in path_centres_vol_mm).
+  auto path_at = [&](std::size_t a, std::size_t b, double f) {
     for (std::size_t j = 0; j < plan.carried.size(); ++j) {
       if (plan.carried[j].kind != Direction::Kind::kPath) continue;
       const auto& d = (*opt.directions)[plan.requested_of[j]].dcentre_vol_mm;
-      dp[j] = f == 0 ? d[k] : d[k] + f * (d[k + 1] - d[k]);
+      dp[j] = f == 0 ? d[a] : d[a] + f * (d[b] - d[a]);
     }
   };
+  struct Point { std::size_t index; double t_s; glm::dvec3 centre, omega; };
+  auto sample_point = [&](std::size_t k) { return Point{k, tr.t_s[k], tr.centre_vol_mm[k], tr.omega_vol_rad_s[k]}; };
+  std::vector<Point> points;  // one interval's: its samples and the vias between them
+  std::size_t next_via = 0;
   auto record = [&](std::size_t k) {
     for (std::size_t j = 0; j < dF.size(); ++j) carried.dforce_N[j][k] = dF[j];
     for (std::size_t j = 0; j < dT.size(); ++j) carried.dmoment_Nmm[j][k] = dT[j];
@@ -123,7 +147,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
         res.samples[k].contact =
             evaluate(vol, tr.centre_vol_mm[k], tr.omega_vol_rad_s[k], radius_mm, params);
         if (sens) {
-          path_at(k, 0);
+          path_at(k, k, 0);
           tan->differentiate(vol, res.samples[k].contact, dp.data(), false, dF.data(),
                             moments ? dT.data() : nullptr);
           record(k);
@@ -131,27 +155,36 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
       }
       if (k + 1 == n) break;
       if (!opt.erosion) continue;
-      // Sub-steps of the interval: forward Euler, the force at the sub-step's start erodes
+      // The interval's pieces: from sample k through its vias to sample k + 1.
+      points.assign(1, sample_point(k));
+      for (; next_via < tr.vias.size() && tr.vias[next_via].after == k; ++next_via) {
+        const auto& v = tr.vias[next_via];
+        points.push_back({n + next_via, v.t_s, v.centre_vol_mm, v.omega_vol_rad_s});
+      }
+      points.push_back(sample_point(k + 1));
+      // Sub-steps of each piece: forward Euler, the force at the sub-step's start erodes
       // over the sub-step; the first sub-step's contact is the one reported at t_k.
-      const double T = tr.t_s[k + 1] - tr.t_s[k];
-      const std::size_t m = std::max<std::size_t>(1, std::size_t(std::ceil(T / h - 1e-9)));
-      const double dt = T / double(m);
-      const glm::dvec3 p0 = tr.centre_vol_mm[k], dpk = tr.centre_vol_mm[k + 1] - p0;
-      const glm::dvec3 w0 = tr.omega_vol_rad_s[k], dw = tr.omega_vol_rad_s[k + 1] - w0;
-      for (std::size_t j = 0; j < m; ++j) {
-        const double f = double(j) / double(m);
-        ContactResult c = step(vol, p0 + f * dpk, w0 + f * dw, radius_mm, params, dt,
-                               res.removed_mm3, &res.friction_energy_mJ);
-        if (sens) {
-          path_at(k, f);
-          // Only the first sub-step's force is reported; the others just advance the tangents.
-          const bool reported = j == 0;
-          tan->differentiate(vol, c, dp.data(), true, reported ? dF.data() : nullptr,
-                             reported && moments ? dT.data() : nullptr);
-          if (reported) record(k);
+      for (std::size_t i = 0; i + 1 < points.size(); ++i) {
+        const Point &a = points[i], &b = points[i + 1];
+        const double T = b.t_s - a.t_s;
+        const std::size_t m = std::max<std::size_t>(1, std::size_t(std::ceil(T / h - 1e-9)));
+        const double dt = T / double(m);
+        const glm::dvec3 dpk = b.centre - a.centre, dw = b.omega - a.omega;
+        for (std::size_t j = 0; j < m; ++j) {
+          const double f = double(j) / double(m);
+          const bool reported = i == 0 && j == 0;
+          ContactResult c = step(vol, a.centre + f * dpk, a.omega + f * dw, radius_mm, params, dt,
+                                 res.removed_mm3, &res.friction_energy_mJ);
+          if (sens) {
+            path_at(a.index, b.index, f);
+            // Only the first sub-step's force is reported; the others just advance the tangents.
+            tan->differentiate(vol, c, dp.data(), true, reported ? dF.data() : nullptr,
+                               reported && moments ? dT.data() : nullptr);
+            if (reported) record(k);
+          }
+          if (reported) res.samples[k].contact = c;
+          ++res.steps;
         }
-        if (j == 0) res.samples[k].contact = c;
-        ++res.steps;
       }
       if (progress && (k % 1024 == 0))
         progress->update(double(k) / double(n), fmt::format("sample {}/{}", k, n));

@@ -37,7 +37,7 @@ ds::SampleVolume within_reach(const ds::SampleVolume& s, const std::vector<const
   for (const AlignedRecording* r : recs) {
     const Trajectory tr = r->trajectory(r->lag_s, 0.0);
     const double margin = r->radius_mm + 4 * s.voxel_mm;
-    for (const glm::dvec3& c : tr.centre_vol_mm) {
+    for (const glm::dvec3& c : tr.path_centres_vol_mm()) {
       lo_mm = glm::min(lo_mm, c - margin);
       hi_mm = glm::max(hi_mm, c + margin);
     }

@@ -328,35 +328,45 @@ TEST(Experiment, ForceSamplesFarBeyondTheStagesEndsAtTheLagAreLeftOutOfUse) {
   EXPECT_TRUE(align_recording(manifest(), manifest().recordings[0], recording(), "rec.h5").position_gaps.empty());
 }
 
-TEST(Experiment, AForceGapSaysHowFarTheStagesPathLeftTheReplaysLine) {
-  // Force samples 50 … 99 missing: the replay erodes along the line from 49 ms to 100 ms.
+TEST(Experiment, TheTrajectoryFollowsTheStageAcrossAGapInTheForceStream) {
+  // Force samples 50 … 99 missing (a sensor that dropped out), and the stage 0.3 mm off the
+  // line from 49 ms to 100 ms at one of its samples inside (t = 60.95 ms, sample 49): the
+  // trajectory passes where the full recording's did at the missing times, not along the line.
   const auto m = manifest();
-  auto rec = recording();
-  auto& ft = rec.streams[0];
+  auto full = recording();
+  full.streams[1].channels[0].values[3 * 49 + 1] += 0.3;
+  auto cut = full;
+  auto& ft = cut.streams[0];
   ft.t_ns.erase(ft.t_ns.begin() + 50, ft.t_ns.begin() + 100);
   ft.t_send_ns = ft.t_recv_ns = ft.t_ns;
   ft.stale.resize(ft.t_ns.size());
   auto& f = ft.channels[0].values;
   f.erase(f.begin() + 150, f.begin() + 300);
-  const auto a = align_recording(m, m.recordings[0], rec, "rec.h5");
-  ASSERT_EQ(a.force_gaps.size(), 1u);
-  EXPECT_DOUBLE_EQ(a.force_gaps[0].from_s, 0.049);
-  EXPECT_DOUBLE_EQ(a.force_gaps[0].to_s, 0.1);
-  EXPECT_LT(a.force_gaps[0].off_line_mm, 1e-12);  // the stage moves on that line: nothing to say
-  EXPECT_EQ(a.force_gap_text(1e-9), "");
-  EXPECT_TRUE(a.position_gaps.empty());  // its positions are all measured
-  // The stage 0.3 mm off that line at one of its samples inside (t = 60.95 ms, sample 49).
-  auto& p = rec.streams[1].channels[0].values;
-  p[3 * 49 + 1] += 0.3;
-  const auto b = align_recording(m, m.recordings[0], rec, "rec.h5");
-  ASSERT_EQ(b.force_gaps.size(), 1u);
-  EXPECT_NEAR(b.force_gaps[0].off_line_mm, 0.3, 1e-12);
-  EXPECT_EQ(b.force_gap_text(0.5), "");
-  EXPECT_EQ(b.force_gap_text(0.1),
-            "Recording rec: the sensor gave no force sample for 0.051 s (t = 0.049 … 0.1 s), while the stage's path "
-            "left the straight line the replay erodes along by up to 0.3 mm: the bone removed then is not where the "
-            "burr went, so the forces where it comes back are approximate (leave them out with a segment, or record "
-            "without the gap).");
+  const auto a = align_recording(m, m.recordings[0], full, "rec.h5");
+  const auto b = align_recording(m, m.recordings[0], cut, "rec.h5");
+  EXPECT_TRUE(a.via_times.empty());
+  EXPECT_TRUE(b.position_gaps.empty());  // its positions are all measured
+  ASSERT_EQ(b.via_times.size(), 50u);
+  for (std::size_t j = 0; j < 50; ++j) {
+    EXPECT_EQ(b.via_times[j].after, 49u);
+    EXPECT_NEAR(b.via_times[j].t_s, a.t_s[50 + j], 1e-12);
+  }
+  for (const double lag_s : {0.0, 0.0023}) {
+    const auto ta = a.trajectory(lag_s, 0.1), tb = b.trajectory(lag_s, 0.1);
+    ASSERT_EQ(tb.vias.size(), 50u);
+    const auto da = a.dcentre_dlag_ms(lag_s), db = b.dcentre_dlag_ms(lag_s);
+    ASSERT_EQ(db.size(), 150u + 50u);  // the samples', then the vias'
+    double off_line_mm = 0;
+    for (std::size_t j = 0; j < 50; ++j) {
+      const auto& v = tb.vias[j];
+      EXPECT_NEAR(glm::length(v.centre_vol_mm - ta.centre_vol_mm[50 + j]), 0, 1e-12) << j;
+      EXPECT_NEAR(glm::length(v.omega_vol_rad_s - ta.omega_vol_rad_s[50 + j]), 0, 1e-9) << j;
+      EXPECT_NEAR(glm::length(db[150 + j] - da[50 + j]), 0, 1e-12) << j;
+      const double f = (v.t_s - tb.t_s[49]) / (tb.t_s[50] - tb.t_s[49]);
+      off_line_mm = std::max(off_line_mm, glm::length(v.centre_vol_mm - glm::mix(tb.centre_vol_mm[49], tb.centre_vol_mm[50], f)));
+    }
+    EXPECT_GT(off_line_mm, 0.15) << "the vias follow the stage off the line";
+  }
 }
 
 TEST(Experiment, MissingChannelsAreInputErrors) {

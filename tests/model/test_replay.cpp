@@ -121,6 +121,39 @@ TEST(Replay, StepsAndSampleTimes) {
   EXPECT_EQ(r2.samples[50].contact.force_N, c50.force_N);
 }
 
+// A via is a point the burr passes without a reported contact: samples 40 … 59 made vias
+// give bit-identical contacts at every other sample and the same removal, where the line
+// from sample 39 to 60 (the replay before vias) erodes elsewhere.
+TEST(Replay, ViasAreFollowedLikeSamplesButNotReported) {
+  const auto s = scenes::half_space(40, 40, 40, 0.05, {0, 0, 1}, 1.5 + 0.025 - 0.05);
+  const auto full = wobble(101, 20.0);  // 0.8 mm in x over the gap
+  const auto gap = scenes::with_vias(full, 40, 60);
+  ASSERT_EQ(gap.t_s.size(), 81u);
+  ASSERT_EQ(gap.vias.size(), 20u);
+  bm::Volume v = bm::Volume::from_sample(s);
+  const auto rf = bm::replay(v, 0.5, params(), full), rg = bm::replay(v, 0.5, params(), gap);
+  ASSERT_EQ(rg.samples.size(), 81u);
+  EXPECT_EQ(rg.steps, rf.steps);
+  for (std::size_t k = 0; k < 81; ++k)
+    EXPECT_EQ(rg.samples[k].contact.force_N, rf.samples[k < 40 ? k : k + 20].contact.force_N) << k;
+  EXPECT_EQ(rg.removed_mm3, rf.removed_mm3);
+  auto line = gap;
+  line.vias.clear();
+  const auto rl = bm::replay(v, 0.5, params(), line);
+  EXPECT_GT(glm::length(rl.samples[40].contact.force_N - rg.samples[40].contact.force_N),
+            1e-3 * glm::length(rg.samples[40].contact.force_N));
+  // A via outside its interval, or out of order, is refused.
+  auto bad = gap;
+  bad.vias[3].t_s = bad.t_s[41];
+  EXPECT_THROW(bm::replay(v, 0.5, params(), bad), burrbench::InputError);
+  bad = gap;
+  std::swap(bad.vias[3], bad.vias[4]);
+  EXPECT_THROW(bm::replay(v, 0.5, params(), bad), burrbench::InputError);
+  bad = gap;
+  bad.vias[0].after = 80;
+  EXPECT_THROW(bm::replay(v, 0.5, params(), bad), burrbench::InputError);
+}
+
 TEST(Replay, BadTrajectoriesAreRejected) {
   bm::Volume v = bm::Volume::from_sample(scenes::half_space(8, 8, 8, 0.1, {0, 0, 1}, 0.35));
   auto tr = wobble(10, 1000.0);

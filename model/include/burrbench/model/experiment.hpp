@@ -106,20 +106,16 @@ struct AlignedRecording {
   // One warning line naming the recording, the gaps and the samples left out ("" if none).
   std::string position_gap_text() const;
   // Stretches without a force sample (consecutive force samples further apart than
-  // kPositionGapFactor × their median interval): the replay erodes along the straight line
-  // between them, as it does between any two samples, while the stage may have gone
-  // elsewhere. off_line_mm: how far the stage's path (its samples inside, at the manifest's
-  // lag) was from where that line puts the burr at the same instant (0 with no stage
-  // sample inside). The bone removed then is where the line went, so the forces where the
-  // burr comes back to it are approximate.
-  struct ForceGap {
-    double from_s = 0, to_s = 0;  // the force samples around it (s, recording clock)
-    double off_line_mm = 0;
+  // kPositionGapFactor × their median interval: a sensor that dropped out, a FIFO overrun)
+  // while the stage kept moving. A straight line from one force sample's centre to the next
+  // would erode the bone where the burr never went (a stroke back and forth becomes a
+  // point), so the trajectory passes through the stage's path at these times: the missing
+  // samples' times, at the force stream's median interval (Trajectory::vias).
+  struct ViaTime {
+    std::size_t after = 0;  // the force sample before it
+    double t_s = 0;         // recording clock
   };
-  std::vector<ForceGap> force_gaps;
-  // One warning line for the force gaps whose stage path left the line by more than
-  // `tolerance_mm` ("" if none).
-  std::string force_gap_text(double tolerance_mm) const;
+  std::vector<ViaTime> via_times;
 
   Series<glm::dvec3> stage_rig_mm;  // stage-reported position (fresh samples only)
   Series<double> spindle_rpm;       // signed: negative = reverse spin
@@ -141,13 +137,14 @@ struct AlignedRecording {
   glm::dvec3 centre_vol_mm(const glm::dvec3& stage_rig_mm, double depth_offset_mm = 0) const;
   glm::dvec3 omega_vol_rad_s(double rpm) const;
 
-  // The trajectory at the force timestamps for a lag (s) and depth offset (mm): cheap
-  // re-interpolation, no file I/O. Use this in fits.
+  // The trajectory at the force timestamps, and through the stage's path at via_times, for
+  // a lag (s) and depth offset (mm): cheap re-interpolation, no file I/O. Use this in fits.
   // With `pose`, every centre is corrected by it (the registration's pose nuisance).
   Trajectory trajectory(double lag_s, double depth_offset_mm = 0,
                         const PoseCorrection* pose = nullptr) const;
   Trajectory trajectory() const { return trajectory(lag_s, 0); }
-  // ∂(burr centre, volume frame)/∂lag in mm per ms at each force sample, for the replay's
+  // ∂(burr centre, volume frame)/∂lag in mm per ms at each force sample and then at each
+  // via (Direction::dcentre_vol_mm's order), for the replay's
   // forward sensitivities (Series::slope of the stage path; ω's dependence on the lag
   // through the rpm is not included). ∂centre/∂depth_offset is −shaft_axis_vol.
   std::vector<glm::dvec3> dcentre_dlag_ms(double lag_s) const;
@@ -201,10 +198,8 @@ Experiment load_experiment(const std::filesystem::path& manifest_path);
 void check_each_sample_used_once_per_role(const Experiment& e);
 
 // The warnings of the alignment, in manifest order: every recording's position gaps
-// (AlignedRecording::position_gap_text) and force gaps whose stage path left the replay's
-// line by more than kForceGapToleranceVoxels of its sample's voxel (force_gap_text). What
-// `replay`, `verify`, `calibrate`, `validate`, `report` and the Python module print.
-inline constexpr double kForceGapToleranceVoxels = 0.1;
+// (AlignedRecording::position_gap_text). What `replay`, `verify`, `calibrate`, `validate`,
+// `report` and the Python module print.
 std::vector<std::string> alignment_warnings(const Experiment& e);
 
 // ---- replay of an experiment and its prediction file (format "burrbench.prediction") ----

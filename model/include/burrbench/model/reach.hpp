@@ -17,7 +17,7 @@
 namespace burrbench::model {
 
 // The rows (along x, whole) holding every voxel within radius_mm + η + margin_mm of any
-// centre of `tr`, clamped to the grid; none when no voxel is in reach (an empty path, or
+// centre of `tr` (its vias too), clamped to the grid; none when no voxel is in reach (an empty path, or
 // one wholly outside the sample): any volume then replays as the whole sample does.
 std::optional<VoxelBox> reach_box(const data_schema::SampleVolume& sample, const Trajectory& tr,
                                   double radius_mm, double margin_mm = 0);

@@ -18,6 +18,17 @@ struct Trajectory {                          // the burr's path in the VOLUME fr
   std::vector<double> t_s;                   // sample times, strictly increasing
   std::vector<glm::dvec3> centre_vol_mm;     // burr centre at each t
   std::vector<glm::dvec3> omega_vol_rad_s;   // angular velocity vector at each t
+  // Points the path passes through between two samples, where a straight line from one
+  // sample to the next would not be where the burr went: the stage's path across a long
+  // gap of the force stream (AlignedRecording::via_times). No contact is reported at a via.
+  struct Via {
+    std::size_t after = 0;  // it lies strictly inside (t_s[after], t_s[after + 1])
+    double t_s = 0;
+    glm::dvec3 centre_vol_mm{0}, omega_vol_rad_s{0};
+  };
+  std::vector<Via> vias;                     // in time order
+  // Every point's centre: the samples', then the vias' (the order of Direction::dcentre_vol_mm).
+  std::vector<glm::dvec3> path_centres_vol_mm() const;
 };
 
 struct ReplayOptions {
@@ -57,11 +68,12 @@ double default_step_s(const std::vector<double>& t_s);
 // the step itself, so its step error would read 0).
 double replay_step_s(double step_s, const std::vector<double>& t_s);
 
-// Each sample interval [t_k, t_k+1] is split into n = ceil(Δt_k/step) equal sub-steps;
-// position and ω are interpolated linearly; the contact reported at t_k is evaluated on
-// the volume as eroded up to t_k. Replays from the volume's current state; leaves the
+// Each sample interval [t_k, t_k+1] (each of its pieces between vias, when it has some) is
+// split into n = ceil(Δt/step) equal sub-steps; position and ω are interpolated linearly;
+// the contact reported at t_k is evaluated on the volume as eroded up to t_k. Replays from the volume's current state; leaves the
 // volume ERODED unless `restore` is true (then rolls back through the undo log).
-// Bad trajectory (sizes differ, times not strictly increasing, non-finite) or bad
+// Bad trajectory (sizes differ, times not strictly increasing, non-finite, a via outside
+// its interval or out of order) or bad
 // radius/step → InputError.
 ReplayResult replay(Volume&, double radius_mm, const ModelParams&, const Trajectory&,
                     const ReplayOptions& = {}, bool restore = true,

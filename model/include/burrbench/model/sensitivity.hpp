@@ -20,7 +20,8 @@ struct Direction {  // one parameter θ_j the replay is differentiated in
   Kind kind = Kind::kLogC1;
   std::uint8_t label = 0;  // class label for kLogAlpha / kLogC1 / kLogMu
   // kPath: ∂p/∂θ of the burr centre (volume frame, mm per unit θ) at every trajectory
-  // sample; between samples it is interpolated linearly like the centre itself.
+  // sample, then at every via (Trajectory::path_centres_vol_mm's order); between points it
+  // is interpolated linearly like the centre itself.
   std::vector<glm::dvec3> dcentre_vol_mm;
 };
 
