@@ -3,7 +3,6 @@
 #include <bit>
 #include <cmath>
 #include <limits>
-#include <cmath>
 
 #include "burrbench/data_schema/error.hpp"
 
@@ -68,6 +67,17 @@ bool status_invalid(const DeviceSpec& d, std::span<const std::uint16_t> regs, in
   return (word & d.status->invalid_mask) != 0;
 }
 
+bool at_rail(double raw, ValueType type) {
+  switch (type) {
+    case ValueType::Int16: return std::abs(raw) >= 32767;
+    case ValueType::Int32: return std::abs(raw) >= 2147483647.0;
+    case ValueType::UInt16: return raw >= 65535;
+    case ValueType::UInt32: return raw >= 4294967295.0;
+    case ValueType::Float32: return false;  // NaN and ±Inf are flagged as non-finite
+  }
+  return false;
+}
+
 bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, int base,
                     std::span<double> out) {
   BURRBENCH_CHECK(out.size() == ch.registers.size(), "one output per column");
@@ -84,9 +94,10 @@ bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, 
     BURRBENCH_CHECK(at >= 0 && at + n <= static_cast<int>(regs.size()), "checked by the map");
     const double scale = ch.scale.size() == 1 ? ch.scale[0] : ch.scale[i];
     const double offset = ch.offset.size() == 1 ? ch.offset[0] : ch.offset[i];
-    double v = decode_raw(regs.data() + at, ch.type, ch.order) * scale + offset;
+    const double raw = decode_raw(regs.data() + at, ch.type, ch.order);
+    double v = raw * scale + offset;
     if (negate) v = -v;
-    if (!std::isfinite(v) || (ch.min && v < *ch.min) || (ch.max && v > *ch.max)) {
+    if (!std::isfinite(v) || at_rail(raw, ch.type) || (ch.min && v < *ch.min) || (ch.max && v > *ch.max)) {
       ok = false;
       v = std::numeric_limits<double>::quiet_NaN();
     }

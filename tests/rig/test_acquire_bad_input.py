@@ -76,14 +76,41 @@ def test_nan_and_out_of_range_values_are_flagged(tmp_path):
     assert np.all(ft["channels"]["sample_flags"].reshape(-1).astype(int) & 1)
     assert np.all(np.isnan(ft["channels"]["force_N"]))
     # The int16 registers of the same sample hold the rig's substitutes (NaN → 0, ±Inf →
-    # limit), decoded as served; a configured range catches the one beyond it.
-    np.testing.assert_array_equal(ft["channels"]["force_int16_N"][0], [0.0, 327.67])  # -327.67 is Fz
+    # the type's limit): 0 is decoded as served, a value at the register's rail is flagged
+    # (at_rail), and a configured range catches the one beyond it.
+    assert ft["channels"]["force_int16_N"][0][0] == 0.0
+    assert np.isnan(ft["channels"]["force_int16_N"][0][1])
     assert np.all(np.isnan(ft["channels"]["fz_checked_N"]))
     # Raw registers are kept, so the flagged values can be inspected.
     assert ft["raw_registers"].size == n * 42
     # Positions stay finite (the stage's int32 saturates): stage samples are valid.
     stage = rec["stage"]
     assert np.all(np.isfinite(stage["channels"]["position_mm"]))
+
+
+def test_values_at_their_registers_rail_are_flagged(tmp_path):
+    # A sensor that clips holds its register at the rail (int16 ±32767, int32's limits,
+    # uint16 65535) however far beyond the true value lies: such a number is a bound, not a
+    # measurement, and must not reach a fit as a force or a position.
+    with start_virtual_rig(["--pattern", "saturate", "--rate-hz", "50"]) as (proc, host, port):
+        body = (rh.tcp_device("ft_sensor", port, 9, 180, 42, 100, rh.FT_CHANNELS, counter=220)
+                + rh.tcp_device("stage", port, 1, 0, 8, 100, rh.STAGE_CHANNELS, counter=6)
+                + rh.tcp_device("spindle", port, 2, 0, 5, 100, rh.SPINDLE_CHANNELS))
+        out = rh.acquire(tmp_path, rh.write_map(tmp_path, body), 1.0)
+    rec = rh.read_recording(out)
+    ft = rec["ft_sensor"]
+    assert ft["t_ns"].size > 20
+    i16 = ft["channels"]["force_int16_N"]  # served 32767, −32767, 50
+    assert np.isnan(i16[:, :2]).all() and np.all(i16[:, 2] == 0.5)
+    assert np.all(ft["stale"] == 1)
+    assert np.all(ft["channels"]["sample_flags"].reshape(-1).astype(int) & 1)
+    # The float32 force (400, −400, 0.5 N) is a real reading: no rail in a float.
+    np.testing.assert_array_equal(np.unique(ft["channels"]["force_N"], axis=0), [[400.0, -400.0, 0.5]])
+    stage = rec["stage"]  # int32 limits in x and y
+    assert np.all(stage["stale"] == 1)
+    assert np.all(stage["channels"]["position_mm"] == 0)  # positions stay finite: 0
+    spindle = rec["spindle"]  # 65535 rpm
+    assert np.all(spindle["stale"] == 1) and np.isnan(spindle["channels"]["spindle_rpm"]).all()
 
 
 def test_outputs_never_replace_inputs(tmp_path):

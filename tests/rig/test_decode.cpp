@@ -96,6 +96,35 @@ TEST(Decode, ChannelScaleOffsetNegateAndFlags) {
   EXPECT_DOUBLE_EQ(out[2], 1.05);  // the valid columns keep their values
 }
 
+// A clipped register's number is a bound, not a reading: flagged for every integer type at
+// its rail, while the value one count inside it, unsigned zero and any float pass.
+TEST(Decode, ValuesAtTheirRegistersRailAreFlagged) {
+  EXPECT_TRUE(at_rail(32767, ValueType::Int16));
+  EXPECT_TRUE(at_rail(-32767, ValueType::Int16));  // the FT 300's
+  EXPECT_TRUE(at_rail(-32768, ValueType::Int16));
+  EXPECT_FALSE(at_rail(32766, ValueType::Int16));
+  EXPECT_FALSE(at_rail(-32766, ValueType::Int16));
+  EXPECT_TRUE(at_rail(2147483647.0, ValueType::Int32));
+  EXPECT_TRUE(at_rail(-2147483648.0, ValueType::Int32));
+  EXPECT_FALSE(at_rail(2147483646.0, ValueType::Int32));
+  EXPECT_TRUE(at_rail(65535, ValueType::UInt16));
+  EXPECT_FALSE(at_rail(0, ValueType::UInt16));
+  EXPECT_FALSE(at_rail(65534, ValueType::UInt16));
+  EXPECT_TRUE(at_rail(4294967295.0, ValueType::UInt32));
+  EXPECT_FALSE(at_rail(0, ValueType::UInt32));
+  EXPECT_FALSE(at_rail(3.4e38, ValueType::Float32));
+  ChannelSpec c;
+  c.type = ValueType::Int16;
+  c.registers = {0, 1, 2};
+  c.scale = {0.01};
+  const std::uint16_t regs[] = {0x7FFF, 0x8001, 0x7FFE};  // 32767, −32767, 32766
+  double out[3];
+  EXPECT_FALSE(decode_channel(c, regs, 0, out));
+  EXPECT_TRUE(std::isnan(out[0]));
+  EXPECT_TRUE(std::isnan(out[1]));
+  EXPECT_DOUBLE_EQ(out[2], 327.66);  // one count inside the rail is a reading
+}
+
 TEST(Decode, PerAxisScaleAndOffset) {
   ChannelSpec c;
   c.type = ValueType::Int16;

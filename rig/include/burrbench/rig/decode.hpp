@@ -32,8 +32,15 @@ std::int64_t counter_range(ValueType type);  // 2^16 or 2^32
 // True when the device's status word (if it has one) marks this sample invalid.
 bool status_invalid(const DeviceSpec& d, std::span<const std::uint16_t> regs, int base);
 
+// True for an integer register at its type's rail: int16 ±32767 and −32768, int32 likewise,
+// uint16 65535, uint32 2^32 − 1. A sensor or a converter that clips holds its register
+// there however far beyond the true value lies (the FT 300 gives −32767), so the number
+// is a bound, not a measurement. Unsigned zero is a real reading (a stopped spindle).
+bool at_rail(double raw, ValueType type);
+
 // Decode one channel from a sample's registers (base = address of regs[0]).
-// Returns false when a value is NaN/Inf or outside [min, max]; such values are NaN.
+// Returns false when a value is NaN/Inf, at its register's rail or outside [min, max];
+// such values are NaN.
 bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, int base,
                     std::span<double> out);
 
