@@ -51,7 +51,8 @@ def cut_stream(recording, stream, from_s, to_s):
     """Removes, in place, the samples of `stream` (stage: positions; ft_sensor: forces) of
     the recording file `recording` strictly between from_s and to_s (seconds from its first
     force sample), as a device that stopped answering would leave them. Returns (t_a, t_b):
-    that stream's samples around the gap, in seconds on the same clock."""
+    that stream's samples around the gap, in seconds on the same clock (None where the cut
+    reaches the stream's end)."""
     import h5py
     with h5py.File(recording, "r+") as f:
         t0 = f["streams/ft_sensor/t_ns"][0]
@@ -70,7 +71,8 @@ def cut_stream(recording, stream, from_s, to_s):
                     g.create_dataset(name, data=data).attrs.update(attrs)
         cut(group)
     kept = t[keep]
-    return kept[kept <= from_s].max(), kept[kept >= to_s].min()
+    before, after = kept[kept <= from_s], kept[kept >= to_s]
+    return before.max() if before.size else None, after.min() if after.size else None
 
 
 def drop_samples(exp, folder, recording="sweep", from_s=1.0, to_s=1.3, stream="stage"):

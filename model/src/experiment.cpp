@@ -184,13 +184,20 @@ void mark_position_gaps(AlignedRecording& a) {
   }
 }
 
-// The times inside the force stream's long intervals at which the trajectory follows the
-// stage (AlignedRecording::via_times): where the missing force samples would have been, at
-// the stream's median interval. They depend on the force times only, not on the lag.
+// The times at which the trajectory follows the stage where the force stream is silent
+// (AlignedRecording::via_times): where the missing force samples would have been, at the
+// stream's median interval, inside its long intervals and before its first sample back to
+// the stage's first (at the manifest's lag). They do not move with a fitted lag.
 void find_via_times(AlignedRecording& a) {
   const auto& t = a.t_s;
-  if (t.size() < 3) return;
+  if (t.size() < 3 || a.stage_rig_mm.t_s.empty()) return;
   const double period_s = median_interval_s(t);
+  const double lead_s = t[0] - a.lag_s - a.stage_rig_mm.t_s.front();
+  if (lead_s > kPositionGapFactor * period_s) {
+    const std::size_t m = std::size_t(std::llround(lead_s / period_s));
+    for (std::size_t j = m; j >= 1; --j)
+      a.via_times.push_back({Trajectory::Via::kBeforeFirst, t[0] - lead_s * double(j) / double(m)});
+  }
   for (std::size_t k = 0; k + 1 < t.size(); ++k) {
     const double T = t[k + 1] - t[k];
     if (!(T > kPositionGapFactor * period_s)) continue;

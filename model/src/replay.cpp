@@ -44,12 +44,17 @@ void check_trajectory(const Trajectory& tr) {
     if (!std::isfinite(via.t_s) || !std::isfinite(via.centre_vol_mm.x + via.centre_vol_mm.y + via.centre_vol_mm.z) ||
         !std::isfinite(via.omega_vol_rad_s.x + via.omega_vol_rad_s.y + via.omega_vol_rad_s.z))
       throw InputError(file, field, "finite time, centre and omega");
-    const double after_s = v > 0 && tr.vias[v - 1].after == via.after ? tr.vias[v - 1].t_s
-                           : via.after < n ? tr.t_s[via.after] : NAN;
-    if (!(via.after + 1 < n && via.t_s > after_s && via.t_s < tr.t_s[via.after + 1]) ||
-        (v > 0 && via.after < tr.vias[v - 1].after))
+    // Inside its interval (before the first sample for kBeforeFirst), after the via before it.
+    const bool lead = via.after == Trajectory::Via::kBeforeFirst;
+    const bool inside = n > 0 && (lead ? via.t_s < tr.t_s[0]
+                                       : via.after + 1 < n && via.t_s > tr.t_s[via.after] && via.t_s < tr.t_s[via.after + 1]);
+    const bool ordered = v == 0 || (via.t_s > tr.vias[v - 1].t_s &&
+                                    (lead ? tr.vias[v - 1].after == via.after
+                                          : tr.vias[v - 1].after == Trajectory::Via::kBeforeFirst || tr.vias[v - 1].after <= via.after));
+    if (!inside || !ordered)
       throw InputError(file, field, "a time inside its interval, after the via before it",
-                       fmt::format("t = {} after sample {}", via.t_s, via.after));
+                       lead ? fmt::format("t = {} before the first sample", via.t_s)
+                            : fmt::format("t = {} after sample {}", via.t_s, via.after));
   }
 }
 
@@ -87,9 +92,9 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   if (n == 0) return res;
   const double h = replay_step_s(opt.step_s, tr.t_s);
   // Refuse step counts that could not finish (e.g. a 1 ns step over an hour).
-  if (n > 1 && (tr.t_s.back() - tr.t_s.front()) / h > 1e9)
-    throw InputError("replay", "step_s", "at most 1e9 internal steps",
-                     fmt::format("{} s over {} s", h, tr.t_s.back() - tr.t_s.front()));
+  const double span_s = tr.t_s.back() - std::min(tr.t_s.front(), tr.vias.empty() ? INFINITY : tr.vias.front().t_s);
+  if (n > 1 && span_s / h > 1e9)
+    throw InputError("replay", "step_s", "at most 1e9 internal steps", fmt::format("{} s over {} s", h, span_s));
   // Forward sensitivities: a tangent state beside the undo log (it lives for this replay).
   // It carries only the directions that do not follow exactly from others (direction_plan.hpp).
   const bool sens = opt.directions && opt.sensitivities;
@@ -139,8 +144,47 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
     for (std::size_t j = 0; j < dT.size(); ++j) carried.dmoment_Nmm[j][k] = dT[j];
     reached[k] = tan->reached_classes();
   };
+  // Erodes along `points` (each piece in sub-steps: forward Euler, the force at a
+  // sub-step's start erodes over the sub-step). With `report` < n, the first sub-step's
+  // contact is the one reported at sample `report`; the others just advance the tangents.
+  constexpr std::size_t kNoReport = std::size_t(-1);
+  auto erode_along = [&](std::size_t report) {
+    for (std::size_t i = 0; i + 1 < points.size(); ++i) {
+      const Point &a = points[i], &b = points[i + 1];
+      const double T = b.t_s - a.t_s;
+      const std::size_t m = std::max<std::size_t>(1, std::size_t(std::ceil(T / h - 1e-9)));
+      const double dt = T / double(m);
+      const glm::dvec3 dpk = b.centre - a.centre, dw = b.omega - a.omega;
+      for (std::size_t j = 0; j < m; ++j) {
+        const double f = double(j) / double(m);
+        const bool reported = report != kNoReport && i == 0 && j == 0;
+        ContactResult c = step(vol, a.centre + f * dpk, a.omega + f * dw, radius_mm, params, dt,
+                               res.removed_mm3, &res.friction_energy_mJ);
+        if (sens) {
+          path_at(a.index, b.index, f);
+          tan->differentiate(vol, c, dp.data(), true, reported ? dF.data() : nullptr,
+                             reported && moments ? dT.data() : nullptr);
+          if (reported) record(report);
+        }
+        if (reported) res.samples[report].contact = c;
+        ++res.steps;
+      }
+      if (opt.cancel && i % 64 == 63) opt.cancel->check();
+    }
+  };
+  auto via_point = [&](std::size_t v) {
+    return Point{n + v, tr.vias[v].t_s, tr.vias[v].centre_vol_mm, tr.vias[v].omega_vol_rad_s};
+  };
   if (restore) vol.begin_undo();
   try {
+    // The path before the first sample (a sensor that started late): eroded, not reported.
+    points.clear();
+    for (; next_via < tr.vias.size() && tr.vias[next_via].after == Trajectory::Via::kBeforeFirst; ++next_via)
+      points.push_back(via_point(next_via));
+    if (!points.empty() && opt.erosion) {
+      points.push_back(sample_point(0));
+      erode_along(kNoReport);
+    }
     for (std::size_t k = 0; k < n; ++k) {
       if (opt.cancel && k % 64 == 0) opt.cancel->check();
       if (k + 1 == n || !opt.erosion) {
@@ -157,35 +201,9 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
       if (!opt.erosion) continue;
       // The interval's pieces: from sample k through its vias to sample k + 1.
       points.assign(1, sample_point(k));
-      for (; next_via < tr.vias.size() && tr.vias[next_via].after == k; ++next_via) {
-        const auto& v = tr.vias[next_via];
-        points.push_back({n + next_via, v.t_s, v.centre_vol_mm, v.omega_vol_rad_s});
-      }
+      for (; next_via < tr.vias.size() && tr.vias[next_via].after == k; ++next_via) points.push_back(via_point(next_via));
       points.push_back(sample_point(k + 1));
-      // Sub-steps of each piece: forward Euler, the force at the sub-step's start erodes
-      // over the sub-step; the first sub-step's contact is the one reported at t_k.
-      for (std::size_t i = 0; i + 1 < points.size(); ++i) {
-        const Point &a = points[i], &b = points[i + 1];
-        const double T = b.t_s - a.t_s;
-        const std::size_t m = std::max<std::size_t>(1, std::size_t(std::ceil(T / h - 1e-9)));
-        const double dt = T / double(m);
-        const glm::dvec3 dpk = b.centre - a.centre, dw = b.omega - a.omega;
-        for (std::size_t j = 0; j < m; ++j) {
-          const double f = double(j) / double(m);
-          const bool reported = i == 0 && j == 0;
-          ContactResult c = step(vol, a.centre + f * dpk, a.omega + f * dw, radius_mm, params, dt,
-                                 res.removed_mm3, &res.friction_energy_mJ);
-          if (sens) {
-            path_at(a.index, b.index, f);
-            // Only the first sub-step's force is reported; the others just advance the tangents.
-            tan->differentiate(vol, c, dp.data(), true, reported ? dF.data() : nullptr,
-                               reported && moments ? dT.data() : nullptr);
-            if (reported) record(k);
-          }
-          if (reported) res.samples[k].contact = c;
-          ++res.steps;
-        }
-      }
+      erode_along(k);
       if (progress && (k % 1024 == 0))
         progress->update(double(k) / double(n), fmt::format("sample {}/{}", k, n));
     }

@@ -369,6 +369,30 @@ TEST(Experiment, TheTrajectoryFollowsTheStageAcrossAGapInTheForceStream) {
   }
 }
 
+TEST(Experiment, TheTrajectoryFollowsTheStageBeforeALateFirstForceSample) {
+  // The sensor's first 30 samples missing (it started at 30 ms): the stage's path from its
+  // own first sample (−0.3 ms) is followed at the force's interval (30.3 ms in 30 steps).
+  const auto m = manifest();
+  auto rec = recording();
+  auto& ft = rec.streams[0];
+  ft.t_ns.erase(ft.t_ns.begin(), ft.t_ns.begin() + 30);
+  ft.t_send_ns = ft.t_recv_ns = ft.t_ns;
+  ft.stale.resize(ft.t_ns.size());
+  ft.channels[0].values.erase(ft.channels[0].values.begin(), ft.channels[0].values.begin() + 90);
+  const auto a = align_recording(m, m.recordings[0], rec, "rec.h5");
+  ASSERT_EQ(a.via_times.size(), 30u);  // 30.3 ms at 1 ms, rounded
+  const double t0 = a.t_s[0];
+  for (std::size_t j = 0; j < 30; ++j) {
+    EXPECT_EQ(a.via_times[j].after, Trajectory::Via::kBeforeFirst);
+    EXPECT_NEAR(a.via_times[j].t_s, t0 - 0.0303 * double(30 - j) / 30, 1e-12) << j;
+  }
+  const auto tr = a.trajectory(0.0, 0.0);
+  EXPECT_NEAR(glm::length(tr.vias.front().centre_vol_mm - a.centre_vol_mm(stage_at(-0.0003))), 0, 1e-12);
+  EXPECT_NEAR(glm::length(tr.vias.back().centre_vol_mm - a.centre_vol_mm(stage_at(0.030 - 0.0303 / 30))), 0, 1e-12);
+  // A sensor that starts with the stage has none.
+  EXPECT_TRUE(align_recording(m, m.recordings[0], recording(), "rec.h5").via_times.empty());
+}
+
 TEST(Experiment, MissingChannelsAreInputErrors) {
   const auto m = manifest();
   auto rec = recording();

@@ -38,14 +38,15 @@ inline burrbench::model::ModelParams one_class(double c1, double mu, double alph
 }
 
 // `tr` with its samples [from, to) turned into vias (a force sensor that dropped out while
-// the burr moved on), and `d` (one entry per sample of `tr`) in the same order: the
-// remaining samples', then the vias'.
+// the burr moved on; from 0: one that started late), and `d` (one entry per sample of `tr`)
+// in the same order: the remaining samples', then the vias'.
 inline burrbench::model::Trajectory with_vias(const burrbench::model::Trajectory& tr, std::size_t from,
                                               std::size_t to) {
   burrbench::model::Trajectory out;
   for (std::size_t k = 0; k < tr.t_s.size(); ++k) {
     if (k >= from && k < to) {
-      out.vias.push_back({from - 1, tr.t_s[k], tr.centre_vol_mm[k], tr.omega_vol_rad_s[k]});
+      out.vias.push_back({from == 0 ? burrbench::model::Trajectory::Via::kBeforeFirst : from - 1, tr.t_s[k],
+                          tr.centre_vol_mm[k], tr.omega_vol_rad_s[k]});
       continue;
     }
     out.t_s.push_back(tr.t_s[k]);

@@ -1,6 +1,8 @@
 """Force samples whose burr position the stage did not measure (a gap in its position
-stream): replay, calibrate and validate leave them out of use and say so, naming the gap
-(model::align_recording, docs/replay.md "Alignment and lag")."""
+stream): replay, calibrate and validate leave them out of use and say so, naming the gap.
+Stretches the force sensor was silent through while the stage moved (a gap, a late start):
+the replay follows the stage's path through them (model::align_recording, docs/replay.md
+"Alignment and lag")."""
 import json
 import os
 import subprocess
@@ -81,6 +83,27 @@ def test_the_replay_follows_the_stage_where_the_sensor_was_silent(exp, tmp_path)
             fb = b[f"recordings/{r}/force_sensor_pred_N"][()]
             assert np.abs(fa).max() > 0.1, r  # the burr cuts bone
             np.testing.assert_allclose(fb, fa, rtol=0, atol=1e-9, err_msg=r)
+
+
+def test_the_replay_follows_the_stage_before_a_sensor_that_started_late(exp, tmp_path):
+    # The polish's sensor starts 1.5 s after its stage, while the burr already cut: a replay
+    # from the first force sample would cut into whole bone (its prediction moved by up to
+    # 0.33 N, more than the largest force, before 2026-11-29). It follows the stage's path
+    # from the stage's first sample instead.
+    base, _, _, _ = exp
+    folder = base.parent / "late"
+    manifest, t_a, t_b = drop_samples(base, folder, recording="polish", from_s=-1.0, to_s=1.5, stream="ft_sensor")
+    assert t_a is None and t_b == pytest.approx(1.5)
+    whole = run("replay", base / "experiment.toml", "--params", base / "params_true.toml", "--out", tmp_path / "a.h5")
+    p = run("replay", manifest, "--params", folder / "params_true.toml", "--out", tmp_path / "p.h5")
+    assert warnings_of(p.stderr) == [], p.stderr
+    with h5py.File(tmp_path / "a.h5") as a, h5py.File(tmp_path / "p.h5") as b:
+        tb = b["recordings/polish/t_s"][()]  # from the late first sample: 0, 1 ms, ...
+        fb = b["recordings/polish/force_sensor_pred_N"][()]
+        fa = a["recordings/polish/force_sensor_pred_N"][()][-len(tb):]
+        np.testing.assert_allclose(a["recordings/polish/t_s"][()][-len(tb):] - 1.5, tb, atol=1e-9)
+        assert np.abs(fa).max() > 0.1
+        np.testing.assert_allclose(fb, fa, rtol=0, atol=1e-9)
 
 
 def test_calibrate_and_validate_leave_them_out_and_say_so(exp, tmp_path):

@@ -154,6 +154,31 @@ TEST(Replay, ViasAreFollowedLikeSamplesButNotReported) {
   EXPECT_THROW(bm::replay(v, 0.5, params(), bad), burrbench::InputError);
 }
 
+// Vias before the first sample (a sensor that started late while the burr cut): the bone
+// removed along them is gone when the first contact is reported, as in the full replay.
+TEST(Replay, ViasBeforeTheFirstSampleErodeAheadOfIt) {
+  const auto s = scenes::half_space(40, 40, 40, 0.05, {0, 0, 1}, 1.5 + 0.025 - 0.05);
+  const auto full = wobble(101, 20.0);
+  const auto late = scenes::with_vias(full, 0, 30);
+  ASSERT_EQ(late.vias.size(), 30u);
+  bm::Volume v = bm::Volume::from_sample(s);
+  const auto rf = bm::replay(v, 0.5, params(), full), rl = bm::replay(v, 0.5, params(), late);
+  ASSERT_EQ(rl.samples.size(), 71u);
+  EXPECT_EQ(rl.steps, rf.steps);
+  for (std::size_t k = 0; k < 71; ++k) EXPECT_EQ(rl.samples[k].contact.force_N, rf.samples[k + 30].contact.force_N) << k;
+  EXPECT_EQ(rl.removed_mm3, rf.removed_mm3);
+  auto none = late;
+  none.vias.clear();  // the replay before vias: the bone cut before the first sample is whole
+  EXPECT_GT(glm::length(bm::replay(v, 0.5, params(), none).samples[0].contact.force_N - rl.samples[0].contact.force_N),
+            1e-3 * glm::length(rl.samples[0].contact.force_N));
+  auto bad = late;
+  bad.vias.back().t_s = bad.t_s[0];  // not before the first sample
+  EXPECT_THROW(bm::replay(v, 0.5, params(), bad), burrbench::InputError);
+  bad = late;  // a lead-in after an interval's via
+  bad.vias.insert(bad.vias.begin(), {39, 0.5 * (bad.t_s[39] + bad.t_s[40]), bad.centre_vol_mm[39], bad.omega_vol_rad_s[39]});
+  EXPECT_THROW(bm::replay(v, 0.5, params(), bad), burrbench::InputError);
+}
+
 TEST(Replay, BadTrajectoriesAreRejected) {
   bm::Volume v = bm::Volume::from_sample(scenes::half_space(8, 8, 8, 0.1, {0, 0, 1}, 0.35));
   auto tr = wobble(10, 1000.0);

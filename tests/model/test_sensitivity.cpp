@@ -224,18 +224,24 @@ TEST(Sensitivity, ErodingReplayMatchesCentralDifferences) {
 // the path directions are carried through the vias (their own ∂p/∂θ, not the line's between
 // the samples around them). At every sample left, the sensitivities are those of the full
 // sweep (the same steps, only fewer reported), and they match central differences.
-TEST(Sensitivity, PathDirectionsThroughViasMatchCentralDifferences) {
+// With the first 100 samples missing instead (a sensor that started late mid-plunge), the
+// same holds for vias before the first sample.
+class ViaSensitivity : public testing::TestWithParam<std::size_t> {};
+
+TEST_P(ViaSensitivity, PathDirectionsThroughViasMatchCentralDifferences) {
+  const std::size_t from = GetParam(), to = from + (from == 0 ? 100 : 60), cut = to - from;
   const auto s = scenes::half_space(40, 40, 30, 0.1, {0, 0, 1}, 2.0);
   const auto prm = scenes::one_class(12.0, 0.4, 2000.0);
   auto full = sweep(300, 0.3);
-  for (std::size_t k = 150; k < 210; ++k) full.centre_vol_mm[k].y += 0.3 * std::sin(M_PI * double(k - 150) / 60);
-  const auto tr = scenes::with_vias(full, 150, 210);
+  auto arch = [&](std::size_t k) { return std::sin(M_PI * double(k - from) / double(cut)); };
+  for (std::size_t k = from; k < to; ++k) full.centre_vol_mm[k].y += 0.3 * arch(k);
+  const auto tr = scenes::with_vias(full, from, to);
   std::vector<glm::dvec3> bump(300, glm::dvec3(0));  // moves the stroke (the vias) only
-  for (std::size_t k = 150; k < 210; ++k) bump[k] = {0, 0, -std::sin(M_PI * double(k - 150) / 60)};
+  for (std::size_t k = from; k < to; ++k) bump[k] = {0, 0, -arch(k)};
   const std::vector<bm::Direction> fdirs{{Kind::kLogAlpha, 1, {}}, {Kind::kPath, 0, velocity(full)}, {Kind::kPath, 0, bump}};
   std::vector<bm::Direction> dirs = fdirs;
   for (auto& d : dirs)
-    if (d.kind == Kind::kPath) d.dcentre_vol_mm = scenes::with_vias(d.dcentre_vol_mm, 150, 210);
+    if (d.kind == Kind::kPath) d.dcentre_vol_mm = scenes::with_vias(d.dcentre_vol_mm, from, to);
   auto sensitivities = [&](const bm::Trajectory& t, const std::vector<bm::Direction>& d) {
     bm::Sensitivities sens;
     bm::ReplayOptions o;
@@ -248,24 +254,30 @@ TEST(Sensitivity, PathDirectionsThroughViasMatchCentralDifferences) {
   const auto via = sensitivities(tr, dirs), all = sensitivities(full, fdirs);
   double after = 0;
   for (std::size_t j = 0; j < dirs.size(); ++j)
-    for (std::size_t k = 0; k < 240; ++k) {
-      const glm::dvec3 want = all[j][k < 150 ? k : k + 60];
+    for (std::size_t k = 0; k < 300 - cut; ++k) {
+      const glm::dvec3 want = all[j][k < from ? k : k + cut];
       EXPECT_LE(glm::length(via[j][k] - want), 1e-12 * (1 + glm::length(want))) << j << " " << k;
-      if (j == 2 && k >= 150) after = std::max(after, glm::length(via[j][k]));
+      if (j == 2 && k >= from) after = std::max(after, glm::length(via[j][k]));
+      if (j == 2 && k < from) {
+        EXPECT_EQ(via[j][k], glm::dvec3(0)) << k;
+      }
     }
   EXPECT_GT(after, 1e-3) << "the samples after the stroke feel the bone it removed";
-  EXPECT_EQ(via[2][100], glm::dvec3(0));
-  // Against central differences of whole replays. The bump's column holds only the stroke's
-  // after-effect (on the full sweep, the stroke's own samples dominate it), so the
-  // differences' own noise weighs more in it: 6.2e-3 relative here, 3.2e-4 on the full sweep.
+  // Against central differences of whole replays. These columns hold only the after-effect
+  // of the stroke (on the full sweep, the stroke's own samples dominate them), so the
+  // differences' own noise weighs more in them: the bump's 6.2e-3 relative mid-sweep against
+  // 3.2e-4 on the full sweep; after a late start, the lag's column is 100 times smaller than
+  // the bump's and 9.7e-3 off (2026-11-29). The exact check is the one above.
   const auto checks = check_all(s, prm, tr, dirs, true);
   for (std::size_t j = 0; j < dirs.size(); ++j) {
-    std::printf("  vias       %-8s relative error %.2e (2-norm), %.2e (max) (scale %.3g)\n", name(dirs[j].kind),
+    std::printf("  vias from %3zu %-8s relative error %.2e (2-norm), %.2e (max) (scale %.3g)\n", from, name(dirs[j].kind),
                 checks[j].worst_rel, checks[j].max_rel, checks[j].scale);
     EXPECT_GT(checks[j].scale, 0) << j;
-    EXPECT_LE(checks[j].worst_rel, 1e-2) << "direction " << j;
+    EXPECT_LE(checks[j].worst_rel, 2e-2) << "direction " << j;
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(MidSweepAndBeforeTheFirstSample, ViaSensitivity, testing::Values(std::size_t(150), std::size_t(0)));
 
 // Two classes, the second reached only part-way down the plunge, and a third never: a
 // class's directions are carried from the step its bone first comes within reach (exactly

@@ -105,14 +105,16 @@ struct AlignedRecording {
   std::size_t unmeasured_position_samples() const;
   // One warning line naming the recording, the gaps and the samples left out ("" if none).
   std::string position_gap_text() const;
-  // Stretches without a force sample (consecutive force samples further apart than
-  // kPositionGapFactor × their median interval: a sensor that dropped out, a FIFO overrun)
-  // while the stage kept moving. A straight line from one force sample's centre to the next
+  // Stretches without a force sample while the stage kept moving: consecutive force samples
+  // further apart than kPositionGapFactor × their median interval (a sensor that dropped
+  // out, a FIFO overrun), or stage samples that long before the first force sample (a
+  // sensor that started late). A straight line from one force sample's centre to the next
   // would erode the bone where the burr never went (a stroke back and forth becomes a
-  // point), so the trajectory passes through the stage's path at these times: the missing
-  // samples' times, at the force stream's median interval (Trajectory::vias).
+  // point), and a replay from the first force sample would miss the bone cut before it,
+  // so the trajectory passes through the stage's path at these times: the missing samples'
+  // times, at the force stream's median interval (Trajectory::vias).
   struct ViaTime {
-    std::size_t after = 0;  // the force sample before it
+    std::size_t after = 0;  // the force sample before it (Trajectory::Via::kBeforeFirst)
     double t_s = 0;         // recording clock
   };
   std::vector<ViaTime> via_times;

@@ -20,9 +20,12 @@ struct Trajectory {                          // the burr's path in the VOLUME fr
   std::vector<glm::dvec3> omega_vol_rad_s;   // angular velocity vector at each t
   // Points the path passes through between two samples, where a straight line from one
   // sample to the next would not be where the burr went: the stage's path across a long
-  // gap of the force stream (AlignedRecording::via_times). No contact is reported at a via.
+  // gap of the force stream, or before its first sample (AlignedRecording::via_times). No
+  // contact is reported at a via; the burr erodes along them as between samples.
   struct Via {
-    std::size_t after = 0;  // it lies strictly inside (t_s[after], t_s[after + 1])
+    static constexpr std::size_t kBeforeFirst = std::size_t(-1);
+    // It lies strictly inside (t_s[after], t_s[after + 1]); kBeforeFirst: before t_s[0].
+    std::size_t after = 0;
     double t_s = 0;
     glm::dvec3 centre_vol_mm{0}, omega_vol_rad_s{0};
   };
