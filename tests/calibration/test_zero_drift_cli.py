@@ -1,0 +1,47 @@
+"""A force sensor whose zero drifted during a recording (zero_drift.hpp): `calibrate`
+compares the force without contact before the first contact and after the last, and
+names the recording in fit.json's warnings; a steady zero gives no such warning."""
+import json
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+
+from synthetic import make_synthetic, run_ok
+
+DRIFT = "the force without contact moved by"
+
+
+@pytest.fixture(scope="module")
+def fits(tmp_path_factory):
+    base = make_synthetic(tmp_path_factory.mktemp("synthetic") / "exp")
+    warm = base.parent / "warm"
+    shutil.copytree(base, warm)
+    # The plunge's sensor warms: its zero creeps by 30 mN in x over the recording (1.5 σ).
+    with h5py.File(warm / "plunge.h5", "r+") as f:
+        t = f["streams/ft_sensor/t_ns"][()]
+        force = f["streams/ft_sensor/channels/force_N"]
+        ramp = 0.03 * (t - t[0]) / (t[-1] - t[0])
+        values = force[()]
+        values[:, 0] += ramp
+        force[...] = values
+    out = {}
+    for name, folder in (("steady", base), ("warm", warm)):
+        run_ok("calibrate", folder / "experiment.toml", "--out", folder / "cal", "--starts", 2, "--no-profiles",
+               "--no-cross-validation", "--no-discretization-check")
+        out[name] = json.loads((folder / "cal" / "fit.json").read_text())["settings"]["warnings"]
+    return out
+
+
+def test_a_steady_zero_says_nothing(fits):
+    assert not [w for w in fits["steady"] if DRIFT in w], fits["steady"]
+
+
+def test_a_drifting_zero_is_named_with_its_shift(fits):
+    said = [w for w in fits["warm"] if DRIFT in w]
+    assert len(said) == 1, fits["warm"]
+    assert said[0].startswith("Recording plunge: " + DRIFT + " ("), said
+    # The shift in x: the ramp's rise between the stretches' mean times (about 0.02 N).
+    shift_x = float(said[0].split("(")[1].split(",")[0])
+    assert 0.012 < shift_x < 0.03, said
