@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "burrbench/calibration/zero_drift.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
 #include "burrbench/model/fitted_nuisances.hpp"
@@ -174,6 +175,18 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   for (const std::string& w : model::alignment_warnings(ex)) {
     in.limitations.push_back(w);
     if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
+  }
+  // A sensor zero that moved during a recording: the fitted bias, or the tare, is one
+  // number per recording (calibration::zero_drift, over the samples either role counts).
+  for (const auto& p : pred.recordings) {
+    std::vector<double> counted(p.t_s.size(), 0.0);
+    for (std::size_t k = 0; k < counted.size(); ++k)
+      counted[k] = (k < p.used_calibrate.size() && p.used_calibrate[k]) || (k < p.used_validate.size() && p.used_validate[k]);
+    const auto drift = calibration::zero_drift(p.t_s, p.force_sensor_meas_N, p.class_mask, counted);
+    if (std::string w = drift ? drift->text(p.recording_id) : ""; !w.empty()) {
+      in.limitations.push_back(w);
+      if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
+    }
   }
   std::vector<std::string> no_band;
   for (const auto& p : pred.recordings)

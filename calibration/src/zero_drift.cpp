@@ -62,9 +62,10 @@ std::string ZeroDrift::text(const std::string& recording) const {
   return fmt::format(
       "Recording {}: the force without contact moved by ({:.3g}, {:.3g}, {:.3g}) N ({:.1f} standard errors) between "
       "the stretch before the first contact (t = {:.4g} … {:.4g} s, {} samples) and the one after the last (t = {:.4g} "
-      "… {:.4g} s, {} samples): the fit holds one bias per recording, so a sensor zero that drifted (a sensor warming, "
-      "a spindle started between them) is fitted as force and biases the constants. Tare just before drilling, record "
-      "shorter, or leave the drifting part out with a segment.",
+      "… {:.4g} s, {} samples): the fitted bias, like the tare, is one number per recording, so a sensor zero that "
+      "drifted (a sensor warming, a spindle started between them) is taken for force the burr made and biases the "
+      "constants and the metrics. Tare just before drilling, record shorter, or leave the drifting part out with a "
+      "segment.",
       recording, shift_N.x, shift_N.y, shift_N.z, sigmas, before_from_s, before_to_s, before, after_from_s, after_to_s,
       after);
 }

@@ -2,7 +2,10 @@
 compares the force without contact before the first contact and after the last, and
 names the recording in fit.json's warnings; a steady zero gives no such warning."""
 import json
+import os
 import shutil
+import subprocess
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -11,6 +14,8 @@ import pytest
 from synthetic import make_synthetic, run_ok
 
 DRIFT = "the force without contact moved by"
+BURRBENCH = os.environ["BURRBENCH"]
+SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 
 
 @pytest.fixture(scope="module")
@@ -31,6 +36,7 @@ def fits(tmp_path_factory):
         run_ok("calibrate", folder / "experiment.toml", "--out", folder / "cal", "--starts", 2, "--no-profiles",
                "--no-cross-validation", "--no-discretization-check")
         out[name] = json.loads((folder / "cal" / "fit.json").read_text())["settings"]["warnings"]
+    out["warm_folder"] = warm
     return out
 
 
@@ -45,3 +51,22 @@ def test_a_drifting_zero_is_named_with_its_shift(fits):
     # The shift in x: the ramp's rise between the stretches' mean times (about 0.02 N).
     shift_x = float(said[0].split("(")[1].split(",")[0])
     assert 0.012 < shift_x < 0.03, said
+
+
+def test_validate_and_the_report_say_it_too(fits):
+    # The tare is one number per recording as well: the release gate names the drift on
+    # stderr and among its analysis's limitations, as the analysis of the calibration does.
+    warm = fits["warm_folder"]
+    gate = subprocess.run([BURRBENCH, "validate", warm / "experiment.toml", "--params", warm / "params_true.toml",
+                           "--criteria", SRC / "examples" / "criteria" / "release.toml", "--out", warm / "gate",
+                           "--no-verification"], capture_output=True, text=True, timeout=600)
+    assert gate.returncode in (0, 1), gate.stderr
+    said = [line for line in gate.stderr.splitlines() if DRIFT in line]
+    assert len(said) == 1 and said[0].startswith("warning: Recording plunge: " + DRIFT), gate.stderr
+    limits = json.loads((warm / "gate" / "analysis.json").read_text())["limitations"]
+    assert [w for w in limits if DRIFT in w] == [said[0][len("warning: "):]]
+    # The calibration's analysis replays at the fitted constants: its first and last
+    # contacts, and so its figures, may differ by a sample.
+    limits = json.loads((warm / "cal" / "analysis.json").read_text())["limitations"]
+    named = [w for w in limits if DRIFT in w]
+    assert len(named) == 1 and named[0].startswith("Recording plunge: " + DRIFT), limits
