@@ -137,7 +137,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   };
   struct Point { std::size_t index; double t_s; glm::dvec3 centre, omega; };
   auto sample_point = [&](std::size_t k) { return Point{k, tr.t_s[k], tr.centre_vol_mm[k], tr.omega_vol_rad_s[k]}; };
-  std::vector<Point> points;  // one interval's: its samples and the vias between them
+  std::vector<Point> points;  // what is eroded next: an interval's samples and its vias, or the lead-in
   std::size_t next_via = 0;
   auto record = [&](std::size_t k) {
     for (std::size_t j = 0; j < dF.size(); ++j) carried.dforce_N[j][k] = dF[j];
