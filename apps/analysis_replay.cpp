@@ -32,6 +32,14 @@ RecordingSeries series_of(const model::Experiment& ex, const model::AlignedRecor
   rs.quality.dropped_force_samples = r.dropped_force_samples;
   rs.quality.stale_rows = r.stale_rows;
   for (const auto& e : r.events) rs.quality.events.push_back({e.t_s, e.kind, e.stream, e.detail});
+  // The stretches without force samples the replay followed the stage through.
+  for (const auto& s : r.silences())
+    rs.quality.events.push_back({s.from_s, "force_silent", r.force_stream,
+                                 fmt::format("no force sample for {:.4g} s: the replay followed the stage's path "
+                                             "through it (docs/replay.md \"Alignment and lag\")",
+                                             s.to_s - s.from_s)});
+  std::stable_sort(rs.quality.events.begin(), rs.quality.events.end(),
+                   [](const auto& a, const auto& b) { return a.t_s < b.t_s; });
   for (const auto& seg : ref.segments)
     if (seg.use) rs.segments.push_back({seg.label.empty() ? "segment" : seg.label, seg.start_s, seg.end_s});
   rs.t_s = p.t_s;

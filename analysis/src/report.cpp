@@ -208,7 +208,7 @@ std::string data_quality_table(const AnalysisInput& in) {
     for (const auto& e : q.events) ++kinds[e.kind];
     std::string ev;
     for (const auto& [kind, n] : kinds) ev += fmt::format("{} × {}<br>", esc(kind), n);
-    const std::size_t gaps = kinds.count("gap") ? kinds.at("gap") : 0;
+    const std::size_t gaps = (kinds.count("gap") ? kinds.at("gap") : 0) + (kinds.count("force_silent") ? kinds.at("force_silent") : 0);
     h += "<tr>" + td(esc(r.id)) + td(std::to_string(q.dropped_force_samples), true) +
          td(stale.empty() ? "none" : stale) +
          td(fmt::format("{} ({}%)", q.buried_samples,

@@ -208,6 +208,17 @@ void find_via_times(AlignedRecording& a) {
 
 }  // namespace
 
+std::vector<AlignedRecording::Silence> AlignedRecording::silences() const {
+  std::vector<Silence> out;
+  for (std::size_t i = 0; i < via_times.size(); ++i) {
+    const ViaTime& v = via_times[i];
+    if (i > 0 && via_times[i - 1].after == v.after) continue;  // one stretch per interval
+    const bool lead = v.after == Trajectory::Via::kBeforeFirst;
+    out.push_back({lead ? v.t_s : t_s[v.after], t_s[lead ? 0 : v.after + 1]});
+  }
+  return out;
+}
+
 std::size_t AlignedRecording::unmeasured_position_samples() const {
   std::size_t n = 0;
   for (const auto& g : position_gaps) n += g.force_samples;
@@ -254,6 +265,7 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
   if (f_keep.empty())
     throw InputError(file, "streams/" + f_stream.name, "at least one fresh sample");
   a.dropped_force_samples = f_stream.samples() - f_keep.size();
+  a.force_stream = f_stream.name;
   a.t0_ns = f_stream.t_ns[f_keep.front()];
   a.notes = rec.meta.notes;
   for (const auto& e : rec.events) a.events.push_back({seconds(e.t_ns, a.t0_ns), e.kind, e.stream, e.detail});

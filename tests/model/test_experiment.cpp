@@ -347,6 +347,10 @@ TEST(Experiment, TheTrajectoryFollowsTheStageAcrossAGapInTheForceStream) {
   EXPECT_TRUE(a.via_times.empty());
   EXPECT_TRUE(b.position_gaps.empty());  // its positions are all measured
   ASSERT_EQ(b.via_times.size(), 50u);
+  ASSERT_EQ(b.silences().size(), 1u);  // the report's quality event
+  EXPECT_DOUBLE_EQ(b.silences()[0].from_s, b.t_s[49]);
+  EXPECT_DOUBLE_EQ(b.silences()[0].to_s, b.t_s[50]);
+  EXPECT_TRUE(a.silences().empty());
   for (std::size_t j = 0; j < 50; ++j) {
     EXPECT_EQ(b.via_times[j].after, 49u);
     EXPECT_NEAR(b.via_times[j].t_s, a.t_s[50 + j], 1e-12);
@@ -386,6 +390,9 @@ TEST(Experiment, TheTrajectoryFollowsTheStageBeforeALateFirstForceSample) {
     EXPECT_EQ(a.via_times[j].after, Trajectory::Via::kBeforeFirst);
     EXPECT_NEAR(a.via_times[j].t_s, t0 - 0.0303 * double(30 - j) / 30, 1e-12) << j;
   }
+  ASSERT_EQ(a.silences().size(), 1u);
+  EXPECT_NEAR(a.silences()[0].from_s, t0 - 0.0303, 1e-12);
+  EXPECT_EQ(a.silences()[0].to_s, t0);
   const auto tr = a.trajectory(0.0, 0.0);
   EXPECT_NEAR(glm::length(tr.vias.front().centre_vol_mm - a.centre_vol_mm(stage_at(-0.0003))), 0, 1e-12);
   EXPECT_NEAR(glm::length(tr.vias.back().centre_vol_mm - a.centre_vol_mm(stage_at(0.030 - 0.0303 / 30))), 0, 1e-12);

@@ -83,6 +83,16 @@ def test_the_replay_follows_the_stage_where_the_sensor_was_silent(exp, tmp_path)
             fb = b[f"recordings/{r}/force_sensor_pred_N"][()]
             assert np.abs(fa).max() > 0.1, r  # the burr cuts bone
             np.testing.assert_allclose(fb, fa, rtol=0, atol=1e-9, err_msg=r)
+    # The report's data-quality table lists each silent stretch, as an event of its own.
+    gate = run("validate", manifest, "--params", folder / "params_true.toml", "--criteria",
+               SRC / "examples" / "criteria" / "release.toml", "--out", tmp_path / "gate", "--no-verification")
+    assert warnings_of(gate.stderr) == [], gate.stderr
+    analysis = json.loads((tmp_path / "gate" / "analysis.json").read_text())
+    for rec in analysis["recordings"]:
+        silent = [e for e in rec["quality"]["events"] if e["kind"] == "force_silent"]
+        assert len(silent) == 1, rec["id"]
+        assert silent[0]["t_s"] == pytest.approx(t_a) and silent[0]["stream"] == "ft_sensor", silent
+        assert silent[0]["detail"].startswith(f"no force sample for {t_b - t_a:.4g} s: the replay followed"), silent
 
 
 def test_the_replay_follows_the_stage_before_a_sensor_that_started_late(exp, tmp_path):

@@ -78,6 +78,7 @@ struct AlignedRecording {
   // The same split by role (a segment's `role`, default the recording's): use = either.
   std::vector<std::uint8_t> use_calibrate, use_validate;
   std::size_t dropped_force_samples = 0;   // stale or non-increasing timestamps
+  std::string force_stream;                // the name of the stream holding force_N
   // What the session logged about itself, for the report's data-quality table: the
   // recording's notes, its events (gap, reconnect, fault, …; times in s from t0, before
   // the first force sample negative) and the stale rows of each stream.
@@ -118,6 +119,12 @@ struct AlignedRecording {
     double t_s = 0;         // recording clock
   };
   std::vector<ViaTime> via_times;
+  // Those stretches, each from the force sample before it (for a late start: the first
+  // via) to the one after it, in s on the recording's clock (the report's quality events).
+  struct Silence {
+    double from_s = 0, to_s = 0;
+  };
+  std::vector<Silence> silences() const;
 
   Series<glm::dvec3> stage_rig_mm;  // stage-reported position (fresh samples only)
   Series<double> spindle_rpm;       // signed: negative = reverse spin
