@@ -187,9 +187,8 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   // A sensor zero that moved during a recording: the fitted bias, or the tare, is one
   // number per recording (calibration::zero_drift, over the samples either role counts).
   for (const auto& p : pred.recordings) {
-    std::vector<double> counted(p.t_s.size(), 0.0);
-    for (std::size_t k = 0; k < counted.size(); ++k)
-      counted[k] = (k < p.used_calibrate.size() && p.used_calibrate[k]) || (k < p.used_validate.size() && p.used_validate[k]);
+    std::vector<double> counted(p.t_s.size());
+    for (std::size_t k = 0; k < counted.size(); ++k) counted[k] = p.used_calibrate[k] || p.used_validate[k];
     const auto drift = calibration::zero_drift(p.t_s, p.force_sensor_meas_N, p.class_mask, counted);
     if (std::string w = drift ? drift->text(p.recording_id) : ""; !w.empty()) {
       in.limitations.push_back(w);

@@ -208,7 +208,9 @@ std::string data_quality_table(const AnalysisInput& in) {
     for (const auto& e : q.events) ++kinds[e.kind];
     std::string ev;
     for (const auto& [kind, n] : kinds) ev += fmt::format("{} × {}<br>", esc(kind), n);
-    const std::size_t gaps = (kinds.count("gap") ? kinds.at("gap") : 0) + (kinds.count("force_silent") ? kinds.at("force_silent") : 0);
+    // Flagged: the session's gaps, and the silent stretches the replay followed the stage through.
+    const auto count = [&](const char* kind) { return kinds.count(kind) ? kinds.at(kind) : std::size_t(0); };
+    const std::size_t gaps = count("gap") + count("force_silent");
     h += "<tr>" + td(esc(r.id)) + td(std::to_string(q.dropped_force_samples), true) +
          td(stale.empty() ? "none" : stale) +
          td(fmt::format("{} ({}%)", q.buried_samples,

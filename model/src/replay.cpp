@@ -44,14 +44,12 @@ void check_trajectory(const Trajectory& tr) {
     if (!std::isfinite(via.t_s) || !std::isfinite(via.centre_vol_mm.x + via.centre_vol_mm.y + via.centre_vol_mm.z) ||
         !std::isfinite(via.omega_vol_rad_s.x + via.omega_vol_rad_s.y + via.omega_vol_rad_s.z))
       throw InputError(file, field, "finite time, centre and omega");
-    // Inside its interval (before the first sample for kBeforeFirst), after the via before it.
+    // Inside its interval (before the first sample for kBeforeFirst) and later than the via
+    // before it: with the samples' times increasing, that puts them in interval order too.
     const bool lead = via.after == Trajectory::Via::kBeforeFirst;
     const bool inside = n > 0 && (lead ? via.t_s < tr.t_s[0]
                                        : via.after + 1 < n && via.t_s > tr.t_s[via.after] && via.t_s < tr.t_s[via.after + 1]);
-    const bool ordered = v == 0 || (via.t_s > tr.vias[v - 1].t_s &&
-                                    (lead ? tr.vias[v - 1].after == via.after
-                                          : tr.vias[v - 1].after == Trajectory::Via::kBeforeFirst || tr.vias[v - 1].after <= via.after));
-    if (!inside || !ordered)
+    if (!inside || (v > 0 && !(via.t_s > tr.vias[v - 1].t_s)))
       throw InputError(file, field, "a time inside its interval, after the via before it",
                        lead ? fmt::format("t = {} before the first sample", via.t_s)
                             : fmt::format("t = {} after sample {}", via.t_s, via.after));
