@@ -185,15 +185,21 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
   }
   // A sensor zero that moved during a recording: the fitted bias, or the tare, is one
-  // number per recording (calibration::zero_drift, over the samples either role counts).
+  // number per recording and channel (calibration::zero_drift, over the samples either
+  // role counts), the force's and the moment's.
   for (const auto& p : pred.recordings) {
     std::vector<double> counted(p.t_s.size());
     for (std::size_t k = 0; k < counted.size(); ++k) counted[k] = p.used_calibrate[k] || p.used_validate[k];
-    const auto drift = calibration::zero_drift(p.t_s, p.force_sensor_meas_N, p.class_mask, counted);
-    if (std::string w = drift ? drift->text(p.recording_id) : ""; !w.empty()) {
-      in.limitations.push_back(w);
-      if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
-    }
+    auto check = [&](const std::vector<glm::dvec3>& measured, calibration::DriftChannel channel) {
+      if (measured.empty()) return;
+      const auto drift = calibration::zero_drift(p.t_s, measured, p.class_mask, counted);
+      if (std::string w = drift ? drift->text(p.recording_id, channel) : ""; !w.empty()) {
+        in.limitations.push_back(w);
+        if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
+      }
+    };
+    check(p.force_sensor_meas_N, calibration::kForceChannel);
+    check(p.torque_sensor_meas_Nmm, calibration::kMomentChannel);
   }
   std::vector<std::string> no_band;
   for (const auto& p : pred.recordings)

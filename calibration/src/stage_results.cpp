@@ -33,11 +33,17 @@ CalibrationOutput results(Run& run) {
   out.residuals_summary.sigma_N = run.settings.sigma_N;
   // The alignment's warnings; the samples it left out of use count among the excluded.
   for (const std::string& w : model::alignment_warnings(run.exp)) run.warnings.push_back(w);
-  // A sensor zero that moved between the free stretches before and after the contact.
+  // A sensor zero that moved between the free stretches before and after the contact, in
+  // each fitted channel that holds one bias per recording (the force, the moment).
   for (std::size_t r = 0; r < run.models.size(); ++r) {
     const RecordingModel& m = *run.models[r];
-    const auto drift = zero_drift(m.t_s(), m.measured_sensor_N(), ev.predictions[r].class_mask, run.w_all[r]);
+    const auto& mask = ev.predictions[r].class_mask;
+    const auto drift = zero_drift(m.t_s(), m.measured_sensor_N(), mask, run.w_all[r]);
     if (std::string w = drift ? drift->text(m.id()) : ""; !w.empty()) run.warnings.push_back(std::move(w));
+    if (!L.channels().torque || m.measured_torque_Nmm().empty()) continue;
+    const auto moment = zero_drift(m.t_s(), m.measured_torque_Nmm(), mask, run.w_all[r]);
+    if (std::string w = moment ? moment->text(m.id(), kMomentChannel) : ""; !w.empty())
+      run.warnings.push_back(std::move(w));
   }
   out.residuals_summary.rms_normalised =
       ev.residuals_used ? std::sqrt(2 * ev.cost / double(ev.residuals_used)) : NAN;

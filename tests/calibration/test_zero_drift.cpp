@@ -54,16 +54,16 @@ TEST(ZeroDrift, AShiftBetweenTheFreeStretchesIsMeasuredAndNamed) {
   EXPECT_DOUBLE_EQ(d0->before_to_s, 0.299);
   EXPECT_DOUBLE_EQ(d0->after_from_s, 0.7);
   const glm::dvec3 brute = mean(still, 700, 1000) - mean(still, 0, 300);
-  EXPECT_NEAR(glm::length(d0->shift_N - brute), 0, 1e-12);
+  EXPECT_NEAR(glm::length(d0->shift - brute), 0, 1e-12);
   // White noise: σ √(1/300 + 1/300) = 1.63 mN, within the scatter of the estimate of σ.
-  for (int a = 0; a < 3; ++a) EXPECT_NEAR(d0->standard_error_N[a], 0.02 * std::sqrt(2.0 / 300), 0.15e-3) << a;
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(d0->standard_error[a], 0.02 * std::sqrt(2.0 / 300), 0.15e-3) << a;
   EXPECT_LT(d0->sigmas, bc::kZeroDriftSigmas);
   EXPECT_EQ(d0->text("plunge"), "");
   // 15 mN in y (9 standard errors) after the contact: said, with the figures.
   const auto moved = series(0, glm::dvec3(0, 0.015, 0));
   const auto d1 = bc::zero_drift(moved.t_s, moved.force_N, moved.mask, moved.weight);
   ASSERT_TRUE(d1);
-  EXPECT_NEAR(d1->shift_N.y - d0->shift_N.y, 0.015, 1e-12);
+  EXPECT_NEAR(d1->shift.y - d0->shift.y, 0.015, 1e-12);
   EXPECT_GT(d1->sigmas, bc::kZeroDriftSigmas);
   const std::string w = d1->text("plunge");
   EXPECT_EQ(w.rfind("Recording plunge: the force without contact moved by (", 0), 0u) << w;
@@ -71,6 +71,11 @@ TEST(ZeroDrift, AShiftBetweenTheFreeStretchesIsMeasuredAndNamed) {
                    "the last (t = 0.7 … 0.999 s, 300 samples)"),
             std::string::npos)
       << w;
+  // The moment's check is the same statistic; its line names the channel and its unit.
+  const std::string m = d1->text("plunge", bc::kMomentChannel);
+  EXPECT_EQ(m.rfind("Recording plunge: the moment without contact moved by (", 0), 0u) << m;
+  EXPECT_NE(m.find(") N·mm ("), std::string::npos) << m;
+  EXPECT_NE(m.find("is taken for moment the burr made"), std::string::npos) << m;
 }
 
 TEST(ZeroDrift, CorrelatedNoiseWidensTheStandardError) {
@@ -79,7 +84,7 @@ TEST(ZeroDrift, CorrelatedNoiseWidensTheStandardError) {
   const auto d = bc::zero_drift(s.t_s, s.force_N, s.mask, s.weight);
   ASSERT_TRUE(d);
   const double closed = 0.02 * std::sqrt(19.0 * 2.0 / 300);
-  for (int a = 0; a < 3; ++a) EXPECT_NEAR(d->standard_error_N[a], closed, 0.25 * closed) << a;
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(d->standard_error[a], closed, 0.25 * closed) << a;
 }
 
 TEST(ZeroDrift, NothingToCompareIsNoFigure) {

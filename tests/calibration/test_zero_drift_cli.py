@@ -70,3 +70,65 @@ def test_validate_and_the_report_say_it_too(fits):
     limits = json.loads((warm / "cal" / "analysis.json").read_text())["limitations"]
     named = [w for w in limits if DRIFT in w]
     assert len(named) == 1 and named[0].startswith("Recording plunge: " + DRIFT), limits
+
+
+MOMENT_DRIFT = "the moment without contact moved by"
+TORQUE = ["--torque-noise-Nmm", "0.05", "--torque-bias-Nmm", "0.5,-0.2,1.0"]
+
+
+@pytest.fixture(scope="module")
+def moments(tmp_path_factory):
+    # The synthetic example re-made with the sensor's moment channel (as
+    # test_channels_cli.py), then a copy whose plunge's moment zero creeps by 0.1 N·mm in y
+    # (2 σ) over the recording while its force stays steady.
+    steady = tmp_path_factory.mktemp("moments") / "steady"
+    make_synthetic(steady)
+    protocols = SRC / "examples" / "protocols"
+    for name, seed, lag in (("plunge", 11, 0), ("sweep", 12, 2), ("polish", 13, 2)):
+        (steady / f"{name}.h5").unlink()
+        (steady / f"{name}.truth.json").unlink()
+        run_ok("synth", "--sample", steady / "sample.h5", "--protocol", protocols / f"{name}.toml", "--params",
+               steady / "params_true.toml", "--out", steady / f"{name}.h5", "--truth", steady / f"{name}.truth.json", "--noise-N", "0.02", "--lag-ms", lag,
+               "--seed", seed, *TORQUE)
+    text = (steady / "experiment.toml").read_text()
+    (steady / "experiment.toml").write_text(
+        text.replace('seed = 1\n', 'seed = 1\nchannels = ["force", "torque"]\n', 1))
+    warm = steady.parent / "warm"
+    shutil.copytree(steady, warm)
+    with h5py.File(warm / "plunge.h5", "r+") as f:
+        t = f["streams/ft_sensor/t_ns"][()]
+        moment = f["streams/ft_sensor/channels/torque_Nmm"]
+        values = moment[()]
+        values[:, 1] += 0.1 * (t - t[0]) / (t[-1] - t[0])
+        moment[...] = values
+    run_ok("calibrate", warm / "experiment.toml", "--out", warm / "cal", "--starts", 2, "--no-profiles",
+           "--no-cross-validation", "--no-discretization-check")
+    return {"steady": steady, "warm": warm,
+            "warnings": json.loads((warm / "cal" / "fit.json").read_text())["settings"]["warnings"]}
+
+
+def gate_stderr(folder):
+    gate = subprocess.run([BURRBENCH, "validate", folder / "experiment.toml", "--params", folder / "params_true.toml",
+                           "--criteria", SRC / "examples" / "criteria" / "release.toml", "--out", folder / "gate",
+                           "--no-verification"], capture_output=True, text=True, timeout=600)
+    assert gate.returncode in (0, 1), gate.stderr
+    return gate.stderr
+
+
+def test_a_drifting_moment_zero_is_named_by_calibrate(moments):
+    said = [w for w in moments["warnings"] if MOMENT_DRIFT in w]
+    assert len(said) == 1 and said[0].startswith("Recording plunge: " + MOMENT_DRIFT + " ("), moments["warnings"]
+    assert ") N·mm (" in said[0], said
+    # The shift in y: the ramp's rise between the stretches' mean times (about 0.07 N·mm).
+    shift_y = float(said[0].split("(")[1].split(",")[1])
+    assert 0.04 < shift_y < 0.1, said
+    # Its force stayed steady: nothing is said about it.
+    assert not [w for w in moments["warnings"] if DRIFT in w], moments["warnings"]
+
+
+def test_validate_names_a_drifting_moment_zero_and_not_a_steady_one(moments):
+    assert MOMENT_DRIFT not in gate_stderr(moments["steady"])
+    said = [line for line in gate_stderr(moments["warm"]).splitlines() if MOMENT_DRIFT in line]
+    assert len(said) == 1 and said[0].startswith("warning: Recording plunge: " + MOMENT_DRIFT), said
+    limits = json.loads((moments["warm"] / "gate" / "analysis.json").read_text())["limitations"]
+    assert [w for w in limits if MOMENT_DRIFT in w] == [said[0][len("warning: "):]]
