@@ -87,3 +87,18 @@ def drop_samples(exp, folder, recording="sweep", from_s=1.0, to_s=1.3, stream="s
 
 # The warning drop_samples's experiment gives, as it begins (stage samples dropped).
 STAGE_GAP_WARNING = "Recording sweep: the stage measured no position for "
+
+
+START_IN_BONE_WARNING = "Recording plunge: the burr is already "
+
+
+def start_late(exp, folder, from_s, streams=("stage", "spindle", "ft_sensor")):
+    """A copy of the synthetic experiment `exp` in `folder` whose plunge's `streams` begin at
+    from_s (cut_stream). Its burr centre starts 0.5 mm above the burr's touch of the flat
+    bone top (z = 3 mm) and feeds down at 0.5 mm/s, 0.25 mm deep at most: at from_s it is
+    0.5·from_s − 0.5 mm deep. Returns the copy's manifest."""
+    import shutil
+    shutil.copytree(exp, folder)
+    for stream in streams:  # the force stream last: it sets the clock cut_stream reads
+        cut_stream(folder / "plunge.h5", stream, -1.0, from_s)
+    return folder / "experiment.toml"

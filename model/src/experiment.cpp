@@ -247,6 +247,7 @@ std::vector<std::string> alignment_warnings(const Experiment& e) {
   std::vector<std::string> out;
   for (const auto& r : e.recordings) {
     if (!r.position_gaps.empty()) out.push_back(r.position_gap_text());
+    if (std::string w = start_in_bone(e, r).text(r); !w.empty()) out.push_back(std::move(w));
   }
   return out;
 }

@@ -14,8 +14,8 @@ import h5py
 import numpy as np
 import pytest
 
-from synthetic import (BURRBENCH, PLUNGE_TWICE_WARNING, SRC, STAGE_GAP_WARNING, drill_plunge_twice, drop_samples,
-                       make_synthetic, run_ok)
+from synthetic import (BURRBENCH, PLUNGE_TWICE_WARNING, SRC, STAGE_GAP_WARNING, START_IN_BONE_WARNING, drill_plunge_twice,
+                       drop_samples, make_synthetic, run_ok, start_late)
 
 sys.path.insert(0, str(Path(os.environ["BURRBENCH_BUILD_DIR"]) / "python"))
 import burrbench  # noqa: E402
@@ -200,6 +200,15 @@ def test_replay_warns_of_force_samples_the_stage_gave_no_position_for(exp, tmp_p
     said = [str(w.message) for w in caught if str(w.message).startswith(STAGE_GAP_WARNING)]
     assert said == [said[0]] and said[0].startswith(STAGE_GAP_WARNING + f"{inside.sum()} force samples"), said
     assert inside.sum() > 250 and not pred["sweep"]["use"][inside].any() and pred["sweep"]["use"][~inside].all()
+
+
+def test_replay_warns_of_a_recording_that_begins_in_bone(exp, tmp_path):
+    # As `burrbench replay` warns on stderr: the plunge's streams all begin 0.15 mm deep.
+    manifest = start_late(exp, tmp_path / "late", 1.3)
+    with pytest.warns(UserWarning) as caught:
+        burrbench.replay(manifest, manifest.parent / "params_true.toml")
+    said = [str(w.message) for w in caught if str(w.message).startswith(START_IN_BONE_WARNING)]
+    assert len(said) == 1 and "mm deep in the bone of sample S1" in said[0], said
 
 
 def test_replay_from_python_with_progress(exp):

@@ -206,9 +206,24 @@ Experiment load_experiment(const std::filesystem::path& manifest_path);
 // and no overlap warning (a file listed again is one drilling).
 void check_each_sample_used_once_per_role(const Experiment& e);
 
+// How deep in bone the burr was where its recording's path begins: the first lead-in via
+// (a stage that started before the sensor), else the first force sample, at the manifest's
+// lag. The replay starts from the sample as scanned, so a burr already in bone there had
+// cut its way in before the recording began (or the registration puts it too deep), and
+// the forces near that hole are predicted against bone that is gone.
+struct StartInBone {
+  double t_s = 0;           // the path's first point, recording clock (a lead-in: < 0)
+  double depth_b_mm = 0;    // the burr's immersion depth b there (MODEL.md), bone as scanned
+  double tolerance_mm = 0;  // one voxel edge, or the registration's largest TRE along the
+                            // path if larger: an immersion a surface touch can show
+  // The warning line when depth_b_mm > tolerance_mm ("" otherwise).
+  std::string text(const AlignedRecording& r) const;
+};
+StartInBone start_in_bone(const Experiment& e, const AlignedRecording& r);
+
 // The warnings of the alignment, in manifest order: every recording's position gaps
-// (AlignedRecording::position_gap_text). What `replay`, `verify`, `calibrate`, `validate`,
-// `report` and the Python module print.
+// (AlignedRecording::position_gap_text) and a path that begins in bone (StartInBone). What
+// `replay`, `verify`, `calibrate`, `validate`, `report` and the Python module print.
 std::vector<std::string> alignment_warnings(const Experiment& e);
 
 // ---- replay of an experiment and its prediction file (format "burrbench.prediction") ----
