@@ -1,4 +1,5 @@
 // Stage "results": fit.json content, the parameter set and the printed summary.
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -45,6 +46,10 @@ CalibrationOutput results(Run& run) {
     if (std::string w = moment ? moment->text(m.id(), kMomentChannel) : ""; !w.empty())
       run.warnings.push_back(std::move(w));
   }
+  // A lag, depth offset or pose that ended at a bound: the constants were fitted with it
+  // held there.
+  const std::vector<NuisanceAtBound> pinned = nuisances_at_bounds(L, run.x);
+  for (const auto& b : pinned) run.warnings.push_back(b.text);
   out.residuals_summary.rms_normalised =
       ev.residuals_used ? std::sqrt(2 * ev.cost / double(ev.residuals_used)) : NAN;
   // σ comes from the manifest or from samples without contact, never from these
@@ -290,10 +295,14 @@ CalibrationOutput results(Run& run) {
     }
     s.back() = '\n';
   }
-  for (const auto& n : out.nuisance)
-    if (!n.fixed)
-      s += fmt::format("  {:<12} {:<12} = {:.4g} ± {:.2g} {}\n", n.recording_id, n.name, n.estimate,
-                       n.std_error, n.unit);
+  for (const auto& n : out.nuisance) {
+    if (n.fixed) continue;
+    const bool at_bound = std::any_of(pinned.begin(), pinned.end(), [&](const NuisanceAtBound& b) {
+      return L.name(b.index) == n.recording_id + "." + n.name;
+    });
+    s += fmt::format("  {:<12} {:<12} = {:.4g} ± {:.2g} {}{}\n", n.recording_id, n.name, n.estimate, n.std_error,
+                     n.unit, at_bound ? " (at its bound: see the warnings)" : "");
+  }
   s += fmt::format("fit (x, y, z together): RMSE {:.4g} N, R² {:.4f}, rms(residual/σ) {:.3f}\n",
                    run.calibration_metrics.rmse_xyz_N, run.calibration_metrics.r2_xyz, out.residuals_summary.rms_normalised);
   s += fmt::format("noise model: residual lag-1 autocorrelation {:.3f}; intervals {}\n", run.ev.residual_lag1,

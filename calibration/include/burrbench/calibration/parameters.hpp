@@ -125,4 +125,17 @@ class Layout {
   std::vector<Block> blocks_;
 };
 
+// A bounded nuisance that ended at a bound: a recording's lag or depth offset, or a
+// mounting's pose correction. The data want a value beyond it, so the force was fitted
+// against a path held off by the rest and the constants can miss the truth by more than
+// their intervals say (those hold the nuisance at its bound). docs/calibration.md "A
+// nuisance at its bound".
+struct NuisanceAtBound {
+  std::size_t index = 0;  // in x
+  bool upper = false;
+  std::string text;       // the warning line
+};
+inline constexpr double kNuisanceBoundShare = 1e-3;  // of its range: closer is at the bound
+std::vector<NuisanceAtBound> nuisances_at_bounds(const Layout& L, const std::vector<double>& x);
+
 }  // namespace burrbench::calibration

@@ -1,0 +1,54 @@
+"""A lag beyond its bounds (parameters.hpp nuisances_at_bounds): the synthetic experiment
+with its sweep's force 35 ms late, calibrated with the default lag bounds (±20 ms), ends
+with the lag at 20 ms and constants fitted against a misaligned path; calibrate names it
+in its summary and fit.json's warnings. With the bounds widened it recovers the lag and
+says nothing."""
+import json
+import os
+from pathlib import Path
+
+import pytest
+from synthetic import make_synthetic, run_ok
+
+SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
+SAID = "Recording sweep: the fitted lag ended at its upper bound (20 ms; [fit.nuisance] lag_bounds_ms = [-20, 20])"
+
+
+@pytest.fixture(scope="module")
+def late(tmp_path_factory):
+    d = make_synthetic(tmp_path_factory.mktemp("lag") / "exp")
+    (d / "sweep.h5").unlink()
+    (d / "sweep.truth.json").unlink()
+    run_ok("synth", "--sample", d / "sample.h5", "--protocol", SRC / "examples" / "protocols" / "sweep.toml",
+           "--params", d / "params_true.toml", "--out", d / "sweep.h5", "--truth", d / "sweep.truth.json",
+           "--noise-N", "0.02", "--bias-N", "0.05,-0.03,0.1", "--lag-ms", "35", "--seed", "12")
+    text = (d / "experiment.toml").read_text()
+    assert "lag_bounds_ms = [-20.0, 20.0]" in text
+    (d / "wide.toml").write_text(text.replace("lag_bounds_ms = [-20.0, 20.0]", "lag_bounds_ms = [-50.0, 50.0]"))
+    return d
+
+
+def calibrate(manifest, out):
+    stdout = run_ok("calibrate", manifest, "--out", out, "--starts", 1, "--no-profiles", "--no-cross-validation",
+                    "--no-discretization-check")
+    fit = json.loads((out / "fit.json").read_text())
+    lag = {n["recording_id"]: n["estimate"] for n in fit["nuisance"] if n["name"] == "lag"}
+    return stdout, fit["settings"]["warnings"], lag
+
+
+def test_a_lag_at_its_bound_is_named(late):
+    stdout, warnings, lag = calibrate(late / "experiment.toml", late / "cal")
+    assert lag["sweep"] == pytest.approx(20, abs=0.02)
+    said = [w for w in warnings if w.startswith(SAID)]
+    assert len(said) == 1, warnings
+    assert "warning: " + said[0] in stdout
+    # The summary's nuisance lines mark the sweep's lag, and only it.
+    marked = [line.split()[:2] for line in stdout.splitlines() if "(at its bound" in line]
+    assert marked == [["sweep", "lag"]], stdout
+
+
+def test_widened_bounds_recover_the_lag_and_say_nothing(late):
+    stdout, warnings, lag = calibrate(late / "wide.toml", late / "calw")
+    assert lag["sweep"] == pytest.approx(35, abs=1)
+    assert not [w for w in warnings if "ended at its" in w], warnings
+    assert "(at its bound" not in stdout
