@@ -75,7 +75,9 @@ void bind_calibration(py::module_& m) {
         o.progress = pp.get();
         calibration::CalibrationOutput res;
         run_interruptible(cancel, pp.get(), [&] { res = calibration::calibrate(experiment, o); });
-        warn_overlaps(res.overlaps);  // also among fit.json's warnings and in the summary
+        // Every line the CLI's summary prints as "warning:" (fit.json's warnings: the data's,
+        // such as two recordings that removed the same bone, and the fit's own).
+        for (const auto& w : res.fit.settings.value("warnings", nlohmann::json::array())) warn(w.get<std::string>());
         py::dict out;
         out["fit"] = json_to_python(data_schema::fit_to_json(res.fit));
         out["params"] = parameter_set_dict(res.params);
@@ -86,8 +88,8 @@ void bind_calibration(py::module_& m) {
       "Calibrates alpha, C1 and mu per bone class on an experiment manifest, as `burrbench calibrate`: "
       "{fit: fit.json's content, params: {class: {...}}, summary: str}. Options as keywords (threads, "
       "starts, profiles, cross_validate, discretization_check, derivatives, ...); progress(fraction, "
-      "line) receives the progress lines. Two recordings of one sample that removed the same bone give a "
-      "UserWarning naming them.");
+      "line) receives the progress lines. Each of fit.json's warnings (two recordings of one sample that "
+      "removed the same bone, a lag at its bound, ...) gives a UserWarning, the line the CLI prints.");
 }
 
 }  // namespace burrbench::python

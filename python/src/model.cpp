@@ -228,7 +228,7 @@ void bind_model(py::module_& m) {
       "Replays every recording of an experiment manifest, as `burrbench replay` does: {recording id: "
       "{t_s, force_sensor_pred_N, ... (the prediction file's datasets), removed_mm3, steps}}; "
       "progress(fraction, line) receives the progress lines. Two recordings of one sample that removed the "
-      "same bone give a UserWarning naming them, as do the alignment's warnings (force samples without a measured position).");
+      "same bone give a UserWarning naming them, as do the alignment's warnings (force samples without a measured position, a recording that begins in bone).");
 }
 
 }  // namespace burrbench::python

@@ -211,6 +211,19 @@ def test_replay_warns_of_a_recording_that_begins_in_bone(exp, tmp_path):
     assert len(said) == 1 and "mm deep in the bone of sample S1" in said[0], said
 
 
+def test_calibrate_gives_each_of_its_warnings_as_a_userwarning(exp, tmp_path):
+    # The lines the CLI's summary prints as "warning:", each once: here the plunge's streams
+    # begin 0.15 mm deep in bone, and the fit's misfit follows from it.
+    manifest = start_late(exp, tmp_path / "late", 1.3)
+    with pytest.warns(UserWarning) as caught:
+        res = burrbench.calibrate(manifest, starts=1, profiles=False, cross_validate=False,
+                                  discretization_check=False)
+    said = [str(w.message) for w in caught]
+    assert said == res["fit"]["settings"]["warnings"] and len(said) >= 2, said
+    assert [w for w in said if w.startswith(START_IN_BONE_WARNING)], said
+    assert [line[len("warning: "):] for line in res["summary"].splitlines() if line.startswith("warning: ")] == said
+
+
 def test_replay_from_python_with_progress(exp):
     # The lines `burrbench replay` prints, the experiment's fraction rising to 1; the same
     # prediction as without a callback.
