@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "burrbench/calibration/sensor_frame.hpp"
 #include "burrbench/calibration/zero_drift.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/experiment.hpp"
@@ -184,23 +185,30 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     in.limitations.push_back(w);
     if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
   }
-  // A sensor zero that moved during a recording: the fitted bias, or the tare, is one
-  // number per recording and channel (calibration::zero_drift, over the samples either
-  // role counts), the force's and the moment's.
+  // What the data say about the sensor, over the samples either role counts: a zero that
+  // moved during a recording (the fitted bias, or the tare, is one number per recording and
+  // channel: calibration::zero_drift, the force's and the moment's), and readings that fit
+  // the prediction better in a turned or mirrored frame (calibration::SensorFrameCheck,
+  // which centres each recording: its bias or tare is one constant).
+  auto limitation = [&](std::string w) {
+    if (w.empty()) return;
+    if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
+    in.limitations.push_back(std::move(w));
+  };
+  calibration::SensorFrameCheck frame;
   for (const auto& p : pred.recordings) {
     std::vector<double> counted(p.t_s.size());
     for (std::size_t k = 0; k < counted.size(); ++k) counted[k] = p.used_calibrate[k] || p.used_validate[k];
-    auto check = [&](const std::vector<glm::dvec3>& measured, calibration::DriftChannel channel) {
+    auto drift = [&](const std::vector<glm::dvec3>& measured, calibration::DriftChannel channel) {
       if (measured.empty()) return;
-      const auto drift = calibration::zero_drift(p.t_s, measured, p.class_mask, counted);
-      if (std::string w = drift ? drift->text(p.recording_id, channel) : ""; !w.empty()) {
-        in.limitations.push_back(w);
-        if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
-      }
+      const auto d = calibration::zero_drift(p.t_s, measured, p.class_mask, counted);
+      limitation(d ? d->text(p.recording_id, channel) : "");
     };
-    check(p.force_sensor_meas_N, calibration::kForceChannel);
-    check(p.torque_sensor_meas_Nmm, calibration::kMomentChannel);
+    drift(p.force_sensor_meas_N, calibration::kForceChannel);
+    drift(p.torque_sensor_meas_Nmm, calibration::kMomentChannel);
+    frame.add(p.force_sensor_pred_N, p.force_sensor_meas_N, p.class_mask, counted);
   }
+  if (const auto f = frame.result()) limitation(f->text(ex.manifest.sensor.rotation_sensor_to_rig));
   std::vector<std::string> no_band;
   for (const auto& p : pred.recordings)
     if (p.band_diverged) no_band.push_back(p.recording_id);

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "burrbench/calibration/sensor_frame.hpp"
 #include "burrbench/calibration/zero_drift.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/provenance.hpp"
@@ -46,6 +47,13 @@ CalibrationOutput results(Run& run) {
     if (std::string w = moment ? moment->text(m.id(), kMomentChannel) : ""; !w.empty())
       run.warnings.push_back(std::move(w));
   }
+  // Readings that fit the prediction better in a turned or mirrored sensor frame.
+  SensorFrameCheck frame;
+  for (std::size_t r = 0; r < run.models.size(); ++r)
+    frame.add(ev.predictions[r].force_sensor_N, run.models[r]->measured_sensor_N(), ev.predictions[r].class_mask,
+              run.w_all[r]);
+  if (const auto f = frame.result(); f && f->mismatch())
+    run.warnings.push_back(f->text(run.exp.manifest.sensor.rotation_sensor_to_rig));
   // A lag, depth offset or pose that ended at a bound: the constants were fitted with it
   // held there.
   const std::vector<NuisanceAtBound> pinned = nuisances_at_bounds(L, run.x);

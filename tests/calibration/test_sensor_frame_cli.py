@@ -1,0 +1,79 @@
+"""A sensor frame the readings do not fit (sensor_frame.hpp): the synthetic experiment,
+whose sensor axes are the rig's, with a manifest that says the sensor is turned by 30°
+about z (a bolt-hole step) or that it measures the force on the burr. Unsaid, the 30° turn
+gave compact C1 and α with profile intervals that miss the truth; calibrate and validate
+now name the turn and the rotation the readings fit, and the mirrored sign. The manifest
+as made says nothing."""
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from synthetic import make_synthetic, run_ok
+
+BURRBENCH = os.environ["BURRBENCH"]
+SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
+SAID = "the measured force fits the prediction best"
+AS_MADE = "rotation_sensor_to_rig = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]"
+TURNED = "rotation_sensor_to_rig = [[0.8660254037844387, -0.5, 0], [0.5, 0.8660254037844387, 0], [0, 0, 1]]"
+
+
+@pytest.fixture(scope="module")
+def exp(tmp_path_factory):
+    base = make_synthetic(tmp_path_factory.mktemp("synthetic") / "exp")
+    text = (base / "experiment.toml").read_text()
+    assert AS_MADE in text and 'measures = "force_on_sample"' in text
+    (base / "turned.toml").write_text(text.replace(AS_MADE, TURNED))
+    (base / "on_burr.toml").write_text(text.replace('measures = "force_on_sample"', 'measures = "force_on_burr"'))
+    return base
+
+
+def fit_warnings(manifest, out):
+    stdout = run_ok("calibrate", manifest, "--out", out, "--starts", 1, "--no-profiles", "--no-cross-validation",
+                    "--no-discretization-check")
+    warnings = json.loads((out / "fit.json").read_text())["settings"]["warnings"]
+    said = [w for w in warnings if w.startswith(SAID)]
+    assert ["warning: " + w for w in said] == [line for line in stdout.splitlines() if SAID in line]
+    return said
+
+
+def gate_warnings(manifest, out):
+    p = subprocess.run([BURRBENCH, "validate", manifest, "--params", manifest.parent / "params_true.toml",
+                        "--criteria", SRC / "examples" / "criteria" / "release.toml", "--out", out,
+                        "--no-verification"], capture_output=True, text=True, timeout=600)
+    assert p.returncode in (0, 1), p.stderr
+    said = [line[len("warning: "):] for line in p.stderr.splitlines() if SAID in line]
+    limits = json.loads((out / "analysis.json").read_text())["limitations"]
+    assert [w for w in limits if w.startswith(SAID)] == said
+    return said
+
+
+def test_a_sensor_turned_by_a_bolt_hole_is_named_with_the_rotation_the_readings_fit(exp, tmp_path):
+    said = fit_warnings(exp / "turned.toml", tmp_path / "cal")
+    assert len(said) == 1, said
+    angle = float(said[0].split("turned by a further ")[1].split("°")[0])
+    assert 28 < angle < 32, said
+    # The readings fit the rig's axes, as synthesised: the identity to a degree or so.
+    fit = said[0].split("the readings fit [[")[1].split("]]")[0]
+    rows = [[float(v) for v in row.split(", ")] for row in fit.split("], [")]
+    for i in range(3):
+        for j in range(3):
+            assert abs(rows[i][j] - (i == j)) < 0.03, said
+    assert len(gate_warnings(exp / "turned.toml", tmp_path / "gate")) == 1
+
+
+def test_a_force_sign_the_other_way_round_is_named(exp, tmp_path):
+    # The fit's constants end at their bounds and its predictions are bent out of shape, so
+    # the mirror it names may come with a turn; at the true constants it is the sign alone.
+    said = fit_warnings(exp / "on_burr.toml", tmp_path / "cal")
+    assert len(said) == 1 and ("mirrored" in said[0] or "sign the other way round" in said[0]), said
+    assert "Check [sensor] measures" in said[0], said
+    gate = gate_warnings(exp / "on_burr.toml", tmp_path / "gate")
+    assert len(gate) == 1 and "with the force's sign the other way round" in gate[0], gate
+
+
+def test_the_frame_as_made_says_nothing(exp, tmp_path):
+    assert fit_warnings(exp / "experiment.toml", tmp_path / "cal") == []
+    assert gate_warnings(exp / "experiment.toml", tmp_path / "gate") == []
