@@ -62,12 +62,24 @@ CalibrationOutput results(Run& run) {
       ev.residuals_used ? std::sqrt(2 * ev.cost / double(ev.residuals_used)) : NAN;
   // σ comes from the manifest or from samples without contact, never from these
   // residuals: a fit well above it is a misfit the constants absorb (model error).
-  if (out.residuals_summary.rms_normalised > kMisfitRms)
+  if (out.residuals_summary.rms_normalised > kMisfitRms) {
+    // A registration taken as exact whose depth nothing corrects misfits like this when it
+    // is a few µm off along the shaft (docs/calibration.md "Registration is a measurement").
+    std::vector<std::string> exact;
+    for (std::size_t q = 0; q < run.recs.size(); ++q)
+      if (run.recs[q]->registration.method != "fiducials" && L.recordings()[q].depth < 0)
+        exact.push_back(run.recs[q]->id);
     run.warnings.push_back(fmt::format(
         "rms(residual/σ) = {:.3f} (1 expected): the model does not follow the contact samples to the noise "
         "level; the intervals are scaled by the residual variance, but a systematic misfit biases the "
-        "constants (limited by model error; see the discretization check and `burrbench verify`)",
-        out.residuals_summary.rms_normalised));
+        "constants (limited by model error; see the discretization check and `burrbench verify`){}",
+        out.residuals_summary.rms_normalised,
+        exact.empty() ? ""
+                      : fmt::format(". The registration of {} is given and taken as exact, and no depth offset is "
+                                    "fitted: one 50 µm off along the shaft misfits like this and biases the "
+                                    "constants far beyond their intervals; try [fit.nuisance] depth_offset = true",
+                                    fmt::join(exact, ", "))));
+  }
 
   // Sensitivity Jacobians that diverged and were differenced instead (replay_model.hpp).
   std::vector<std::string> diverged;
