@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "burrbench/calibration/lag_check.hpp"
 #include "burrbench/calibration/sensor_frame.hpp"
 #include "burrbench/calibration/zero_drift.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -187,9 +188,10 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   }
   // What the data say about the sensor, over the samples either role counts: a zero that
   // moved during a recording (the fitted bias, or the tare, is one number per recording and
-  // channel: calibration::zero_drift, the force's and the moment's), and readings that fit
-  // the prediction better in a turned or mirrored frame (calibration::SensorFrameCheck,
-  // which centres each recording: its bias or tare is one constant).
+  // channel: calibration::zero_drift, the force's and the moment's), readings that fit the
+  // prediction better in a turned or mirrored frame (calibration::SensorFrameCheck, which
+  // centres each recording: its bias or tare is one constant), and a force that follows the
+  // prediction at another lag than the one replayed (calibration::lag_mismatch).
   auto limitation = [&](std::string w) {
     if (w.empty()) return;
     if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
@@ -207,6 +209,8 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     drift(p.force_sensor_meas_N, calibration::kForceChannel);
     drift(p.torque_sensor_meas_Nmm, calibration::kMomentChannel);
     frame.add(p.force_sensor_pred_N, p.force_sensor_meas_N, p.class_mask, counted);
+    const auto lag = calibration::lag_mismatch(p.t_s, p.force_sensor_pred_N, p.force_sensor_meas_N, counted);
+    limitation(lag ? lag->text(p.recording_id, p.lag_ms) : "");
   }
   if (const auto f = frame.result()) limitation(f->text(ex.manifest.sensor.rotation_sensor_to_rig));
   std::vector<std::string> no_band;
