@@ -22,6 +22,40 @@ def run_ok(*args, timeout=900):
     return p.stdout
 
 
+# How make.sh synthesises each recording: its seed and its lag (ms).
+MADE = {"plunge": (11, 0.0), "sweep": (12, 2.0), "polish": (13, 2.0)}
+
+
+def resynth(exp, recording, *extra, lag_ms=None):
+    """Makes `recording` of the synthetic experiment in folder `exp` again as make.sh does
+    (its seed and lag, σ 0.02 N, the bias), with another lag (ms) or further `synth`
+    options (`extra`), in place of the one there."""
+    exp = Path(exp)
+    seed, made_lag = MADE[recording]
+    (exp / f"{recording}.h5").unlink()
+    (exp / f"{recording}.truth.json").unlink()
+    run_ok("synth", "--sample", exp / "sample.h5", "--protocol", SRC / "examples" / "protocols" / f"{recording}.toml",
+           "--params", exp / "params_true.toml", "--out", exp / f"{recording}.h5", "--truth",
+           exp / f"{recording}.truth.json", "--noise-N", "0.02", "--bias-N", "0.05,-0.03,0.1", "--lag-ms",
+           made_lag if lag_ms is None else lag_ms, "--seed", seed, *extra)
+
+
+def validate_warnings(manifest, out, marker):
+    """`burrbench validate` of `manifest` with its folder's true constants, the example
+    release criteria and no verification, into `out`: (exit code 0 or 1, the stderr warnings
+    holding `marker`, without "warning: "). They must be the analysis's limitations that
+    hold it."""
+    import json
+    p = subprocess.run([BURRBENCH, "validate", manifest, "--params", Path(manifest).parent / "params_true.toml",
+                        "--criteria", SRC / "examples" / "criteria" / "release.toml", "--out", out,
+                        "--no-verification"], capture_output=True, text=True, timeout=600)
+    assert p.returncode in (0, 1), p.stderr
+    said = [line[len("warning: "):] for line in p.stderr.splitlines() if line.startswith("warning: ") and marker in line]
+    limits = json.loads((Path(out) / "analysis.json").read_text())["limitations"]
+    assert [w for w in limits if marker in w] == said, (limits, said)
+    return p.returncode, said
+
+
 def drill_plunge_twice(exp, folder):
     """A copy of the synthetic experiment `exp` in `folder` whose plunge was drilled twice:
     plunge.h5 copied to plunge_again.h5 and listed as a recording of its own (a second

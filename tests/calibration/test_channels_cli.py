@@ -11,11 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from synthetic import make_synthetic, run_ok
+from synthetic import make_synthetic, resynth, run_ok
 
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
-PROTOCOLS = SRC / "examples" / "protocols"
 TRUTH = {"alpha": 500.0, "c1": 16.0, "mu": 0.4}  # compact (the recordings never reach trabecular bone)
 EXTRA = ["--torque-noise-Nmm", "0.05", "--torque-bias-Nmm", "0.5,-0.2,1.0", "--spindle-noise-Nmm", "0.005",
          "--spindle-idle-Nmm", "0.3", "--spindle-viscous-Nmm-per-krpm", "0.01"]
@@ -25,12 +24,8 @@ EXTRA = ["--torque-noise-Nmm", "0.05", "--torque-bias-Nmm", "0.5,-0.2,1.0", "--s
 def fits(tmp_path_factory):
     d = tmp_path_factory.mktemp("channels")
     make_synthetic(d)
-    for name, seed, lag in (("plunge", 11, 0), ("sweep", 12, 2), ("polish", 13, 2)):
-        (d / f"{name}.h5").unlink()
-        (d / f"{name}.truth.json").unlink()
-        run_ok("synth", "--sample", d / "sample.h5", "--protocol", PROTOCOLS / f"{name}.toml", "--params",
-            d / "params_true.toml", "--out", d / f"{name}.h5", "--truth", d / f"{name}.truth.json",
-            "--noise-N", "0.02", "--bias-N", "0.05,-0.03,0.1", "--lag-ms", lag, "--seed", seed, *EXTRA)
+    for name in ("plunge", "sweep", "polish"):
+        resynth(d, name, *EXTRA)
     text = (d / "experiment.toml").read_text()
     (d / "all.toml").write_text(text.replace('seed = 1\n', 'seed = 1\nchannels = ["force", "torque", "spindle"]\n', 1))
     import h5py

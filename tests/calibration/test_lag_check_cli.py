@@ -2,17 +2,11 @@
 experiment's polish re-made 35 ms late. `validate` with the true constants fails the
 release gate's R² and, now, names the lag the force follows; with the manifest's lag_ms set
 to it the line goes and the gate passes. The experiment as made says nothing."""
-import json
-import os
 import shutil
-import subprocess
-from pathlib import Path
 
 import pytest
-from synthetic import make_synthetic, run_ok
+from synthetic import make_synthetic, resynth, validate_warnings
 
-BURRBENCH = os.environ["BURRBENCH"]
-SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 SAID = "Recording polish: its measured force follows the prediction best at a lag of "
 
 
@@ -21,11 +15,7 @@ def late(tmp_path_factory):
     as_made = make_synthetic(tmp_path_factory.mktemp("late") / "as_made")
     d = as_made.parent / "exp"
     shutil.copytree(as_made, d)
-    (d / "polish.h5").unlink()
-    (d / "polish.truth.json").unlink()
-    run_ok("synth", "--sample", d / "sample.h5", "--protocol", SRC / "examples" / "protocols" / "polish.toml",
-           "--params", d / "params_true.toml", "--out", d / "polish.h5", "--truth", d / "polish.truth.json",
-           "--noise-N", "0.02", "--bias-N", "0.05,-0.03,0.1", "--lag-ms", "35", "--seed", "13")
+    resynth(d, "polish", lag_ms=35)
     text = (d / "experiment.toml").read_text()
     polish = 'id = "polish"\npath = "polish.h5"\nsample = "S1"\nrole = "validate"\nlag_ms = 0.0\n'
     assert polish in text
@@ -36,14 +26,7 @@ def late(tmp_path_factory):
 
 
 def gate(manifest, out):
-    p = subprocess.run([BURRBENCH, "validate", manifest, "--params", manifest.parent / "params_true.toml",
-                        "--criteria", SRC / "examples" / "criteria" / "release.toml", "--out", out,
-                        "--no-verification"], capture_output=True, text=True, timeout=600)
-    assert p.returncode in (0, 1), p.stderr
-    said = [line[len("warning: "):] for line in p.stderr.splitlines() if "follows the prediction best at a lag" in line]
-    limits = json.loads((out / "analysis.json").read_text())["limitations"]
-    assert [w for w in limits if "follows the prediction best at a lag" in w] == said
-    return p.returncode, said
+    return validate_warnings(manifest, out, "follows the prediction best at a lag")
 
 
 def test_a_validation_recording_replayed_at_the_wrong_lag_is_named(late):

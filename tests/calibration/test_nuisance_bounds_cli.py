@@ -4,24 +4,17 @@ with the lag at 20 ms and constants fitted against a misaligned path; calibrate 
 in its summary and fit.json's warnings. With the bounds widened it recovers the lag and
 says nothing."""
 import json
-import os
-from pathlib import Path
 
 import pytest
-from synthetic import make_synthetic, run_ok
+from synthetic import make_synthetic, resynth, run_ok
 
-SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 SAID = "Recording sweep: the fitted lag ended at its upper bound (20 ms; [fit.nuisance] lag_bounds_ms = [-20, 20])"
 
 
 @pytest.fixture(scope="module")
 def late(tmp_path_factory):
     d = make_synthetic(tmp_path_factory.mktemp("lag") / "exp")
-    (d / "sweep.h5").unlink()
-    (d / "sweep.truth.json").unlink()
-    run_ok("synth", "--sample", d / "sample.h5", "--protocol", SRC / "examples" / "protocols" / "sweep.toml",
-           "--params", d / "params_true.toml", "--out", d / "sweep.h5", "--truth", d / "sweep.truth.json",
-           "--noise-N", "0.02", "--bias-N", "0.05,-0.03,0.1", "--lag-ms", "35", "--seed", "12")
+    resynth(d, "sweep", lag_ms=35)
     text = (d / "experiment.toml").read_text()
     assert "lag_bounds_ms = [-20.0, 20.0]" in text
     (d / "wide.toml").write_text(text.replace("lag_bounds_ms = [-20.0, 20.0]", "lag_bounds_ms = [-50.0, 50.0]"))

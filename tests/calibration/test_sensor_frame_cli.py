@@ -5,16 +5,10 @@ gave compact C1 and α with profile intervals that miss the truth; calibrate and
 now name the turn and the rotation the readings fit, and the mirrored sign. The manifest
 as made says nothing."""
 import json
-import os
-import shutil
-import subprocess
-from pathlib import Path
 
 import pytest
-from synthetic import make_synthetic, run_ok
+from synthetic import make_synthetic, run_ok, validate_warnings
 
-BURRBENCH = os.environ["BURRBENCH"]
-SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
 SAID = "the measured force fits the prediction best"
 AS_MADE = "rotation_sensor_to_rig = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]"
 TURNED = "rotation_sensor_to_rig = [[0.8660254037844387, -0.5, 0], [0.5, 0.8660254037844387, 0], [0, 0, 1]]"
@@ -40,14 +34,7 @@ def fit_warnings(manifest, out):
 
 
 def gate_warnings(manifest, out):
-    p = subprocess.run([BURRBENCH, "validate", manifest, "--params", manifest.parent / "params_true.toml",
-                        "--criteria", SRC / "examples" / "criteria" / "release.toml", "--out", out,
-                        "--no-verification"], capture_output=True, text=True, timeout=600)
-    assert p.returncode in (0, 1), p.stderr
-    said = [line[len("warning: "):] for line in p.stderr.splitlines() if SAID in line]
-    limits = json.loads((out / "analysis.json").read_text())["limitations"]
-    assert [w for w in limits if w.startswith(SAID)] == said
-    return said
+    return validate_warnings(manifest, out, SAID)[1]
 
 
 def test_a_sensor_turned_by_a_bolt_hole_is_named_with_the_rotation_the_readings_fit(exp, tmp_path):
