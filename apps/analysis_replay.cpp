@@ -5,7 +5,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "burrbench/calibration/lag_check.hpp"
+#include "burrbench/analysis/lag_check.hpp"
 #include "burrbench/calibration/sensor_frame.hpp"
 #include "burrbench/calibration/zero_drift.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -191,7 +191,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   // channel: calibration::zero_drift, the force's and the moment's), readings that fit the
   // prediction better in a turned or mirrored frame (calibration::SensorFrameCheck, which
   // centres each recording: its bias or tare is one constant), and a force that follows the
-  // prediction at another lag than the one replayed (calibration::lag_mismatch).
+  // prediction at another lag than the one replayed (analysis::lag_mismatch).
   auto limitation = [&](std::string w) {
     if (w.empty()) return;
     if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
@@ -209,7 +209,7 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     drift(p.force_sensor_meas_N, calibration::kForceChannel);
     drift(p.torque_sensor_meas_Nmm, calibration::kMomentChannel);
     frame.add(p.force_sensor_pred_N, p.force_sensor_meas_N, p.class_mask, counted);
-    const auto lag = calibration::lag_mismatch(p.t_s, p.force_sensor_pred_N, p.force_sensor_meas_N, counted);
+    const auto lag = analysis::lag_mismatch(p.t_s, p.force_sensor_pred_N, p.force_sensor_meas_N, counted);
     limitation(lag ? lag->text(p.recording_id, p.lag_ms) : "");
   }
   if (const auto f = frame.result()) limitation(f->text(ex.manifest.sensor.rotation_sensor_to_rig));

@@ -3,8 +3,12 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/Dense>
+#include <array>
+
 #include <fmt/format.h>
+#include <glm/gtc/quaternion.hpp>
+
+#include "burrbench/model/registration.hpp"
 
 namespace burrbench::calibration {
 
@@ -33,36 +37,34 @@ void SensorFrameCheck::add(const std::vector<glm::dvec3>& predicted_N, const std
 
 std::optional<SensorFrameCheck::Result> SensorFrameCheck::result() const {
   if (n_ < kMinFrameSamples || !(pp_ > 0)) return std::nullopt;
-  Eigen::Matrix3d S;
+  // Wahba's problem, as the registration solves it (model::optimal_rotation, Horn's
+  // quaternion): the proper R with R·p ≈ m from S[r][c] = Σ p[r]·m[c] (= cross_[r][c]), and
+  // the improper −R' with R' the proper rotation for −S (tr((−R')ᵀS) = tr(R'ᵀ(−S))).
+  std::array<std::array<double, 3>, 3> S{}, minus{};
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) S(r, c) = cross_[c][r];
-  // Wahba's problem: tr(QᵀS) is largest for Q = U·D·Vᵀ (S = U Σ Vᵀ), D = diag(1, 1, ±1)
-  // picking a proper or an improper Q.
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(S, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const double d = (svd.matrixU() * svd.matrixV().transpose()).determinant() > 0 ? 1.0 : -1.0;
-  auto best = [&](double sign) {
-    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-    D(2, 2) = d * sign;
-    return Eigen::Matrix3d(svd.matrixU() * D * svd.matrixV().transpose());
-  };
-  // Least squares with the best scale s = max(0, tr(QᵀS))/Σ|p|²: Σ|m|² − s²·Σ|p|².
-  auto residual = [&](const Eigen::Matrix3d& Q) {
-    const double t = std::max(0.0, (Q.transpose() * S).trace());
+    for (int c = 0; c < 3; ++c) {
+      S[std::size_t(r)][std::size_t(c)] = cross_[r][c];
+      minus[std::size_t(r)][std::size_t(c)] = -cross_[r][c];
+    }
+  const glm::dmat3 proper = model::optimal_rotation(S), improper = -model::optimal_rotation(minus);
+  // Least squares with the best scale s = max(0, Σ m·Qp)/Σ|p|²: Σ|m|² − s²·Σ|p|².
+  auto residual = [&](const glm::dmat3& Q) {
+    double t = 0;
+    for (int c = 0; c < 3; ++c) t += glm::dot(Q[c], cross_[c]);  // Σ_ij Q_ij Σ m_i p_j
+    t = std::max(0.0, t);
     return mm_ - t * t / pp_;
   };
-  const Eigen::Matrix3d proper = best(1), improper = best(-1);
   Result res;
   res.samples = n_;
-  res.residual_as_given_N2 = residual(Eigen::Matrix3d::Identity());
+  res.residual_as_given_N2 = residual(glm::dmat3(1.0));
   const double r_proper = residual(proper), r_improper = residual(improper);
   res.mirrored = r_improper < r_proper;
-  const Eigen::Matrix3d Q = res.mirrored ? improper : proper;
+  res.turn = res.mirrored ? improper : proper;
   res.residual_turned_N2 = res.mirrored ? r_improper : r_proper;
-  const Eigen::AngleAxisd aa(Eigen::Matrix3d(res.mirrored ? Eigen::Matrix3d(-Q) : Q));
-  res.angle_deg = aa.angle() * 180 / M_PI;
-  res.axis = {aa.axis().x(), aa.axis().y(), aa.axis().z()};
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) res.turn[c][r] = Q(r, c);
+  glm::dquat q = glm::quat_cast(res.mirrored ? -res.turn : res.turn);
+  if (q.w < 0) q = -q;  // the same turn, its angle in [0°, 180°]
+  res.angle_deg = glm::degrees(glm::angle(q));
+  res.axis = glm::axis(q);
   return res;
 }
 

@@ -1,4 +1,5 @@
 // Does a recording begin with the burr already in bone? (experiment.hpp StartInBone)
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>

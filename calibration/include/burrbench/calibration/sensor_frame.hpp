@@ -5,8 +5,8 @@
 // The fit cannot turn the frame, so it bends the constants to the turned data, and gives
 // them tight intervals: on the synthetic experiment with the sensor turned by 90° about z
 // it returned compact α 185 and μ 0.13 (truth 500, 0.4), "identifiable", with only a
-// misfit line to show. Wahba's problem on the used samples in contact says which frame the
-// readings fit best (docs/calibration.md "A sensor frame that does not fit").
+// misfit line to show. Wahba's problem on the used samples in contact (solved as the
+// registration's, model::optimal_rotation) says which frame the readings fit best (docs/calibration.md "A sensor frame that does not fit").
 #include <cstddef>
 #include <cstdint>
 #include <optional>

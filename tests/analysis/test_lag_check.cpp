@@ -6,9 +6,9 @@
 #include <cmath>
 #include <random>
 
-#include "burrbench/calibration/lag_check.hpp"
+#include "burrbench/analysis/lag_check.hpp"
 
-namespace bc = burrbench::calibration;
+namespace ba = burrbench::analysis;
 
 namespace {
 
@@ -22,13 +22,14 @@ struct Series {
   std::vector<glm::dvec3> predicted, measured;
 };
 
-// Measured = the force `lag_ms` later (the sensor's channel late by it) + a bias + σ 0.02 N.
-Series series(double lag_ms) {
+// Measured = the force `lag_ms` later (the sensor's channel late by it) + a bias + σ 0.02 N,
+// over 3 s at `rate_hz`.
+Series series(double lag_ms, double rate_hz = 1000) {
   std::mt19937 rng(5);
   std::normal_distribution<double> noise(0, 0.02);
   Series s;
-  for (int j = 0; j < 3000; ++j) {
-    const double t = j * 1e-3;
+  for (int j = 0; j < int(3 * rate_hz); ++j) {
+    const double t = j / rate_hz;
     s.t_s.push_back(t);
     s.predicted.push_back(force(t));
     s.measured.push_back(force(t - lag_ms * 1e-3) + glm::dvec3(0.05, -0.03, 0.1) +
@@ -42,7 +43,7 @@ Series series(double lag_ms) {
 
 TEST(LagCheck, AForceLaterThanReplayedIsFoundAtItsShift) {
   const Series s = series(35);
-  const auto m = bc::lag_mismatch(s.t_s, s.predicted, s.measured, s.weight);
+  const auto m = ba::lag_mismatch(s.t_s, s.predicted, s.measured, s.weight);
   ASSERT_TRUE(m);
   EXPECT_NEAR(m->shift_ms, 35, 1e-9);
   EXPECT_NEAR(m->period_ms, 1, 1e-9);
@@ -65,16 +66,26 @@ TEST(LagCheck, AForceLaterThanReplayedIsFoundAtItsShift) {
   EXPECT_EQ(w.rfind("Recording polish: its measured force follows the prediction best at a lag of 35 ms, +35 ms from "
                     "the 0 ms it was replayed at", 0), 0u) << w;
   // An earlier force the other way; the lag it names is the one replayed plus the shift.
-  const auto early = bc::lag_mismatch(s.t_s, s.predicted, series(-12).measured, s.weight);
+  const auto early = ba::lag_mismatch(s.t_s, s.predicted, series(-12).measured, s.weight);
   ASSERT_TRUE(early);
   EXPECT_NEAR(early->shift_ms, -12, 1e-9);
   EXPECT_NE(early->text("plunge", 4).find("a lag of -8 ms, -12 ms from the 4 ms"), std::string::npos);
 }
 
+TEST(LagCheck, AFastSensorIsShiftedInWholeMillisecondSteps) {
+  // 4 kHz: shifts 4 periods apart, 201 of them rather than 801; 35 ms is one of them.
+  const Series s = series(35, 4000);
+  const auto m = ba::lag_mismatch(s.t_s, s.predicted, s.measured, s.weight);
+  ASSERT_TRUE(m);
+  EXPECT_NEAR(m->period_ms, 0.25, 1e-9);
+  EXPECT_NEAR(m->shift_ms, 35, 1e-9);
+  EXPECT_TRUE(m->named());
+}
+
 TEST(LagCheck, AForceAtItsLagOrTwoMillisecondsOffIsNotNamed) {
   for (double lag : {0.0, 2.0}) {
     const Series s = series(lag);
-    const auto m = bc::lag_mismatch(s.t_s, s.predicted, s.measured, s.weight);
+    const auto m = ba::lag_mismatch(s.t_s, s.predicted, s.measured, s.weight);
     ASSERT_TRUE(m);
     EXPECT_NEAR(m->shift_ms, lag, 1e-9) << lag;  // found all the same
     EXPECT_FALSE(m->named()) << lag;
@@ -83,5 +94,5 @@ TEST(LagCheck, AForceAtItsLagOrTwoMillisecondsOffIsNotNamed) {
   // Too short a series (under 50 samples 100 ms from its ends) says nothing.
   Series s = series(35);
   s.t_s.resize(240), s.predicted.resize(240), s.measured.resize(240), s.weight.resize(240);
-  EXPECT_FALSE(bc::lag_mismatch(s.t_s, s.predicted, s.measured, s.weight));
+  EXPECT_FALSE(ba::lag_mismatch(s.t_s, s.predicted, s.measured, s.weight));
 }

@@ -13,13 +13,14 @@
 
 #include <glm/glm.hpp>
 
-namespace burrbench::calibration {
+namespace burrbench::analysis {
 
-inline constexpr double kLagSearchMs = 100;    // shifts tried: ±this, at the force period
+inline constexpr double kLagSearchMs = 100;    // shifts tried: ±this,
+inline constexpr double kLagStepMs = 1;        // this far apart at least (whole force periods)
 inline constexpr double kLagMinimumMs = 2;     // a shift no larger (or of 2 periods) is not named
 // The shift must lower the residual sum of squares by more than this many times the
-// variance per component left after it (as SensorFrameCheck: χ²₁ at 0.999 is 10.8; the
-// rest is room for residuals correlated in time).
+// variance per component left after it (as calibration's SensorFrameCheck: χ²₁ at 0.999
+// is 10.8; the rest is room for residuals correlated in time).
 inline constexpr double kLagSignificance = 100;
 
 struct LagMismatch {
@@ -34,10 +35,10 @@ struct LagMismatch {
 
 // The predicted and measured force (sensor frame, N) at the force times t_s (s, strictly
 // increasing) over the samples with weight > 0, more than kLagSearchMs from either end:
-// the shift δ (a whole number of median force periods within ±kLagSearchMs) for which
+// the shift δ (whole median force periods, ≥ kLagStepMs apart, within ±kLagSearchMs) for which
 // measured(t) fits predicted(t − δ), linearly interpolated, best after each one's mean is
 // taken off per axis (the bias). None with fewer than 50 such samples.
 std::optional<LagMismatch> lag_mismatch(const std::vector<double>& t_s, const std::vector<glm::dvec3>& predicted_N,
                                         const std::vector<glm::dvec3>& measured_N, const std::vector<double>& weight);
 
-}  // namespace burrbench::calibration
+}  // namespace burrbench::analysis
