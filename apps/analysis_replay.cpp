@@ -6,6 +6,7 @@
 #include <fmt/ranges.h>
 
 #include "burrbench/analysis/lag_check.hpp"
+#include "burrbench/calibration/friction_check.hpp"
 #include "burrbench/calibration/sensor_frame.hpp"
 #include "burrbench/calibration/zero_drift.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -190,14 +191,17 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
   // moved during a recording (the fitted bias, or the tare, is one number per recording and
   // channel: calibration::zero_drift, the force's and the moment's), readings that fit the
   // prediction better in a turned or mirrored frame (calibration::SensorFrameCheck, which
-  // centres each recording: its bias or tare is one constant), and a force that follows the
-  // prediction at another lag than the one replayed (analysis::lag_mismatch).
+  // centres each recording: its bias or tare is one constant), friction that acts against
+  // its predicted direction (calibration::FrictionDirectionCheck: a spin the other way round)
+  // and a force that follows the prediction at another lag than the one replayed
+  // (analysis::lag_mismatch).
   auto limitation = [&](std::string w) {
     if (w.empty()) return;
     if (opt.warn) fmt::print(stderr, "warning: {}\n", w);
     in.limitations.push_back(std::move(w));
   };
   calibration::SensorFrameCheck frame;
+  calibration::FrictionDirectionCheck friction;
   for (const auto& p : pred.recordings) {
     std::vector<double> counted(p.t_s.size());
     for (std::size_t k = 0; k < counted.size(); ++k) counted[k] = p.used_calibrate[k] || p.used_validate[k];
@@ -209,10 +213,12 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     drift(p.force_sensor_meas_N, calibration::kForceChannel);
     drift(p.torque_sensor_meas_Nmm, calibration::kMomentChannel);
     frame.add(p.force_sensor_pred_N, p.force_sensor_meas_N, p.class_mask, counted);
+    friction.add(p.force_sensor_pred_N, p.friction_sensor_pred_N, p.force_sensor_meas_N, p.class_mask, counted);
     const auto lag = analysis::lag_mismatch(p.t_s, p.force_sensor_pred_N, p.force_sensor_meas_N, counted);
     limitation(lag ? lag->text(p.recording_id, p.lag_ms) : "");
   }
   if (const auto f = frame.result()) limitation(f->text(ex.manifest.sensor.rotation_sensor_to_rig));
+  if (const auto f = friction.result()) limitation(f->text(ex.manifest.burr.spin_sign));
   std::vector<std::string> no_band;
   for (const auto& p : pred.recordings)
     if (p.band_diverged) no_band.push_back(p.recording_id);

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "burrbench/calibration/friction_check.hpp"
 #include "burrbench/calibration/sensor_frame.hpp"
 #include "burrbench/calibration/zero_drift.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
@@ -54,6 +55,22 @@ CalibrationOutput results(Run& run) {
               run.w_all[r]);
   if (const auto f = frame.result(); f && f->mismatch())
     run.warnings.push_back(f->text(run.exp.manifest.sensor.rotation_sensor_to_rig));
+  // Friction that acts against its predicted direction (a spin the other way round). Its
+  // part of the prediction comes from the fixed-geometry terms at the optimum: one plain
+  // replay per recording.
+  FrictionDirectionCheck friction;
+  const std::vector<Prediction> parts = run.obj->predict_parts(run.x);
+  for (std::size_t r = 0; r < run.models.size(); ++r) {
+    const Prediction& p = parts[r];
+    if (!p.fixed) continue;
+    const FixedGeometryTerms& g = *p.fixed;
+    std::vector<glm::dvec3> f(p.force_sensor_N.size(), glm::dvec3(0));
+    for (std::size_t j = 0; j < f.size(); ++j)
+      for (std::size_t i = 0; i < g.labels.size(); ++i)
+        f[j] += g.at.mu[g.labels[i]] * g.terms[j * g.labels.size() + i].friction_force;
+    friction.add(p.force_sensor_N, f, run.models[r]->measured_sensor_N(), p.class_mask, run.w_all[r]);
+  }
+  if (const auto f = friction.result(); f && f->reversed()) run.warnings.push_back(f->text(run.exp.manifest.burr.spin_sign));
   // A lag, depth offset or pose that ended at a bound: the constants were fitted with it
   // held there.
   const std::vector<NuisanceAtBound> pinned = nuisances_at_bounds(L, run.x);

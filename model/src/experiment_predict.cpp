@@ -381,6 +381,7 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
   BURRBENCH_CHECK(n == r.t_s.size(), "replay returned a different sample count");
   p.force_burr_vol_N.resize(n);
   p.force_sensor_pred_N.resize(n);
+  p.friction_sensor_pred_N.resize(n);
   p.normal_vol.resize(n);
   p.depth_b_mm.resize(n);
   p.class_mask.resize(n);
@@ -399,6 +400,7 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
     const ContactResult& c = res.samples[k].contact;
     p.force_burr_vol_N[k] = c.force_N;
     p.force_sensor_pred_N[k] = r.sensor_force_from_burr_force(c.force_N);
+    p.friction_sensor_pred_N[k] = r.sensor_force_from_burr_force(c.friction_N);
     p.normal_vol[k] = c.normal;
     p.depth_b_mm[k] = c.depth_b_mm;
     p.class_mask[k] = c.class_mask;

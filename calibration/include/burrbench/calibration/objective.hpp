@@ -127,6 +127,10 @@ class Objective {
   CovarianceOutcome covariance(const std::vector<double>& x, const SampleWeights& w,
                                const std::vector<bool>& hold, double inflation = 1) const;
 
+  // Every recording's prediction at x with its fixed-geometry terms (Prediction::fixed, for
+  // replay-backed models): the parts of the predicted force, elastic and friction, by class.
+  std::vector<Prediction> predict_parts(const std::vector<double>& x) const { return predict_all(x, -1, false); }
+
   // Replays done so far through this objective (all threads).
   std::uint64_t replays() const;
 

@@ -235,6 +235,9 @@ struct RecordingPrediction : data_schema::PredictedRecording {
   // The band's sensitivities diverged (sensitivities_diverged): band95_N is left empty
   // rather than drawn from them.
   bool band_diverged = false;
+  // The friction part of force_sensor_pred_N (sensor frame, N, no bias): what the check of
+  // friction against its predicted direction regresses on. Not stored in the file.
+  std::vector<glm::dvec3> friction_sensor_pred_N;
 };
 
 // The spindle's load torque for a couple T on the burr spinning at ω: −T·ω̂ (N·mm; 0 when
