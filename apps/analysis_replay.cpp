@@ -217,8 +217,10 @@ AnalysisInput replay_experiment(const fs::path& manifest, const ds::ParameterSet
     const auto lag = analysis::lag_mismatch(p.t_s, p.force_sensor_pred_N, p.force_sensor_meas_N, counted);
     limitation(lag ? lag->text(p.recording_id, p.lag_ms) : "");
   }
-  if (const auto f = frame.result()) limitation(f->text(ex.manifest.sensor.rotation_sensor_to_rig));
-  if (const auto f = friction.result()) limitation(f->text(ex.manifest.burr.spin_sign));
+  for (std::string& w : calibration::frame_and_friction_lines(frame.result(), friction.result(),
+                                                              ex.manifest.sensor.rotation_sensor_to_rig,
+                                                              ex.manifest.burr.spin_sign))
+    limitation(std::move(w));
   std::vector<std::string> no_band;
   for (const auto& p : pred.recordings)
     if (p.band_diverged) no_band.push_back(p.recording_id);

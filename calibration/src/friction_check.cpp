@@ -67,4 +67,16 @@ std::string FrictionDirectionCheck::Result::text(int spin_sign) const {
       spin_sign);
 }
 
+std::vector<std::string> frame_and_friction_lines(const std::optional<SensorFrameCheck::Result>& frame,
+                                                  const std::optional<FrictionDirectionCheck::Result>& friction,
+                                                  const glm::dmat3& rotation_sensor_to_rig, int spin_sign) {
+  const bool turned = frame && frame->mismatch(), reversed = friction && friction->reversed();
+  std::vector<std::string> lines;
+  if (turned && (!reversed || frame->residual_turned_N2 <= friction->residual_scaled_N2))
+    lines.push_back(frame->text(rotation_sensor_to_rig));
+  else if (reversed)
+    lines.push_back(friction->text(spin_sign));
+  return lines;
+}
+
 }  // namespace burrbench::calibration

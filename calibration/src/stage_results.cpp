@@ -53,8 +53,6 @@ CalibrationOutput results(Run& run) {
   for (std::size_t r = 0; r < run.models.size(); ++r)
     frame.add(ev.predictions[r].force_sensor_N, run.models[r]->measured_sensor_N(), ev.predictions[r].class_mask,
               run.w_all[r]);
-  if (const auto f = frame.result(); f && f->mismatch())
-    run.warnings.push_back(f->text(run.exp.manifest.sensor.rotation_sensor_to_rig));
   // Friction that acts against its predicted direction (a spin the other way round). Its
   // part of the prediction comes from the fixed-geometry terms at the optimum: one plain
   // replay per recording.
@@ -70,7 +68,10 @@ CalibrationOutput results(Run& run) {
         f[j] += g.at.mu[g.labels[i]] * g.terms[j * g.labels.size() + i].friction_force;
     friction.add(p.force_sensor_N, f, run.models[r]->measured_sensor_N(), p.class_mask, run.w_all[r]);
   }
-  if (const auto f = friction.result(); f && f->reversed()) run.warnings.push_back(f->text(run.exp.manifest.burr.spin_sign));
+  for (std::string& w : frame_and_friction_lines(frame.result(), friction.result(),
+                                                 run.exp.manifest.sensor.rotation_sensor_to_rig,
+                                                 run.exp.manifest.burr.spin_sign))
+    run.warnings.push_back(std::move(w));
   // A lag, depth offset or pose that ended at a bound: the constants were fitted with it
   // held there.
   const std::vector<NuisanceAtBound> pinned = nuisances_at_bounds(L, run.x);

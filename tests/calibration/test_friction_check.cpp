@@ -142,3 +142,30 @@ TEST(FrictionCheck, TooFewSamplesOrNoFrictionSayNothing) {
   none.add(z.predicted, z.friction, z.measured, z.mask, z.weight);
   EXPECT_FALSE(none.result());
 }
+
+TEST(FrictionCheck, OfTwoChecksThatNameAMismatchTheBetterFitIsSaid) {
+  // A reversed spin also reads as a mirror in the friction's plane, a mirrored sensor as
+  // reversed friction: where both name one, the smaller residual decides.
+  bc::SensorFrameCheck::Result frame;
+  frame.mirrored = true;
+  frame.angle_deg = 180;
+  frame.samples = 1000;
+  frame.residual_as_given_N2 = 30;
+  const auto friction = check(-1.0);
+  ASSERT_TRUE(friction.reversed());
+  ASSERT_GT(friction.residual_scaled_N2, 0.5);
+  const glm::dmat3 I(1.0);
+  auto said = [&](double frame_after) {
+    frame.residual_turned_N2 = frame_after;
+    EXPECT_TRUE(frame.mismatch());
+    const auto lines = bc::frame_and_friction_lines(frame, friction, I, -1);
+    EXPECT_EQ(lines.size(), 1u);
+    return lines.empty() ? std::string() : lines[0];
+  };
+  EXPECT_NE(said(friction.residual_scaled_N2 * 1.2).find("predicted friction"), std::string::npos);
+  EXPECT_NE(said(friction.residual_scaled_N2 * 0.8).find("fits the prediction best mirrored"), std::string::npos);
+  // Either alone is said; neither, nothing.
+  EXPECT_EQ(bc::frame_and_friction_lines(std::nullopt, friction, I, 1).size(), 1u);
+  EXPECT_EQ(bc::frame_and_friction_lines(frame, std::nullopt, I, 1).size(), 1u);
+  EXPECT_TRUE(bc::frame_and_friction_lines(std::nullopt, check(1.0), I, 1).empty());
+}

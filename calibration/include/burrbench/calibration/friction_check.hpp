@@ -22,6 +22,8 @@
 
 #include <glm/glm.hpp>
 
+#include "burrbench/calibration/sensor_frame.hpp"
+
 namespace burrbench::calibration {
 
 // The fit of β must lower the residual sum of squares by more than this many times the
@@ -60,5 +62,13 @@ class FrictionDirectionCheck {
   double rf_ = 0, ff_ = 0, rr_ = 0;  // Σ r·f, Σ f·f, Σ r·r about each recording's means
   std::size_t n_ = 0;
 };
+
+// The warning lines of the sensor-frame check and this one, over the same samples. Each
+// reads the other's cause in part: reversed friction (mostly sideways) fits a mirror in its
+// plane, and a mirrored sensor reverses the friction with the rest. So where both name a
+// mismatch, only the one that leaves the smaller residual sum of squares is said.
+std::vector<std::string> frame_and_friction_lines(const std::optional<SensorFrameCheck::Result>& frame,
+                                                  const std::optional<FrictionDirectionCheck::Result>& friction,
+                                                  const glm::dmat3& rotation_sensor_to_rig, int spin_sign);
 
 }  // namespace burrbench::calibration
