@@ -5,10 +5,8 @@ calibrate drove compact μ to its lower bound and returned α ≈ 12 N/mm² (tru
 interval of ±2 %, and validate at the true constants passed the release gate. Both now name
 the reversed friction; the manifest as made says nothing, and a mirrored sensor is named as
 the sensor-frame check names it, not as a spin."""
-import json
-
 import pytest
-from synthetic import make_synthetic, run_ok, validate_warnings
+from synthetic import fit_warnings, make_synthetic, validate_warnings
 
 SAID = "the measured force holds the predicted friction"
 FRAME = "the measured force fits the prediction best"
@@ -27,21 +25,12 @@ def exp(tmp_path_factory):
     return base
 
 
-def fit(manifest, out):
-    stdout = run_ok("calibrate", manifest, "--out", out, "--starts", 1, "--no-profiles", "--no-cross-validation",
-                    "--no-discretization-check")
-    result = json.loads((out / "fit.json").read_text())
-    said = [w for w in result["settings"]["warnings"] if w.startswith(SAID)]
-    assert ["warning: " + w for w in said] == [line for line in stdout.splitlines() if SAID in line]
-    return result, said
-
-
 def scale(line):
     return float(line.split(SAID + " ")[1].split(" times")[0])
 
 
 def test_a_reversed_spin_is_named_by_calibrate(exp, tmp_path):
-    result, said = fit(exp / "reversed.toml", tmp_path / "cal")
+    result, said = fit_warnings(exp / "reversed.toml", tmp_path / "cal", SAID)
     assert len(said) == 1, result["settings"]["warnings"]
     assert "spin_sign = -1" in said[0] and "Check the spindle's direction" in said[0], said
     # μ at its lower bound (0.01) against the truth (0.4): the data hold the friction about
@@ -61,7 +50,7 @@ def test_a_reversed_spin_is_named_by_validate_at_the_true_constants(exp, tmp_pat
 
 
 def test_the_manifest_as_made_says_nothing(exp, tmp_path):
-    result, said = fit(exp / "experiment.toml", tmp_path / "cal")
+    result, said = fit_warnings(exp / "experiment.toml", tmp_path / "cal", SAID)
     assert not said, said
     assert not validate_warnings(exp / "experiment.toml", tmp_path / "gate", SAID)[1]
 

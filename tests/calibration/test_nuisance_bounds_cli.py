@@ -3,10 +3,8 @@ with its sweep's force 35 ms late, calibrated with the default lag bounds (±20 
 with the lag at 20 ms and constants fitted against a misaligned path; calibrate names it
 in its summary and fit.json's warnings. With the bounds widened it recovers the lag and
 says nothing."""
-import json
-
 import pytest
-from synthetic import make_synthetic, resynth, run_ok
+from synthetic import make_synthetic, quick_fit, resynth
 
 SAID = "Recording sweep: the fitted lag ended at its upper bound (20 ms; [fit.nuisance] lag_bounds_ms = [-20, 20])"
 
@@ -22,9 +20,7 @@ def late(tmp_path_factory):
 
 
 def calibrate(manifest, out):
-    stdout = run_ok("calibrate", manifest, "--out", out, "--starts", 1, "--no-profiles", "--no-cross-validation",
-                    "--no-discretization-check")
-    fit = json.loads((out / "fit.json").read_text())
+    stdout, fit = quick_fit(manifest, out)
     lag = {n["recording_id"]: n["estimate"] for n in fit["nuisance"] if n["name"] == "lag"}
     return stdout, fit["settings"]["warnings"], lag
 

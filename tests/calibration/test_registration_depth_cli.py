@@ -4,10 +4,8 @@ intervals that miss), and only the misfit line shows it. That line now names the
 recordings whose registration nothing corrects and points at the depth offset; with
 [fit.nuisance] depth_offset = true the constants come back within intervals that hold the
 truth, and no hint is given."""
-import json
-
 import pytest
-from synthetic import make_synthetic, run_ok
+from synthetic import make_synthetic, quick_fit
 
 TRUTH = {"alpha": 500.0, "c1": 16.0, "mu": 0.4}
 HINT = "The registration of plunge, sweep is given and taken as exact, and no depth offset is fitted"
@@ -25,9 +23,7 @@ def shifted(tmp_path_factory):
 
 
 def calibrate(manifest, out):
-    run_ok("calibrate", manifest, "--out", out, "--starts", 1, "--no-profiles", "--no-cross-validation",
-           "--no-discretization-check")
-    return json.loads((out / "fit.json").read_text())
+    return quick_fit(manifest, out)[1]
 
 
 def test_the_misfit_line_points_at_the_depth_offset(shifted):

@@ -4,10 +4,8 @@ about z (a bolt-hole step) or that it measures the force on the burr. Unsaid, th
 gave compact C1 and α with profile intervals that miss the truth; calibrate and validate
 now name the turn and the rotation the readings fit, and the mirrored sign. The manifest
 as made says nothing."""
-import json
-
 import pytest
-from synthetic import make_synthetic, run_ok, validate_warnings
+from synthetic import fit_warnings, make_synthetic, validate_warnings
 
 SAID = "the measured force fits the prediction best"
 AS_MADE = "rotation_sensor_to_rig = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]"
@@ -24,13 +22,8 @@ def exp(tmp_path_factory):
     return base
 
 
-def fit_warnings(manifest, out):
-    stdout = run_ok("calibrate", manifest, "--out", out, "--starts", 1, "--no-profiles", "--no-cross-validation",
-                    "--no-discretization-check")
-    warnings = json.loads((out / "fit.json").read_text())["settings"]["warnings"]
-    said = [w for w in warnings if w.startswith(SAID)]
-    assert ["warning: " + w for w in said] == [line for line in stdout.splitlines() if SAID in line]
-    return said
+def frame_warnings(manifest, out):
+    return fit_warnings(manifest, out, SAID)[1]
 
 
 def gate_warnings(manifest, out):
@@ -38,7 +31,7 @@ def gate_warnings(manifest, out):
 
 
 def test_a_sensor_turned_by_a_bolt_hole_is_named_with_the_rotation_the_readings_fit(exp, tmp_path):
-    said = fit_warnings(exp / "turned.toml", tmp_path / "cal")
+    said = frame_warnings(exp / "turned.toml", tmp_path / "cal")
     assert len(said) == 1, said
     angle = float(said[0].split("turned by a further ")[1].split("°")[0])
     assert 28 < angle < 32, said
@@ -54,7 +47,7 @@ def test_a_sensor_turned_by_a_bolt_hole_is_named_with_the_rotation_the_readings_
 def test_a_force_sign_the_other_way_round_is_named(exp, tmp_path):
     # The fit's constants end at their bounds and its predictions are bent out of shape, so
     # the mirror it names may come with a turn; at the true constants it is the sign alone.
-    said = fit_warnings(exp / "on_burr.toml", tmp_path / "cal")
+    said = frame_warnings(exp / "on_burr.toml", tmp_path / "cal")
     assert len(said) == 1 and ("mirrored" in said[0] or "sign the other way round" in said[0]), said
     assert "Check [sensor] measures" in said[0], said
     gate = gate_warnings(exp / "on_burr.toml", tmp_path / "gate")
@@ -62,5 +55,5 @@ def test_a_force_sign_the_other_way_round_is_named(exp, tmp_path):
 
 
 def test_the_frame_as_made_says_nothing(exp, tmp_path):
-    assert fit_warnings(exp / "experiment.toml", tmp_path / "cal") == []
+    assert frame_warnings(exp / "experiment.toml", tmp_path / "cal") == []
     assert gate_warnings(exp / "experiment.toml", tmp_path / "gate") == []
