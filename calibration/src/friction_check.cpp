@@ -1,7 +1,6 @@
 #include "burrbench/calibration/friction_check.hpp"
 
 #include <algorithm>
-#include <cmath>
 
 #include <fmt/format.h>
 
@@ -41,7 +40,6 @@ std::optional<FrictionDirectionCheck::Result> FrictionDirectionCheck::result() c
   res.residual_as_predicted_N2 = rr_;
   res.residual_scaled_N2 = std::max(0.0, rr_ - beta * beta * ff_);
   res.residual_without_friction_N2 = rr_ + 2 * rf_ + ff_;  // Σ|r + f|²
-  res.friction_rms_N = std::sqrt(ff_ / double(n_));
   return res;
 }
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from synthetic import make_synthetic, run_ok
+from synthetic import make_synthetic
 
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])

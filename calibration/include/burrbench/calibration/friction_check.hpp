@@ -5,8 +5,8 @@
 // and leaves the elastic force as it is. `acquire` does not know the spin (the manifest's
 // default is +1), so nothing else catches it. A fit cannot reverse the spin: on the synthetic
 // experiment it drove compact μ to its lower bound and α with it (erosion goes with μ/α) to
-// 12 N/mm² (truth 500) with a profile interval of ±2 % — a confident miss whose only other
-// sign was a misfit line pointing elsewhere. At given constants (`validate`) the reversed
+// 12.2 N/mm² (truth 500) with a profile interval of 12.1–12.7 — a confident miss whose only
+// other sign was a misfit line pointing elsewhere. At given constants (`validate`) the reversed
 // friction counts as model error against the release gate.
 //
 // The check regresses what the prediction leaves, measured − predicted, on the predicted
@@ -48,7 +48,6 @@ class FrictionDirectionCheck {
     // Σ|r|² over the samples (each recording about its means), with the friction as
     // predicted (β = 0), with no friction (β = −1) and with the best β.
     double residual_as_predicted_N2 = 0, residual_without_friction_N2 = 0, residual_scaled_N2 = 0;
-    double friction_rms_N = 0;  // of the predicted friction about its means
     std::size_t samples = 0;
     // s < kReversedScale, with both the friction as predicted and no friction rejected.
     bool reversed() const;
