@@ -27,7 +27,8 @@ using namespace burrbench;
 struct Args {
   std::string experiment, out, criteria;
   calibration::CalibrateOptions options;
-  bool no_cv = false, no_profiles = false, white_noise = false, no_discretization = false, overwrite = false;
+  bool no_cv = false, no_profiles = false, white_noise = false, no_discretization = false, no_depth = false,
+       overwrite = false;
   std::string derivatives = "sensitivities";
 };
 
@@ -37,6 +38,7 @@ void run(const Args& a) {
   o.profiles = !a.no_profiles;
   o.noise_inflation = !a.white_noise;
   o.discretization_check = !a.no_discretization;
+  o.depth_check = !a.no_depth;
   o.derivatives = a.derivatives == "fd" ? calibration::Derivatives::kFiniteDifferences
                                         : calibration::Derivatives::kSensitivities;
   calibration::validate(o);  // before any output folder is made
@@ -134,6 +136,8 @@ void setup(CLI::App& root) {
                 "global search at voxels merged by 2, then refinement, profiles and intervals at the sample's own");
   cmd->add_flag("--no-discretization-check", a->no_discretization,
                 "skip the refit on the sample with voxels merged by 2 (each estimate's discretization error)");
+  cmd->add_flag("--no-depth-check", a->no_depth,
+                "skip the refit with a depth offset free for the recordings whose depth nothing corrects");
   cmd->callback([a] { run(*a); });
 }
 BURRBENCH_VERB("calibrate", setup);

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Calibration figures (issue 10) on the synthetic reference experiment (R/l = 10, two
 # classes, plunge + sweep + polish, bias and lag free; ≈ 15 s at 1 kHz at time scale 3):
-#  1. one single-start fit (--starts 1 --no-profiles --no-discretization-check) with --derivatives fd against the
+#  1. one single-start fit (--starts 1 --no-profiles --no-discretization-check --no-depth-check) with --derivatives fd against the
 #     forward sensitivities: wall time and replays;
 #  2. the default calibration (16 starts, profiles, no cross-validation): wall time;
 #  3. the same experiment calibrated on the sample resampled to 0.05 mm voxels (R/l = 20):
@@ -58,9 +58,9 @@ fine_wall=- fine_cpu=- fine_rep=- fine_err=- def_stages=-
 if [[ -z ${SKIP_TIMING:-} ]]; then
   m=$("$G" "$work/ref" "$B" 1 3 fine)
   mc="$work/ref/experiment.toml"
-  read -r fd_wall fd_cpu fd_rep fd_it <<<"$(calib "$work/ref/fd" "$mc" --starts 1 --no-profiles --no-discretization-check --derivatives fd)"
+  read -r fd_wall fd_cpu fd_rep fd_it <<<"$(calib "$work/ref/fd" "$mc" --starts 1 --no-profiles --no-discretization-check --no-depth-check --derivatives fd)"
   echo "  fd single start: $fd_wall s wall, $fd_cpu s CPU, $fd_rep replays" >&2
-  read -r se_wall se_cpu se_rep se_it <<<"$(calib "$work/ref/se" "$mc" --starts 1 --no-profiles --no-discretization-check)"
+  read -r se_wall se_cpu se_rep se_it <<<"$(calib "$work/ref/se" "$mc" --starts 1 --no-profiles --no-discretization-check --no-depth-check)"
   echo "  sensitivities single start: $se_wall s wall, $se_cpu s CPU, $se_rep replays" >&2
   read -r def_wall def_cpu def_rep def_it <<<"$(calib "$work/ref/def" "$mc" --starts 16)"
   echo "  default calibration: $def_wall s wall, $def_cpu s CPU, $def_rep replays" >&2
@@ -88,21 +88,24 @@ PY
 )
 fi
 
-# Coverage over seeds: prints "hits covariance_hits total identifiable"; each seed's line
-# (stderr) names the constants whose profile interval missed.
+# Coverage over seeds: prints "hits covariance_hits total identifiable depth_said"; each
+# seed's line (stderr) names the constants whose profile interval missed. depth_said counts
+# the seeds whose depth check spoke (the data hold no depth error: false alarms).
 coverage() {  # MODE: "" (force alone), registration (fiducials) or wrench (moments, spindle load)
-  local hits=0 chits=0 total=0 idf=0 seed ms h ch t i miss
+  local hits=0 chits=0 total=0 idf=0 dsaid=0 seed ms h ch t i miss d
   for seed in $(seq 1 "$reps"); do
     ms=$("$G" "$work/cov$seed" "$B" "$seed" "${COVERAGE_TIME_SCALE:-0.5}" $1)
     if ! "$B" calibrate --experiment "$ms" --out "$work/cov$seed/out" --no-cross-validation --starts 16 > /dev/null 2>&1; then
       total=$((total+6)); rm -rf "$work/cov$seed"; continue  # a failed fit covers nothing
     fi
     read -r h ch t i miss <<<"$($PY "$here/fit_vs_truth.py" coverage "$work/cov$seed/out/fit.json" "$work/cov$seed/truth.toml")"
-    hits=$((hits+h)); chits=$((chits+ch)); total=$((total+t)); idf=$((idf+i))
-    echo "  coverage ${1:-reference} seed $seed: $h/$t held ($i identifiable; missed: $miss)" >&2
+    d=$($PY -c "import json,sys; print(int(json.load(open(sys.argv[1]))['settings']['depth_check'].get('said', False)))" \
+      "$work/cov$seed/out/fit.json")
+    hits=$((hits+h)); chits=$((chits+ch)); total=$((total+t)); idf=$((idf+i)); dsaid=$((dsaid+d))
+    echo "  coverage ${1:-reference} seed $seed: $h/$t held ($i identifiable; missed: $miss; depth check said: $d)" >&2
     rm -rf "$work/cov$seed"
   done
-  echo "$hits $chits $total $idf"
+  echo "$hits $chits $total $idf $dsaid"
 }
 # The mismatch: prints "hits limited wrong total wall_default wall_c2f".
 mismatch() {
@@ -152,12 +155,12 @@ print(f"  trabecular C1-alpha correlation: {corr(a)} -> {corr(b)}")
 PY
 }
 
-hits=0 chits=0 total=0 idf=0 rhits=0 rchits=0 rtotal=0 ridf=0 whits=0 wchits=0 wtotal=0 widf=0 mhits=0 mlim=0 mwrong=0 mtotal=0 mwd=0 mwc=0 chan=-
+hits=0 chits=0 total=0 idf=0 dsaid=- rhits=0 rchits=0 rtotal=0 ridf=0 whits=0 wchits=0 wtotal=0 widf=0 mhits=0 mlim=0 mwrong=0 mtotal=0 mwd=0 mwc=0 chan=-
 run_part() { [[ ${COVERAGE:-all} == all || ${COVERAGE:-all} == "$1" ]]; }
-run_part reference && read -r hits chits total idf <<<"$(coverage "")"
-run_part registration && read -r rhits rchits rtotal ridf <<<"$(coverage registration)"
+run_part reference && read -r hits chits total idf dsaid <<<"$(coverage "")"
+run_part registration && read -r rhits rchits rtotal ridf _ <<<"$(coverage registration)"
 run_part mismatch && read -r mhits mlim mwrong mtotal mwd mwc <<<"$(mismatch)"
-run_part channels && chan=$(channels) && read -r whits wchits wtotal widf <<<"$(coverage wrench)"
+run_part channels && chan=$(channels) && read -r whits wchits wtotal widf _ <<<"$(coverage wrench)"
 
 # "p % (hits/total)", or "-" for a coverage that was not run.
 cover() { if (( $2 == 0 )); then echo -; else $PY -c "print(f'{100*$1/$2:.1f} % ($1/$2)')"; fi; }
@@ -176,6 +179,7 @@ printf '%-62s %s\n' "  0.05 mm: held values against the truth (profile interval)
 printf '%-62s %-22s %-10s %s\n' "profile 95 % interval coverage, 6 constants, $reps seeds" "$(cover $hits $total)" ">= 90 %" "$(covered $hits $total)"
 printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(cover $chits $total)" - -
 printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$idf/$total" - -
+printf '%-62s %-22s %-10s %s\n' "  depth check said (no depth error in the data)" "$dsaid/$reps seeds" "0" "$( [[ $dsaid == - ]] && echo - || ok "$dsaid == 0")"
 printf '%-62s %-22s %-10s %s\n' "fiducial registration (5 um): profile coverage, $reps seeds" "$(cover $rhits $rtotal)" ">= 90 %" "$(covered $rhits $rtotal)"
 printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(cover $rchits $rtotal)" - -
 printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$ridf/$rtotal" - -

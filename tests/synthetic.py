@@ -22,20 +22,20 @@ def run_ok(*args, timeout=900):
     return p.stdout
 
 
-def quick_fit(manifest, out):
+def quick_fit(manifest, out, *extra):
     """A single-start `burrbench calibrate` of `manifest` into `out`, without profiles,
-    cross-validation or the discretization check (the CLI tests of the checks after a fit):
-    (its stdout, fit.json)."""
+    cross-validation or the discretization check (the CLI tests of the checks after a fit),
+    with further options `extra`: (its stdout, fit.json)."""
     import json
     stdout = run_ok("calibrate", manifest, "--out", out, "--starts", 1, "--no-profiles", "--no-cross-validation",
-                    "--no-discretization-check")
+                    "--no-discretization-check", *extra)
     return stdout, json.loads((Path(out) / "fit.json").read_text())
 
 
-def fit_warnings(manifest, out, prefix):
+def fit_warnings(manifest, out, prefix, *extra):
     """quick_fit's fit.json and its warnings that begin with `prefix`, which the summary must
     print as they are: (fit.json, those warnings)."""
-    stdout, fit = quick_fit(manifest, out)
+    stdout, fit = quick_fit(manifest, out, *extra)
     said = [w for w in fit["settings"]["warnings"] if w.startswith(prefix)]
     assert ["warning: " + w for w in said] == [line for line in stdout.splitlines() if prefix in line]
     return fit, said

@@ -110,6 +110,7 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path, const Ca
   }
   stage("assess", detail::assess);
   run.calibration_metrics = detail::metrics(*run.obj, run.ev, run.x, run.w_all);
+  stage("depth_check", detail::depth_check);
   stage("discretization", detail::discretization_check);
   stage("bootstrap", detail::bootstrap);
   stage("cross_validation", detail::cross_validate);

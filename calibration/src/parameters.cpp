@@ -110,6 +110,19 @@ void Layout::add_mounting(Mounting m, const std::vector<std::size_t>& recs) {
   mountings_.push_back(std::move(m));
 }
 
+void Layout::add_depth_offset(std::size_t recording) {
+  RecordingNuisance& r = recordings_.at(recording);
+  BURRBENCH_CHECK(r.depth < 0, "depth offset already free");
+  r.depth = int(n_);
+  blocks_.push_back({n_, 1});
+  names_.push_back(r.recording_id + ".depth_offset");
+  init_.push_back(0.0);
+  lower_.push_back(-r.depth_bound_mm);
+  upper_.push_back(r.depth_bound_mm);
+  log_.push_back(false);
+  ++n_;
+}
+
 std::vector<std::uint8_t> Layout::labels() const {
   std::vector<std::uint8_t> out;
   for (const auto& p : physics_)

@@ -79,6 +79,7 @@ struct Run {
   Evaluation ev;
   double threshold = 0;              // profile threshold, cost units
   double inflation = 1;              // noise-model factor (ar1_inflation, or 1)
+  double residual_scale = 1;         // residual variance × inflation: the profile threshold's unit
   std::vector<Profile> profiles;     // free physics parameters that were profiled
   UncertaintyReport unc;
   std::vector<std::string> verdict;  // per x entry (physics only)
@@ -92,6 +93,9 @@ struct Run {
   std::string coarse_termination;    // how that refit ended
   std::uint64_t coarse_iterations = 0;
   double coarse_cost = NAN;          // coarse-to-fine: the coarse optimum's cost
+
+  // depth check: fit.json settings.depth_check (empty: not run)
+  nlohmann::json depth = nlohmann::json::object();
 
   // resampling
   ds::FitResult out;
@@ -124,6 +128,7 @@ void global_search(Run& run);       // multistart from a Latin hypercube
 void refine(Run& run);              // the best start to convergence
 void assess(Run& run);              // profiles, verdicts, covariance (restarts refine if cheaper)
 void discretization_check(Run& run);  // refit at 2l: discretization error of each estimate
+void depth_check(Run& run);         // refit with the depth offsets nothing corrects free
 void bootstrap(Run& run);
 void cross_validate(Run& run);
 void score_validation(Run& run);    // validate-role segments with their recording's nuisances

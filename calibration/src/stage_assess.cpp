@@ -116,7 +116,8 @@ void assess(Run& run) {
     // Correlated residuals (a misfit the model cannot follow, or coloured sensor noise)
     // carry less information than their count says: widen by the AR(1) factor.
     run.inflation = run.opt.noise_inflation ? ar1_inflation(run.ev.residual_lag1) : 1.0;
-    run.threshold = 0.5 * kChi2_1_95 * s2 * run.inflation;
+    run.residual_scale = s2 * run.inflation;
+    run.threshold = 0.5 * kChi2_1_95 * run.residual_scale;
     flags = contact_checks(*run.obj, run.x, run.w_all, run.ev);
     run.profiles.clear();
     run.warnings.clear();

@@ -83,8 +83,9 @@ CalibrationOutput results(Run& run) {
   if (out.residuals_summary.rms_normalised > kMisfitRms) {
     // A registration taken as exact whose depth nothing corrects misfits like this when it
     // is a few µm off along the shaft (docs/calibration.md "Registration is a measurement").
+    // The depth check, when it ran, says whether a depth offset helps.
     std::vector<std::string> exact;
-    for (std::size_t q = 0; q < run.recs.size(); ++q)
+    for (std::size_t q = 0; q < run.recs.size() && run.depth.empty(); ++q)
       if (run.recs[q]->registration.method != "fiducials" && L.recordings()[q].depth < 0)
         exact.push_back(run.recs[q]->id);
     run.warnings.push_back(fmt::format(
@@ -204,6 +205,8 @@ CalibrationOutput results(Run& run) {
                  "interval's half-width in ln(theta); interval widened by it on both sides"},
       {"refit_termination", run.coarse_termination.empty() ? nlohmann::json(nullptr) : nlohmann::json(run.coarse_termination)},
       {"refit_iterations", run.coarse_iterations}};
+  st["depth_check"] = run.depth.empty() ? nlohmann::json({{"computed", false}}) : run.depth;
+  if (!run.depth.empty()) st["depth_check"]["computed"] = true;
   st["coarse_to_fine"] = {
       {"used", run.opt.coarse_to_fine},
       {"coarse_voxel_mm", run.opt.coarse_to_fine && run.coarse ? nlohmann::json(run.coarse->voxel_mm) : nlohmann::json(nullptr)},

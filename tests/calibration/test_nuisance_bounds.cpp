@@ -55,3 +55,39 @@ TEST(NuisanceBounds, ALagADepthAndAPoseAtTheirBoundsAreEachNamed) {
                              0), 0u) << at[2].text;
   for (const auto& a : at) EXPECT_NE(a.text.find("can miss the truth by more than their intervals say"), std::string::npos);
 }
+
+// The depth check frees a fixed depth offset after the fit (Layout::add_depth_offset): it
+// becomes x's last entry, the others keep their places, and at its bound it is named too.
+TEST(NuisanceBounds, ADepthOffsetFreedAfterTheFitIsTheLastEntry) {
+  ds::ClassFitSpec spec;
+  spec.alpha = {500, 1.0, 1e5, false};
+  spec.c1 = {16, 1e-2, 1e4, false};
+  spec.mu = {0.4, 1e-2, 3.0, false};
+  ds::NuisanceSpec nz;
+  nz.lag = true;
+  const bc::Layout L({{1, {"compact", spec}}}, {{"plunge", 0.0}, {"sweep", 2.0}}, nz, 0.5);
+  ASSERT_LT(L.recordings()[1].depth, 0);
+  bc::Layout freed = L;
+  freed.add_depth_offset(1);
+  ASSERT_EQ(freed.size(), L.size() + 1);
+  const std::size_t d = L.size();
+  EXPECT_EQ(freed.recordings()[1].depth, int(d));
+  EXPECT_LT(freed.recordings()[0].depth, 0);
+  EXPECT_EQ(freed.name(d), "sweep.depth_offset");
+  EXPECT_EQ(freed.lower(d), -0.5);
+  EXPECT_EQ(freed.upper(d), 0.5);
+  EXPECT_FALSE(freed.is_log(d));
+  EXPECT_EQ(freed.initial()[d], 0.0);
+  for (std::size_t i = 0; i < L.size(); ++i) {
+    EXPECT_EQ(freed.name(i), L.name(i));
+    EXPECT_EQ(freed.initial()[i], L.initial()[i]);
+  }
+  EXPECT_EQ(freed.blocks().back().offset, d);
+  EXPECT_EQ(freed.blocks().back().size, 1u);
+  std::vector<double> x = freed.initial();
+  x[d] = 0.5;
+  const auto at = bc::nuisances_at_bounds(freed, x);
+  ASSERT_EQ(at.size(), 1u);
+  EXPECT_EQ(at[0].index, d);
+  EXPECT_THROW(freed.add_depth_offset(1), std::exception);  // already free
+}

@@ -30,6 +30,10 @@ struct CalibrateOptions {
   // (its discretization error; "limited by discretization error" when it exceeds half
   // the 95 % interval).
   bool discretization_check = true;
+  // Refit with a depth offset free for each calibrating recording whose depth nothing
+  // corrects, and say when the data want one and it moves a constant outside its interval
+  // (a given registration off in depth, a burr radius that is not the burr's).
+  bool depth_check = true;
   // Global search and first refinement on the sample with voxels merged by 2 (cheaper
   // replays), then refinement, profiles and intervals at the sample's own voxel size.
   bool coarse_to_fine = false;

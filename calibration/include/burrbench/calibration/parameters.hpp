@@ -98,6 +98,10 @@ class Layout {
   // the given recordings (indices into recordings()).
   void add_mounting(Mounting m, const std::vector<std::size_t>& recordings);
   const std::vector<Mounting>& mountings() const { return mountings_; }
+  // Frees the depth offset of recording `recording` (an index into recordings(), whose
+  // depth is fixed) as a new last entry of x, start 0, bounds ±depth_bound_mm. x's other
+  // entries keep their places, so a point of this layout extends by one value.
+  void add_depth_offset(std::size_t recording);
 
   std::vector<double> initial() const;     // start values of x (scaled)
   double lower(std::size_t i) const { return lower_[i]; }
