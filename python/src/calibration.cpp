@@ -37,6 +37,7 @@ void set_option(calibration::CalibrateOptions& o, const std::string& k, const py
   else if (k == "profile_points") o.profile_points = as_int(kCall, k, v);
   else if (k == "noise_inflation") o.noise_inflation = as_bool(kCall, k, v);
   else if (k == "discretization_check") o.discretization_check = as_bool(kCall, k, v);
+  else if (k == "depth_check") o.depth_check = as_bool(kCall, k, v);
   else if (k == "coarse_to_fine") o.coarse_to_fine = as_bool(kCall, k, v);
   else if (k == "cross_validate") o.cross_validate = as_bool(kCall, k, v);
   else if (k == "bootstrap") o.bootstrap = as_int(kCall, k, v);
@@ -49,7 +50,7 @@ void set_option(calibration::CalibrateOptions& o, const std::string& k, const py
   } else
     throw InputError(kCall, k,
                      "an option of: threads, max_iterations, starts, solve_starts, start_iterations, profiles, "
-                     "profile_points, noise_inflation, discretization_check, coarse_to_fine, cross_validate, "
+                     "profile_points, noise_inflation, discretization_check, depth_check, coarse_to_fine, cross_validate, "
                      "bootstrap, bootstrap_block_s, derivatives",
                      "unknown");
 }

@@ -242,6 +242,15 @@ def test_numpy_scalars_are_good_calibrate_options(exp):
     out = burrbench.calibrate(exp / "experiment.toml", starts=np.int64(2), profiles=np.bool_(False),
                               cross_validate=False, discretization_check=False, bootstrap_block_s=np.float64(1.0))
     assert out["fit"]["settings"]["global_search"]["starts"] == 2
+    assert out["fit"]["settings"]["depth_check"]["computed"]  # on by default, as in the CLI
+
+
+def test_the_depth_check_can_be_left_out(exp):
+    out = burrbench.calibrate(exp / "experiment.toml", starts=1, profiles=False, cross_validate=False,
+                              discretization_check=False, depth_check=False)
+    assert out["fit"]["settings"]["depth_check"] == {"computed": False}
+    with pytest.raises(burrbench.InputError, match="depth_check"):
+        burrbench.calibrate(exp / "experiment.toml", depth_check="no")
 
 
 def test_volume_and_contact_agree_with_the_sample_and_its_partials(exp):
