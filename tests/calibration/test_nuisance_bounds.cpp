@@ -9,15 +9,19 @@ namespace ds = burrbench::data_schema;
 
 namespace {
 
-bc::Layout layout() {
+ds::ClassFitSpec compact() {
   ds::ClassFitSpec spec;
   spec.alpha = {500, 1.0, 1e5, false};
   spec.c1 = {16, 1e-2, 1e4, false};
   spec.mu = {0.4, 1e-2, 3.0, false};
+  return spec;
+}
+
+bc::Layout layout() {
   ds::NuisanceSpec nz;
   nz.lag = true;
   nz.depth_offset = true;
-  bc::Layout L({{1, {"compact", spec}}}, {{"plunge", 0.0}, {"sweep", 2.0}}, nz, 0.5);
+  bc::Layout L({{1, {"compact", compact()}}}, {{"plunge", 0.0}, {"sweep", 2.0}}, nz, 0.5);
   bc::Mounting m;
   m.name = "S1";
   L.add_mounting(m, {0, 1});
@@ -59,13 +63,9 @@ TEST(NuisanceBounds, ALagADepthAndAPoseAtTheirBoundsAreEachNamed) {
 // The depth check frees a fixed depth offset after the fit (Layout::add_depth_offset): it
 // becomes x's last entry, the others keep their places, and at its bound it is named too.
 TEST(NuisanceBounds, ADepthOffsetFreedAfterTheFitIsTheLastEntry) {
-  ds::ClassFitSpec spec;
-  spec.alpha = {500, 1.0, 1e5, false};
-  spec.c1 = {16, 1e-2, 1e4, false};
-  spec.mu = {0.4, 1e-2, 3.0, false};
   ds::NuisanceSpec nz;
   nz.lag = true;
-  const bc::Layout L({{1, {"compact", spec}}}, {{"plunge", 0.0}, {"sweep", 2.0}}, nz, 0.5);
+  const bc::Layout L({{1, {"compact", compact()}}}, {{"plunge", 0.0}, {"sweep", 2.0}}, nz, 0.5);
   ASSERT_LT(L.recordings()[1].depth, 0);
   bc::Layout freed = L;
   freed.add_depth_offset(1);
