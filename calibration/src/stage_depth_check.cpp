@@ -46,7 +46,7 @@ void depth_check(Run& run) {
   const Objective obj(freed, run.models, run.settings);
   SolveOptions so;
   // The check needs the cost to a tenth of its threshold, not to Ceres's 10⁻⁷ of the cost:
-  // on the reference experiment that ends the solve with no offset in the data after 3
+  // on the reference experiment, with no offset in the data, the solve ends after 2
   // iterations instead of 11.
   so.function_tolerance = std::max(so.function_tolerance, 0.1 * threshold / std::max(run.ev.cost, 1e-300));
   so.max_iterations = run.opt.max_iterations;
