@@ -15,6 +15,18 @@ def make_synthetic(folder):
     return Path(folder)
 
 
+def write_variant(base, name, *changes):
+    """`base`/`name`.toml: the experiment.toml in folder `base` with each (old, new) of
+    `changes` replaced in turn, every old text of which must be there; returns its path."""
+    text = (Path(base) / "experiment.toml").read_text()
+    for old, new in changes:
+        assert old in text, old
+        text = text.replace(old, new)
+    path = Path(base) / f"{name}.toml"
+    path.write_text(text)
+    return path
+
+
 def run_ok(*args, timeout=900):
     """`burrbench ARGS`, which must succeed; its stdout."""
     p = subprocess.run([BURRBENCH, *map(str, args)], capture_output=True, text=True, timeout=timeout)

@@ -77,6 +77,17 @@ Metrics metrics(const Objective& obj, const Evaluation& ev, const std::vector<do
   return m;
 }
 
+const PhysicsParam* physics_of(const Layout& L, const ds::FitParameter& fp) {
+  for (const auto& q : L.physics())
+    if (q.label == fp.class_id && to_string(q.kind) == fp.name) return &q;
+  return nullptr;
+}
+
+std::pair<double, double> check_interval(const ds::FitParameter& fp) {
+  return {std::isfinite(fp.profile_ci95_low) ? fp.profile_ci95_low : fp.ci95_low,
+          std::isfinite(fp.profile_ci95_high) ? fp.profile_ci95_high : fp.ci95_high};
+}
+
 std::string percent(double pct, bool sign) {
   // Two significant digits at least, one decimal at least, never an exponent.
   const double a = std::fabs(pct);

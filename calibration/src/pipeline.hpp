@@ -4,6 +4,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -113,6 +114,12 @@ struct Run {
 
 Metrics metrics(const Objective& obj, const Evaluation& ev, const std::vector<double>& x,
                 const SampleWeights& w);
+
+// The layout's physics parameter a fit.json entry stands for (nullptr: none).
+const PhysicsParam* physics_of(const Layout& L, const ds::FitParameter& fp);
+// The 95 % interval a check after the fit compares with, side by side: the profile's where
+// that side is closed, else the covariance's (NaN: none).
+std::pair<double, double> check_interval(const ds::FitParameter& fp);
 
 // A percentage for a message: "0.047", "0.50", "13.6" ("+" first with `sign`). One fixed
 // decimal would print a ±0.05 % interval as ±0.0 %.

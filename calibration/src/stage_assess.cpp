@@ -214,9 +214,7 @@ void assess(Run& run) {
   // covariance; an open side is unbounded), per x entry; nuisances are not boxed.
   std::vector<std::pair<double, double>> box(L.size(), {-INFINITY, INFINITY});
   for (auto& fp : run.unc.parameters) {
-    const PhysicsParam* p = nullptr;
-    for (const auto& q : L.physics())
-      if (q.label == fp.class_id && to_string(q.kind) == fp.name) p = &q;
+    const PhysicsParam* p = physics_of(L, fp);
     if (!p || p->index < 0) continue;
     const std::size_t i = std::size_t(p->index);
     fp.verdict = !run.verdict[i].empty() ? run.verdict[i]

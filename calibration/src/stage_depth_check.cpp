@@ -86,12 +86,9 @@ void depth_check(Run& run) {
   std::vector<std::string> moved;
   nlohmann::json moved_json = nlohmann::json::array();
   for (const auto& fp : run.out.parameters) {
-    const PhysicsParam* p = nullptr;
-    for (const auto& q : L.physics())
-      if (q.label == fp.class_id && to_string(q.kind) == fp.name) p = &q;
+    const PhysicsParam* p = physics_of(L, fp);
     if (!p || p->index < 0 || fp.fixed || !fp.identifiable) continue;
-    const double lo = std::isfinite(fp.profile_ci95_low) ? fp.profile_ci95_low : fp.ci95_low;
-    const double hi = std::isfinite(fp.profile_ci95_high) ? fp.profile_ci95_high : fp.ci95_high;
+    const auto [lo, hi] = check_interval(fp);
     const double e = std::exp(fit.x[std::size_t(p->index)]);
     if (!(e < lo || e > hi)) continue;
     moved.push_back(fmt::format("{} {} {:.4g} → {:.4g}{} (95 % {:.4g}–{:.4g})", fp.class_name, fp.name, fp.estimate, e,

@@ -91,17 +91,13 @@ void discretization_check(Run& run) {
     return;
   }
   for (auto& fp : run.out.parameters) {
-    const PhysicsParam* p = nullptr;
-    for (const auto& q : L.physics())
-      if (q.label == fp.class_id && to_string(q.kind) == fp.name) p = &q;
+    const PhysicsParam* p = physics_of(L, fp);
     if (!p || p->index < 0 || fp.fixed || !fp.identifiable) continue;
     const std::size_t i = std::size_t(p->index);
     const double err = std::abs(fit.x[i] - run.x[i]);
     fp.coarse_estimate = std::exp(fit.x[i]);
     fp.discretization_error_log = err;
-    // The interval the verdict rests on: the profile's where closed, else the covariance's.
-    const double lo = std::isfinite(fp.profile_ci95_low) ? fp.profile_ci95_low : fp.ci95_low;
-    const double hi = std::isfinite(fp.profile_ci95_high) ? fp.profile_ci95_high : fp.ci95_high;
+    const auto [lo, hi] = check_interval(fp);
     if (!(lo > 0) || !(hi > 0)) continue;
     const double half = std::max(std::log(hi / fp.estimate), std::log(fp.estimate / lo));
     fp.ci95_with_discretization_low = lo * std::exp(-err);

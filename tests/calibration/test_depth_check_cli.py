@@ -5,8 +5,10 @@ the radius, no other sign. After the fit the depth offsets that nothing corrects
 and refitted: the check names the offset, the cost it saves and the constants it moves out
 of their intervals. On the experiment as made it says nothing; with the depth offset fitted
 or `--no-depth-check` it does not run."""
+import math
+
 import pytest
-from synthetic import fit_warnings, make_synthetic
+from synthetic import fit_warnings, make_synthetic, write_variant
 
 PREFIX = "depth check:"
 TRUTH = {"alpha": 500.0, "c1": 16.0, "mu": 0.4}
@@ -15,13 +17,12 @@ TRUTH = {"alpha": 500.0, "c1": 16.0, "mu": 0.4}
 @pytest.fixture(scope="module")
 def exp(tmp_path_factory):
     d = make_synthetic(tmp_path_factory.mktemp("depth") / "exp")
-    text = (d / "experiment.toml").read_text()
-    assert text.count("lag_ms = 0.0\n  [recordings.registration]") == 3 and "radius_mm = 1.0\n" in text
-    wider = text.replace("radius_mm = 1.0\n", "radius_mm = 1.02\n").replace(
-        "lag_ms = 0.0\n  [recordings.registration]", 'lag_ms = 0.0\nwaive = ["burr_radius_mm"]\n  [recordings.registration]')
-    (d / "wider.toml").write_text(wider)
-    (d / "wider_depth.toml").write_text(wider.replace("depth_offset = false", "depth_offset = true"))
-    (d / "shifted.toml").write_text(text.replace("translation_mm = [0.0, 0.0, 0.0]", "translation_mm = [0.0, 0.0, 0.05]"))
+    assert (d / "experiment.toml").read_text().count("lag_ms = 0.0\n  [recordings.registration]") == 3
+    wider = (("radius_mm = 1.0\n", "radius_mm = 1.02\n"),
+             ("lag_ms = 0.0\n  [recordings.registration]", 'lag_ms = 0.0\nwaive = ["burr_radius_mm"]\n  [recordings.registration]'))
+    write_variant(d, "wider", *wider)
+    write_variant(d, "wider_depth", *wider, ("depth_offset = false", "depth_offset = true"))
+    write_variant(d, "shifted", ("translation_mm = [0.0, 0.0, 0.0]", "translation_mm = [0.0, 0.0, 0.05]"))
     return d
 
 
@@ -35,6 +36,11 @@ def test_a_burr_radius_2_percent_off_is_named(exp):
     for r in ("plunge", "sweep"):
         assert dc["offsets_mm"][r] == pytest.approx(-0.02 / 0.6, abs=0.004), dc
     assert dc["cost"] - dc["refit_cost"] > 100 * dc["threshold_cost"], dc
+    # Two offsets: χ²₂'s quantile is the closed form −2·ln(1 − p), in the profile's units
+    # (residual variance × the noise model's inflation).
+    st = fit["settings"]
+    unit = st["residual_variance"] * st["noise_model"]["inflation"]
+    assert dc["threshold_cost"] == pytest.approx(0.5 * -2 * math.log(0.001) * unit, rel=1e-3), (dc, unit)
     moved = {m["name"]: m for m in dc["moved"] if m["class"] == "compact"}
     assert "c1" in moved and "mu" in moved, dc
     for name, m in moved.items():

@@ -6,7 +6,7 @@ interval of ±2 %, and validate at the true constants passed the release gate. B
 the reversed friction; the manifest as made says nothing, and a mirrored sensor is named as
 the sensor-frame check names it, not as a spin."""
 import pytest
-from synthetic import fit_warnings, make_synthetic, validate_warnings
+from synthetic import fit_warnings, make_synthetic, validate_warnings, write_variant
 
 SAID = "the measured force holds the predicted friction"
 FRAME = "the measured force fits the prediction best"
@@ -15,13 +15,10 @@ FRAME = "the measured force fits the prediction best"
 @pytest.fixture(scope="module")
 def exp(tmp_path_factory):
     base = make_synthetic(tmp_path_factory.mktemp("synthetic") / "exp")
-    text = (base / "experiment.toml").read_text()
-    assert "spin_sign = 1" in text and text.count('role = "') == 3
-    spun = text.replace("spin_sign = 1", "spin_sign = -1")
-    for role in ("calibrate", "validate"):
-        spun = spun.replace(f'role = "{role}"\n', f'role = "{role}"\nwaive = ["spin_sign"]\n')
-    (base / "reversed.toml").write_text(spun)
-    (base / "on_burr.toml").write_text(text.replace('measures = "force_on_sample"', 'measures = "force_on_burr"'))
+    assert (base / "experiment.toml").read_text().count('role = "') == 3
+    write_variant(base, "reversed", ("spin_sign = 1", "spin_sign = -1"),
+                  *((f'role = "{r}"\n', f'role = "{r}"\nwaive = ["spin_sign"]\n') for r in ("calibrate", "validate")))
+    write_variant(base, "on_burr", ('measures = "force_on_sample"', 'measures = "force_on_burr"'))
     return base
 
 

@@ -5,7 +5,7 @@ gave compact C1 and α with profile intervals that miss the truth; calibrate and
 now name the turn and the rotation the readings fit, and the mirrored sign. The manifest
 as made says nothing."""
 import pytest
-from synthetic import fit_warnings, make_synthetic, validate_warnings
+from synthetic import fit_warnings, make_synthetic, validate_warnings, write_variant
 
 SAID = "the measured force fits the prediction best"
 AS_MADE = "rotation_sensor_to_rig = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]"
@@ -15,10 +15,8 @@ TURNED = "rotation_sensor_to_rig = [[0.8660254037844387, -0.5, 0], [0.5, 0.86602
 @pytest.fixture(scope="module")
 def exp(tmp_path_factory):
     base = make_synthetic(tmp_path_factory.mktemp("synthetic") / "exp")
-    text = (base / "experiment.toml").read_text()
-    assert AS_MADE in text and 'measures = "force_on_sample"' in text
-    (base / "turned.toml").write_text(text.replace(AS_MADE, TURNED))
-    (base / "on_burr.toml").write_text(text.replace('measures = "force_on_sample"', 'measures = "force_on_burr"'))
+    write_variant(base, "turned", (AS_MADE, TURNED))
+    write_variant(base, "on_burr", ('measures = "force_on_sample"', 'measures = "force_on_burr"'))
     return base
 
 
