@@ -41,9 +41,10 @@ std::vector<double> valley_slopes(const CovarianceOutcome& cov, std::size_t i, s
   return slope;
 }
 
-std::vector<Profile> run_profiles(Run& run, const Flags& pre) {
+// `cov`: the covariance at run.x with only `pre` held, which the profiles start from.
+std::vector<Profile> run_profiles(Run& run, const Flags& pre, CovarianceOutcome& cov) {
   const Layout& L = *run.layout;
-  const CovarianceOutcome cov = run.obj->covariance(run.x, run.w_all, pre.held, run.inflation);
+  cov = run.obj->covariance(run.x, run.w_all, pre.held, run.inflation);
   std::vector<std::size_t> entries;
   for (const auto& p : L.physics())
     if (p.index >= 0 && !pre.held[std::size_t(p.index)]) entries.push_back(std::size_t(p.index));
@@ -104,11 +105,34 @@ nlohmann::json profile_json(const Layout& L, const Profile& p) {
   return j;
 }
 
+// An identifiable constant that moves with one at its bound by more than its own profile
+// interval (shift_along_bound) gets the verdict "conditional_on_bound": its estimate and
+// interval hold the partner at a bound the data would cross (the one it moves most with).
+void held_by_bounds(Run& run, const CovarianceOutcome& cov, std::vector<std::string>& reason) {
+  const Layout& L = *run.layout;
+  for (const auto& pr : run.profiles) {
+    const std::size_t i = pr.entry;
+    if (run.verdict[i] != "identifiable" && run.verdict[i] != "imprecise") continue;
+    const double half = 0.5 * (pr.upper.crossing - pr.lower.crossing);
+    double worst = 0;
+    for (const auto& pj : run.profiles) {
+      const std::size_t j = pj.entry;
+      if (run.verdict[j] != "at_bound") continue;
+      const double shift = shift_along_bound(cov, i, j);
+      if (!(shift > half) || shift <= worst) continue;
+      worst = shift;
+      run.verdict[i] = "conditional_on_bound";
+      reason[i] = bound_partner_reason(L, run.x, j, shift, half);
+    }
+  }
+}
+
 }  // namespace
 
 void assess(Run& run) {
   const Layout& L = *run.layout;
   Flags flags;
+  CovarianceOutcome cov;
   for (;;) {
     run.ev = run.obj->evaluate(run.x, run.w_all);
     const double dof = double(run.ev.residuals_used) - double(L.size());
@@ -123,7 +147,7 @@ void assess(Run& run) {
     run.warnings.clear();
     if (!run.opt.profiles) break;
     run.stage("profiles", "re-optimising along each physics parameter");
-    run.profiles = run_profiles(run, flags);
+    run.profiles = run_profiles(run, flags, cov);
     const Profile* cheaper = nullptr;
     for (const auto& p : run.profiles)
       if (p.found_lower && (!cheaper || p.lower_cost < cheaper->lower_cost)) cheaper = &p;
@@ -148,6 +172,7 @@ void assess(Run& run) {
   run.search.tolerance = run.threshold;
 
   run.verdict.assign(L.size(), "");
+  std::vector<std::string> reason(L.size());
   for (const auto& p : L.physics())
     if (p.index >= 0 && flags.held[std::size_t(p.index)]) run.verdict[std::size_t(p.index)] = "non_identifiable";
   if (run.opt.profiles) {
@@ -199,12 +224,17 @@ void assess(Run& run) {
             break;
           }
       run.verdict[i] = v;
-      if (v == "imprecise") {
+      reason[i] = why;
+    }
+    held_by_bounds(run, cov, reason);
+    for (const auto& pr : run.profiles) {
+      const std::size_t i = pr.entry;
+      if (run.verdict[i] == "imprecise") {
         // Determined, only not as finely as asked: it keeps its estimate and covariance.
-        run.imprecise_reason[i] = why;
-      } else if (v != "identifiable") {
+        run.imprecise_reason[i] = reason[i];
+      } else if (run.verdict[i] != "identifiable") {
         flags.held[i] = true;
-        flags.reason[i] = why;
+        flags.reason[i] = reason[i];
       }
     }
   }

@@ -1,5 +1,6 @@
 #include "burrbench/calibration/uncertainty.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -67,12 +68,14 @@ Flags contact_checks(const Objective& obj, const std::vector<double>& x, const S
       f.reason[i] = fmt::format("no '{}' bone is removed in the replay: alpha has no effect on "
                                 "the predicted force", p.class_name);
     } else if (p.kind == PhysKind::kAlpha) {
-      // Erosion at the estimate against (almost) none: α at its upper bound. When that
-      // changes no used sample's predicted force by as much as the sensor noise σ, the
-      // erosion is invisible sample by sample and α is not identifiable, whatever a fit to
-      // the noise may suggest (erosion-free data settle at ~1e5 N/mm² this way).
+      // Erosion at the estimate against (almost) none: α at its upper bound, and at least
+      // 1000 times the estimate (a bound set below the bone's α would otherwise compare the
+      // estimate at that bound with itself). When that changes no used sample's predicted
+      // force by as much as the sensor noise σ, the erosion is invisible sample by sample and
+      // α is not identifiable, whatever a fit to the noise may suggest (erosion-free data
+      // settle at ~1e5 N/mm² this way).
       std::vector<double> far = x;
-      far[i] = L.upper(i);
+      far[i] = std::max(L.upper(i), x[i] + std::log(1e3));
       const Evaluation ev = obj.evaluate(far, w);
       double largest = 0;
       for (std::size_t r = 0; r < ev.predictions.size(); ++r)
@@ -92,6 +95,32 @@ Flags contact_checks(const Objective& obj, const std::vector<double>& x, const S
   return f;
 }
 
+double shift_along_bound(const CovarianceOutcome& cov, std::size_t i, std::size_t j) {
+  const std::size_t m = cov.indices.size();
+  const auto at = [&](std::size_t e) { return std::size_t(std::find(cov.indices.begin(), cov.indices.end(), e) - cov.indices.begin()); };
+  const std::size_t a = at(i), b = at(j);
+  if (!cov.ok || a == m || b == m || a == b) return NAN;
+  const double var_j = cov.cov[b * m + b];
+  if (!(var_j > 0) || !std::isfinite(var_j)) return NAN;
+  return kZ95 * std::abs(cov.cov[a * m + b]) / std::sqrt(var_j);
+}
+
+std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, std::size_t j,
+                                 double shift_log, double half_log) {
+  const PhysicsParam* pj = nullptr;
+  for (const auto& p : L.physics())
+    if (p.index == int(j)) pj = &p;
+  const bool up = L.upper(j) - x[j] < x[j] - L.lower(j);
+  const std::string widen = pj ? fmt::format(": widen [fit.classes.{}] {}", pj->class_name, to_string(pj->kind))
+                               : std::string(": widen its bounds");
+  return fmt::format("moves with {}, which ended at its {} bound ({:.4g}{}): were that free beyond the bound by its "
+                     "own 95 % half-width, this constant would move by about {:.3g} % (linearised), more than its 95 % "
+                     "interval's ±{:.3g} %, which holds {} at the bound{}",
+                     L.name(j), up ? "upper" : "lower", std::exp(x[j]),
+                     pj ? data_schema::unit_suffix(unit_of(pj->kind)) : std::string(), 100 * std::expm1(shift_log),
+                     100 * std::expm1(half_log), L.name(j), widen);
+}
+
 UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
                                      const SampleWeights& w, const Evaluation& at_x,
                                      Flags initial, bool covariance_rules, double inflation) {
@@ -107,17 +136,46 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     reason[std::size_t(i)] = std::move(why);
     return true;
   };
+  const std::vector<bool> before_bounds = rep.held;
+  std::vector<std::size_t> at_bounds;
   for (const auto& p : L.physics()) {
     if (p.index < 0 || !covariance_rules || rep.held[std::size_t(p.index)]) continue;
     const std::size_t i = std::size_t(p.index);
-    if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i, inflation))
-      flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g}{}, "
-                                "next to no erosion): they give only a lower limit",
-                                std::exp(L.upper(i)), data_schema::unit_suffix(unit_of(p.kind))));
-    else if (x[i] - L.lower(i) < 0.01 || L.upper(i) - x[i] < 0.01)
+    if (x[i] - L.lower(i) < 0.01 || L.upper(i) - x[i] < 0.01) {
       flag(p.index, fmt::format("estimate at its {} bound ({:.4g}{})",
                                 x[i] - L.lower(i) < 0.01 ? "lower" : "upper", std::exp(x[i]),
                                 data_schema::unit_suffix(unit_of(p.kind))));
+      at_bounds.push_back(i);
+    } else if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i, inflation)) {
+      flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g}{}, "
+                                "next to no erosion): they give only a lower limit",
+                                std::exp(L.upper(i)), data_schema::unit_suffix(unit_of(p.kind))));
+    }
+  }
+  // Rule 3's partners: with j free, the covariance conditioned on j gives i's half-width
+  // with j held (Σ_ii − Σ_ij²/Σ_jj), against which shift_along_bound is weighed.
+  if (!at_bounds.empty()) {
+    const CovarianceOutcome free = obj.covariance(x, w, before_bounds, inflation);
+    const std::size_t m = free.indices.size();
+    for (const auto& p : L.physics()) {
+      if (p.index < 0 || rep.held[std::size_t(p.index)] || !free.ok) continue;
+      const std::size_t i = std::size_t(p.index);
+      const std::size_t a = std::size_t(std::find(free.indices.begin(), free.indices.end(), i) - free.indices.begin());
+      if (a == m) continue;
+      double worst = 0;
+      std::string why;
+      for (std::size_t j : at_bounds) {
+        const std::size_t b = std::size_t(std::find(free.indices.begin(), free.indices.end(), j) - free.indices.begin());
+        const double shift = shift_along_bound(free, i, j);
+        if (b == m || !(shift > worst)) continue;
+        const double cond = free.cov[a * m + a] - free.cov[a * m + b] * free.cov[a * m + b] / free.cov[b * m + b];
+        const double half = kZ95 * std::sqrt(std::max(0.0, cond));
+        if (!(shift > half)) continue;
+        worst = shift;
+        why = bound_partner_reason(L, x, j, shift, half);
+      }
+      if (!why.empty()) flag(int(i), std::move(why));
+    }
   }
   CovarianceOutcome cov;
   for (int round = 0; round < 4; ++round) {

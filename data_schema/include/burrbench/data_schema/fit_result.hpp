@@ -39,7 +39,8 @@ struct FitParameter {
   double held = kNaN;
   std::string verdict{};  // identifiable | imprecise (identifiable, but its interval is wider
                         // than [fit.precision] asks; `reason` says by how much) |
-                        // practically_non_identifiable | non_identifiable | at_bound | fixed
+                        // practically_non_identifiable | non_identifiable | at_bound |
+                        // conditional_on_bound | fixed
                         // ("" in 1.0 files)
   double profile_ci95_low = kNaN, profile_ci95_high = kNaN;
   nlohmann::json profile = nlohmann::json::array();
