@@ -147,9 +147,10 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
                                 data_schema::unit_suffix(unit_of(p.kind))));
       at_bounds.push_back(i);
     } else if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i, inflation)) {
-      flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g}{}, "
-                                "next to no erosion): they give only a lower limit",
-                                std::exp(L.upper(i)), data_schema::unit_suffix(unit_of(p.kind))));
+      flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g}{}{}): they "
+                                "give only a lower limit",
+                                std::exp(L.upper(i)), data_schema::unit_suffix(unit_of(p.kind)),
+                                L.upper(i) - x[i] >= std::log(1e3) ? ", next to no erosion" : ""));
     }
   }
   // Rule 3's partners: with j free, the covariance conditioned on j gives i's half-width
