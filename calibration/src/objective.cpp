@@ -586,7 +586,7 @@ CovarianceOutcome Objective::covariance(const std::vector<double>& x_in, const S
   eo.apply_loss_function = true;
   eo.num_threads = 2;
   std::vector<double> res;
-  bp.problem.Evaluate(eo, &cost, &res, nullptr, &J);
+  bp.problem.Evaluate(eo, &cost, &res, &out.gradient, &J);
   bp.rethrow_error();
   std::uint64_t used = 0;
   for (double r : res) used += (r != 0);

@@ -105,25 +105,27 @@ nlohmann::json profile_json(const Layout& L, const Profile& p) {
   return j;
 }
 
-// An identifiable constant that moves with one at its bound by more than its own profile
-// interval (shift_along_bound) gets the verdict "conditional_on_bound": its estimate and
-// interval hold the partner at a bound the data would cross (the one it moves most with).
+// An identifiable constant that the linearised fit with the bounds the data push against
+// lifted (step_past_bounds: physics at_bound and nuisances at theirs) moves by more than its
+// own profile interval's half-width gets the verdict "conditional_on_bound".
 void held_by_bounds(Run& run, const CovarianceOutcome& cov, std::vector<std::string>& reason) {
   const Layout& L = *run.layout;
+  std::vector<AtBound> at;
+  for (const auto& pj : run.profiles)
+    if (run.verdict[pj.entry] == "at_bound")
+      at.push_back({pj.entry, L.upper(pj.entry) - run.x[pj.entry] < run.x[pj.entry] - L.lower(pj.entry) ? 1 : -1});
+  for (const auto& b : nuisances_at_bounds(L, run.x)) at.push_back({b.index, b.upper ? 1 : -1});
+  if (at.empty()) return;
+  std::vector<std::size_t> pulled;
+  const std::vector<double> step = step_past_bounds(cov, at, L.size(), &pulled);
+  if (step.empty()) return;
   for (const auto& pr : run.profiles) {
     const std::size_t i = pr.entry;
     if (run.verdict[i] != "identifiable" && run.verdict[i] != "imprecise") continue;
     const double half = 0.5 * (pr.upper.crossing - pr.lower.crossing);
-    double worst = 0;
-    for (const auto& pj : run.profiles) {
-      const std::size_t j = pj.entry;
-      if (run.verdict[j] != "at_bound") continue;
-      const double shift = shift_along_bound(cov, i, j);
-      if (!(shift > half) || shift <= worst) continue;
-      worst = shift;
-      run.verdict[i] = "conditional_on_bound";
-      reason[i] = bound_partner_reason(L, run.x, j, shift, half);
-    }
+    if (!(std::abs(step[i]) > half)) continue;
+    run.verdict[i] = "conditional_on_bound";
+    reason[i] = bound_partner_reason(L, run.x, i, pulled, step[i], half);
   }
 }
 

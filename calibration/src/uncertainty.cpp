@@ -95,30 +95,61 @@ Flags contact_checks(const Objective& obj, const std::vector<double>& x, const S
   return f;
 }
 
-double shift_along_bound(const CovarianceOutcome& cov, std::size_t i, std::size_t j) {
+std::vector<double> step_past_bounds(const CovarianceOutcome& cov, const std::vector<AtBound>& at, std::size_t n,
+                                     std::vector<std::size_t>* pulled) {
   const std::size_t m = cov.indices.size();
-  const auto at = [&](std::size_t e) { return std::size_t(std::find(cov.indices.begin(), cov.indices.end(), e) - cov.indices.begin()); };
-  const std::size_t a = at(i), b = at(j);
-  if (!cov.ok || a == m || b == m || a == b) return NAN;
-  const double var_j = cov.cov[b * m + b];
-  if (!(var_j > 0) || !std::isfinite(var_j)) return NAN;
-  return kZ95 * std::abs(cov.cov[a * m + b]) / std::sqrt(var_j);
+  if (pulled) pulled->clear();
+  if (!cov.ok || cov.gradient.size() != m) return {};
+  const double scale = cov.residual_variance * cov.inflation;
+  std::vector<double> step(n, 0.0);
+  bool any = false;
+  for (const AtBound& b : at) {
+    const std::size_t c = std::size_t(std::find(cov.indices.begin(), cov.indices.end(), b.entry) - cov.indices.begin());
+    // Outwards: the cost falls beyond the bound (an upper bound with ∂cost/∂x < 0).
+    if (c == m || !(-cov.gradient[c] * b.side > 0)) continue;
+    any = true;
+    if (pulled) pulled->push_back(b.entry);
+    for (std::size_t a = 0; a < m; ++a)
+      if (cov.indices[a] < n) step[cov.indices[a]] -= cov.cov[a * m + c] * cov.gradient[c] / scale;
+  }
+  return any ? step : std::vector<double>{};
 }
 
-std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, std::size_t j,
-                                 double shift_log, double half_log) {
-  const PhysicsParam* pj = nullptr;
-  for (const auto& p : L.physics())
-    if (p.index == int(j)) pj = &p;
-  const bool up = L.upper(j) - x[j] < x[j] - L.lower(j);
-  const std::string widen = pj ? fmt::format(": widen [fit.classes.{}] {}", pj->class_name, to_string(pj->kind))
-                               : std::string(": widen its bounds");
-  return fmt::format("moves with {}, which ended at its {} bound ({:.4g}{}): were that free beyond the bound by its "
-                     "own 95 % half-width, this constant would move by about {:.3g} % (linearised), more than its 95 % "
-                     "interval's ±{:.3g} %, which holds {} at the bound{}",
-                     L.name(j), up ? "upper" : "lower", std::exp(x[j]),
-                     pj ? data_schema::unit_suffix(unit_of(pj->kind)) : std::string(), 100 * std::expm1(shift_log),
-                     100 * std::expm1(half_log), L.name(j), widen);
+std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, std::size_t i,
+                                 const std::vector<std::size_t>& pulled, double shift_log, double half_log) {
+  auto physics = [&](std::size_t e) -> const PhysicsParam* {
+    for (const auto& p : L.physics())
+      if (p.index == int(e)) return &p;
+    return nullptr;
+  };
+  std::string who, widen;
+  for (std::size_t k = 0; k < pulled.size(); ++k) {
+    const std::size_t j = pulled[k];
+    const PhysicsParam* pj = physics(j);
+    const bool up = L.upper(j) - x[j] < x[j] - L.lower(j);
+    who += (k == 0 ? "" : k + 1 == pulled.size() ? " and " : ", ") + L.name(j) +
+           (pj ? fmt::format(" (at its {} bound, {:.4g}{})", up ? "upper" : "lower", std::exp(x[j]),
+                             data_schema::unit_suffix(unit_of(pj->kind)))
+               : fmt::format(" (at its {} bound: see the warnings)", up ? "upper" : "lower"));
+    if (pj) widen += fmt::format("{}[fit.classes.{}] {}", widen.empty() ? "" : ", ", pj->class_name, to_string(pj->kind));
+  }
+  const double a = std::abs(shift_log);
+  const std::string by =
+      a <= std::log(2.0)    ? fmt::format("by {:+.3g} %", 100 * std::expm1(shift_log))
+      : a <= std::log(1e3) ? fmt::format("{} by a factor of {:.3g}", shift_log > 0 ? "up" : "down", std::exp(a))
+                           : fmt::format("{} by more than a factor of 1000, beyond what a linearised step tells",
+                                         shift_log > 0 ? "up" : "down");
+  const PhysicsParam* pi = physics(i);
+  const std::string to = pi && a <= std::log(10.0)
+                             ? fmt::format(" (to about {:.4g}{})", std::exp(x[i] + shift_log),
+                                           data_schema::unit_suffix(unit_of(pi->kind)))
+                             : std::string();
+  return fmt::format("moves with {}, which the data pull beyond {}: with {} lifted, the linearised fit "
+                     "moves this constant {}{}, more than its 95 % interval's ±{:.3g} %, which holds {} at "
+                     "the bound{}",
+                     who, pulled.size() > 1 ? "their bounds" : "its bound", pulled.size() > 1 ? "those" : "that",
+                     by, to, 100 * std::expm1(half_log), pulled.size() > 1 ? "them" : "it",
+                     widen.empty() ? std::string() : ": widen " + widen);
 }
 
 UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
@@ -153,29 +184,35 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
                                 L.upper(i) - x[i] >= std::log(1e3) ? ", next to no erosion" : ""));
     }
   }
-  // Rule 3's partners: with j free, the covariance conditioned on j gives i's half-width
-  // with j held (Σ_ii − Σ_ij²/Σ_jj), against which shift_along_bound is weighed.
-  if (!at_bounds.empty()) {
+  // Rule 3's partners, and those of the nuisances at their bounds: the covariance with
+  // them free gives the step past the bounds and, conditioned on them (Schur complement),
+  // each constant's half-width with them held, against which that step is weighed.
+  std::vector<AtBound> at;
+  for (std::size_t j : at_bounds) at.push_back({j, L.upper(j) - x[j] < x[j] - L.lower(j) ? 1 : -1});
+  for (const auto& b : nuisances_at_bounds(L, x)) at.push_back({b.index, b.upper ? 1 : -1});
+  if (covariance_rules && !at.empty()) {
     const CovarianceOutcome free = obj.covariance(x, w, before_bounds, inflation);
+    std::vector<std::size_t> pulled;
+    const std::vector<double> step = step_past_bounds(free, at, L.size(), &pulled);
     const std::size_t m = free.indices.size();
+    std::vector<Eigen::Index> in_b;  // positions of the pulled entries in the covariance
+    for (std::size_t j : pulled)
+      in_b.push_back(Eigen::Index(std::find(free.indices.begin(), free.indices.end(), j) - free.indices.begin()));
+    const Eigen::Map<const Eigen::MatrixXd> S(free.cov.data(), Eigen::Index(m), Eigen::Index(m));
+    Eigen::MatrixXd Sbb(in_b.size(), in_b.size());
+    for (std::size_t u = 0; u < in_b.size(); ++u)
+      for (std::size_t v = 0; v < in_b.size(); ++v) Sbb(Eigen::Index(u), Eigen::Index(v)) = S(in_b[u], in_b[v]);
+    const Eigen::LDLT<Eigen::MatrixXd> bb(Sbb);
     for (const auto& p : L.physics()) {
-      if (p.index < 0 || rep.held[std::size_t(p.index)] || !free.ok) continue;
+      if (step.empty() || p.index < 0 || rep.held[std::size_t(p.index)]) continue;
       const std::size_t i = std::size_t(p.index);
-      const std::size_t a = std::size_t(std::find(free.indices.begin(), free.indices.end(), i) - free.indices.begin());
-      if (a == m) continue;
-      double worst = 0;
-      std::string why;
-      for (std::size_t j : at_bounds) {
-        const std::size_t b = std::size_t(std::find(free.indices.begin(), free.indices.end(), j) - free.indices.begin());
-        const double shift = shift_along_bound(free, i, j);
-        if (b == m || !(shift > worst)) continue;
-        const double cond = free.cov[a * m + a] - free.cov[a * m + b] * free.cov[a * m + b] / free.cov[b * m + b];
-        const double half = kZ95 * std::sqrt(std::max(0.0, cond));
-        if (!(shift > half)) continue;
-        worst = shift;
-        why = bound_partner_reason(L, x, j, shift, half);
-      }
-      if (!why.empty()) flag(int(i), std::move(why));
+      const auto a = Eigen::Index(std::find(free.indices.begin(), free.indices.end(), i) - free.indices.begin());
+      if (a == Eigen::Index(m)) continue;
+      Eigen::VectorXd sib(in_b.size());
+      for (std::size_t u = 0; u < in_b.size(); ++u) sib(Eigen::Index(u)) = S(a, in_b[u]);
+      const double cond = S(a, a) - sib.dot(bb.solve(sib));
+      const double half = kZ95 * std::sqrt(std::max(0.0, cond));
+      if (std::abs(step[i]) > half) flag(int(i), bound_partner_reason(L, x, i, pulled, step[i], half));
     }
   }
   CovarianceOutcome cov;

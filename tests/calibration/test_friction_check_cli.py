@@ -36,8 +36,8 @@ def test_a_reversed_spin_is_named_by_calibrate(exp, tmp_path):
     assert mu["held"] == pytest.approx(0.01, rel=0.01), mu
     # α (≈ 12 N/mm², truth 500) moves with μ: held with it, not a confident value.
     alpha = [p for p in result["parameters"] if p["class_name"] == "compact" and p["name"] == "alpha"][0]
-    assert not alpha["identifiable"] and alpha["reason"].startswith("moves with compact.mu, which ended at its "
-                                                                    "lower bound"), alpha
+    assert not alpha["identifiable"] and alpha["reason"].startswith("moves with compact.mu (at its lower bound, "
+                                                                    "0.01)"), alpha
     assert -50 < scale(said[0]) < -20, said
     assert not [w for w in result["settings"]["warnings"] if w.startswith(FRAME)], result["settings"]["warnings"]
 

@@ -101,6 +101,7 @@ struct CovarianceOutcome {
   double residual_variance = 1;      // 2·cost / (used residuals − parameters)
   double inflation = 1;              // the noise-model factor applied besides (ar1_inflation)
   std::vector<double> info_diag;     // diag(JᵀJ) per covered entry
+  std::vector<double> gradient;      // ∂cost/∂x = Jᵀr per covered entry (loss applied)
   std::vector<double> eig_values;    // of the unit-diagonal information matrix (ascending)
   std::vector<std::vector<double>> eig_vectors;  // eig_vectors[j] = eigenvector of eig_values[j]
   // With channels besides the force: JᵀJ over every row (info) and over the force rows

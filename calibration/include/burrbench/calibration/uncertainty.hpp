@@ -5,8 +5,9 @@
 // Rules, checked in this order for every free physics parameter:
 //  1. its class is never in contact in the used samples;
 //  2. (α only) no bone of its class was removed in the replay: α has no effect;
-//  3. the estimate sits at a bound (within 1 % in log space); and a constant that moves
-//     with one at its bound by more than its own interval (shift_along_bound) is held too;
+//  3. the estimate sits at a bound (within 1 % in log space); and a constant that the
+//     linearised fit with the bounds the data push against lifted moves by more than its
+//     own interval (step_past_bounds) is held too;
 //  4. the information matrix (JᵀJ, scaled to unit diagonal) has an eigenvalue below
 //     1e-8 of the largest whose eigenvector loads on it (|v| > 0.5): a near-null direction;
 //  5. its 95 % interval is wider than ×/÷ 10 (SE of ln θ > ln 10 / 1.96), or reaches
@@ -50,16 +51,26 @@ struct Flags {
 Flags contact_checks(const Objective& obj, const std::vector<double>& x, const SampleWeights& w,
                      const Evaluation& at_x);
 
-// Entry j ended at a bound: the fit held it where the data would not let it stop, and every
-// entry that moves with j was fitted against that bound. Were j free by its own 95 %
-// half-width (1.96·SE of x_j, the least move the data would not notice) beyond the bound,
-// entry i would move along j's linearised profile by 1.96·|Σ_ij|/√Σ_jj in x_i. When that
-// exceeds i's own 95 % half-width, i's interval, which holds j at the bound, says more than
-// the data do. Returns that shift (NaN when the covariance lacks i or j).
-double shift_along_bound(const CovarianceOutcome& cov, std::size_t i, std::size_t j);
-// The reason given to an entry moved shift_log by j's bound, whose 95 % half-width is half_log.
-std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, std::size_t j,
-                                 double shift_log, double half_log);
+// An x entry at a bound, and which: +1 upper, −1 lower.
+struct AtBound {
+  std::size_t entry = 0;
+  int side = 0;
+};
+
+// Entries at a bound stop where the data would not let them stop when the cost's gradient
+// points out of the box: they want a value beyond. Every entry that moves with them was
+// fitted against them held there, and its interval (a profile re-optimises inside the
+// bounds) holds them there too. The linearised fit with those bounds lifted is the Newton
+// step from the gradient of the entries pulled outwards alone (the others are stationary at
+// the optimum): Δx = −H⁻¹·g_B = −Σ·g_B / (residual variance × inflation). Returns Δx per x
+// entry (size n, 0 for entries the covariance lacks), empty when the covariance failed or
+// no entry at a bound is pulled outwards; `pulled` gets those that are.
+std::vector<double> step_past_bounds(const CovarianceOutcome& cov, const std::vector<AtBound>& at, std::size_t n,
+                                     std::vector<std::size_t>* pulled = nullptr);
+// The reason given to physics entry i, which that step moves by shift_log in ln θ against a
+// 95 % half-width of half_log, for the entries `pulled` (physics or nuisances).
+std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, std::size_t i,
+                                 const std::vector<std::size_t>& pulled, double shift_log, double half_log);
 
 // `initial`: parameters already flagged (held, with reasons), e.g. by contact_checks or by
 // their profiles. `covariance_rules`: also apply the α slice check and rules 3–5 (used
