@@ -194,7 +194,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     const CovarianceOutcome free = obj.covariance(x, w, before_bounds, inflation);
     std::vector<std::size_t> pulled;
     const std::vector<double> step = step_past_bounds(free, at, L.size(), &pulled);
-    const std::size_t m = free.indices.size();
+    const std::size_t m = step.empty() ? 0 : free.indices.size();  // nothing pulled: nothing held
     std::vector<Eigen::Index> in_b;  // positions of the pulled entries in the covariance
     for (std::size_t j : pulled)
       in_b.push_back(Eigen::Index(std::find(free.indices.begin(), free.indices.end(), j) - free.indices.begin()));
@@ -204,7 +204,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
       for (std::size_t v = 0; v < in_b.size(); ++v) Sbb(Eigen::Index(u), Eigen::Index(v)) = S(in_b[u], in_b[v]);
     const Eigen::LDLT<Eigen::MatrixXd> bb(Sbb);
     for (const auto& p : L.physics()) {
-      if (step.empty() || p.index < 0 || rep.held[std::size_t(p.index)]) continue;
+      if (m == 0 || p.index < 0 || rep.held[std::size_t(p.index)]) continue;
       const std::size_t i = std::size_t(p.index);
       const auto a = Eigen::Index(std::find(free.indices.begin(), free.indices.end(), i) - free.indices.begin());
       if (a == Eigen::Index(m)) continue;

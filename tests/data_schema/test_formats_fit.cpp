@@ -186,6 +186,13 @@ TEST(FormatsFit, AParameterReadsAsTheCalibrationLeftIt) {
   EXPECT_EQ(bb::describe_fit_parameter(m),
             "  trabecular   mu      NOT identifiable (practically) (held 0.3): the profile stays flat towards the lower bound\n"
             "  trabecular   mu      profile 95 % [open, 0.52]\n");
+  m.verdict = "conditional_on_bound";
+  m.reason = "moves with trabecular.alpha (at its upper bound, 300 N/mm^2), which the data pull beyond its bound";
+  m.profile_ci95_low = 0.28;
+  EXPECT_EQ(bb::describe_fit_parameter(m),
+            "  trabecular   mu      CONDITIONAL on a bound (held 0.3): moves with trabecular.alpha (at its upper bound, "
+            "300 N/mm^2), which the data pull beyond its bound\n"
+            "  trabecular   mu      profile 95 % [0.28, 0.52]\n");
   m.fixed = true;
   m.estimate = 0.3;
   EXPECT_EQ(bb::describe_fit_parameter(m), "  trabecular   mu    = 0.3 (fixed)\n");
