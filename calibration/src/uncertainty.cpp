@@ -131,7 +131,10 @@ std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, 
            (pj ? fmt::format(" (at its {} bound, {:.4g}{})", up ? "upper" : "lower", std::exp(x[j]),
                              data_schema::unit_suffix(unit_of(pj->kind)))
                : fmt::format(" (at its {} bound: see the warnings)", up ? "upper" : "lower"));
-    if (pj) widen += fmt::format("{}[fit.classes.{}] {}", widen.empty() ? "" : ", ", pj->class_name, to_string(pj->kind));
+    const std::string entry = pj ? fmt::format("[fit.classes.{}] {}", pj->class_name, to_string(pj->kind))
+                              : L.name(j).ends_with(".lag") ? std::string("[fit.nuisance] lag_bounds_ms")
+                                                            : std::string();  // the warning says what to check
+    if (!entry.empty() && widen.find(entry) == std::string::npos) widen += (widen.empty() ? "" : ", ") + entry;
   }
   const double a = std::abs(shift_log);
   const std::string by =
