@@ -110,6 +110,12 @@ void Layout::add_mounting(Mounting m, const std::vector<std::size_t>& recs) {
   mountings_.push_back(std::move(m));
 }
 
+const PhysicsParam* Layout::physics_at(std::size_t entry) const {
+  for (const auto& p : physics_)
+    if (p.index == int(entry)) return &p;
+  return nullptr;
+}
+
 void Layout::add_depth_offset(std::size_t recording) {
   RecordingNuisance& r = recordings_.at(recording);
   BURRBENCH_CHECK(r.depth < 0, "depth offset already free");

@@ -18,20 +18,13 @@ namespace {
 constexpr int kMaxRestarts = 2;
 constexpr double kBoundLog = 0.01;  // within 1 % (in ln θ) of a bound = at the bound
 
-const PhysicsParam* physics_at(const Layout& L, std::size_t i) {
-  for (const auto& p : L.physics())
-    if (p.index == int(i)) return &p;
-  return nullptr;
-}
-
 // dx_j/dx_i along the linearised profile of entry i: Σ_ji / Σ_ii (empty when the
 // covariance failed or i is not in it).
 std::vector<double> valley_slopes(const CovarianceOutcome& cov, std::size_t i, std::size_t n) {
   const std::size_t m = cov.indices.size();
   if (!cov.ok) return {};
-  const auto a = std::find(cov.indices.begin(), cov.indices.end(), i);
-  if (a == cov.indices.end()) return {};
-  const std::size_t ia = std::size_t(a - cov.indices.begin());
+  const std::size_t ia = cov.position(i);
+  if (ia == m) return {};
   const double var = cov.cov[ia * m + ia];
   if (!(var > 0) || !std::isfinite(var)) return {};
   std::vector<double> slope(n, 0.0);
@@ -80,8 +73,8 @@ std::vector<Profile> run_profiles(Run& run, const Flags& pre, CovarianceOutcome&
   if (cov.ok)
     for (std::size_t a = 0; a < m; ++a)
       for (std::size_t b = a + 1; b < m; ++b) {
-        const auto* pa = physics_at(L, cov.indices[a]);
-        const auto* pb = physics_at(L, cov.indices[b]);
+        const auto* pa = L.physics_at(cov.indices[a]);
+        const auto* pb = L.physics_at(cov.indices[b]);
         if (!pa || !pb) continue;
         const double den = std::sqrt(cov.cov[a * m + a] * cov.cov[b * m + b]);
         const double r = den > 0 ? cov.cov[a * m + b] / den : 0.0;
@@ -110,11 +103,10 @@ nlohmann::json profile_json(const Layout& L, const Profile& p) {
 // own profile interval's half-width gets the verdict "conditional_on_bound".
 void held_by_bounds(Run& run, const CovarianceOutcome& cov, std::vector<std::string>& reason) {
   const Layout& L = *run.layout;
-  std::vector<AtBound> at;
+  std::vector<std::size_t> physics;
   for (const auto& pj : run.profiles)
-    if (run.verdict[pj.entry] == "at_bound")
-      at.push_back({pj.entry, L.upper(pj.entry) - run.x[pj.entry] < run.x[pj.entry] - L.lower(pj.entry) ? 1 : -1});
-  for (const auto& b : nuisances_at_bounds(L, run.x)) at.push_back({b.index, b.upper ? 1 : -1});
+    if (run.verdict[pj.entry] == "at_bound") physics.push_back(pj.entry);
+  const std::vector<AtBound> at = held_at_bounds(L, run.x, physics);
   if (at.empty()) return;
   std::vector<std::size_t> pulled;
   const std::vector<double> step = step_past_bounds(cov, at, L.size(), &pulled);
@@ -180,7 +172,7 @@ void assess(Run& run) {
   if (run.opt.profiles) {
     for (const auto& pr : run.profiles) {
       const std::size_t i = pr.entry;
-      const auto* p = physics_at(L, i);
+      const auto* p = L.physics_at(i);
       const double xi = run.x[i];
       std::string v, why;
       if (xi - L.lower(i) < kBoundLog || L.upper(i) - xi < kBoundLog) {

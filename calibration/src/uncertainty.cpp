@@ -95,6 +95,14 @@ Flags contact_checks(const Objective& obj, const std::vector<double>& x, const S
   return f;
 }
 
+std::vector<AtBound> held_at_bounds(const Layout& L, const std::vector<double>& x,
+                                    const std::vector<std::size_t>& physics) {
+  std::vector<AtBound> at;
+  for (std::size_t j : physics) at.push_back({j, L.upper(j) - x[j] < x[j] - L.lower(j) ? 1 : -1});
+  for (const auto& b : nuisances_at_bounds(L, x)) at.push_back({b.index, b.upper ? 1 : -1});
+  return at;
+}
+
 std::vector<double> step_past_bounds(const CovarianceOutcome& cov, const std::vector<AtBound>& at, std::size_t n,
                                      std::vector<std::size_t>* pulled) {
   const std::size_t m = cov.indices.size();
@@ -104,7 +112,7 @@ std::vector<double> step_past_bounds(const CovarianceOutcome& cov, const std::ve
   std::vector<double> step(n, 0.0);
   bool any = false;
   for (const AtBound& b : at) {
-    const std::size_t c = std::size_t(std::find(cov.indices.begin(), cov.indices.end(), b.entry) - cov.indices.begin());
+    const std::size_t c = cov.position(b.entry);
     // Outwards: the cost falls beyond the bound (an upper bound with ∂cost/∂x < 0).
     if (c == m || !(-cov.gradient[c] * b.side > 0)) continue;
     any = true;
@@ -115,17 +123,29 @@ std::vector<double> step_past_bounds(const CovarianceOutcome& cov, const std::ve
   return any ? step : std::vector<double>{};
 }
 
+double conditional_variance(const CovarianceOutcome& cov, std::size_t i, const std::vector<std::size_t>& held) {
+  const std::size_t m = cov.indices.size(), a = cov.position(i);
+  if (!cov.ok || a == m) return NAN;
+  const Eigen::Map<const Eigen::MatrixXd> S(cov.cov.data(), Eigen::Index(m), Eigen::Index(m));
+  std::vector<Eigen::Index> b;  // the held entries' positions
+  for (std::size_t j : held)
+    if (const std::size_t c = cov.position(j); c != m && c != a) b.push_back(Eigen::Index(c));
+  Eigen::MatrixXd Sbb(b.size(), b.size());
+  Eigen::VectorXd sib(b.size());
+  for (std::size_t u = 0; u < b.size(); ++u) {
+    sib(Eigen::Index(u)) = S(Eigen::Index(a), b[u]);
+    for (std::size_t v = 0; v < b.size(); ++v) Sbb(Eigen::Index(u), Eigen::Index(v)) = S(b[u], b[v]);
+  }
+  const double v = S(Eigen::Index(a), Eigen::Index(a)) - (b.empty() ? 0.0 : sib.dot(Sbb.ldlt().solve(sib)));
+  return std::max(0.0, v);
+}
+
 std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, std::size_t i,
                                  const std::vector<std::size_t>& pulled, double shift_log, double half_log) {
-  auto physics = [&](std::size_t e) -> const PhysicsParam* {
-    for (const auto& p : L.physics())
-      if (p.index == int(e)) return &p;
-    return nullptr;
-  };
   std::string who, widen;
   for (std::size_t k = 0; k < pulled.size(); ++k) {
     const std::size_t j = pulled[k];
-    const PhysicsParam* pj = physics(j);
+    const PhysicsParam* pj = L.physics_at(j);
     const bool up = L.upper(j) - x[j] < x[j] - L.lower(j);
     who += (k == 0 ? "" : k + 1 == pulled.size() ? " and " : ", ") + L.name(j) +
            (pj ? fmt::format(" (at its {} bound, {:.4g}{})", up ? "upper" : "lower", std::exp(x[j]),
@@ -142,7 +162,7 @@ std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, 
       : a <= std::log(1e3) ? fmt::format("{} by a factor of {:.3g}", shift_log > 0 ? "up" : "down", std::exp(a))
                            : fmt::format("{} by more than a factor of 1000, beyond what a linearised step tells",
                                          shift_log > 0 ? "up" : "down");
-  const PhysicsParam* pi = physics(i);
+  const PhysicsParam* pi = L.physics_at(i);
   const std::string to = pi && a <= std::log(10.0)
                              ? fmt::format(" (to about {:.4g}{})", std::exp(x[i] + shift_log),
                                            data_schema::unit_suffix(unit_of(pi->kind)))
@@ -190,31 +210,15 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
   // Rule 3's partners, and those of the nuisances at their bounds: the covariance with
   // them free gives the step past the bounds and, conditioned on them (Schur complement),
   // each constant's half-width with them held, against which that step is weighed.
-  std::vector<AtBound> at;
-  for (std::size_t j : at_bounds) at.push_back({j, L.upper(j) - x[j] < x[j] - L.lower(j) ? 1 : -1});
-  for (const auto& b : nuisances_at_bounds(L, x)) at.push_back({b.index, b.upper ? 1 : -1});
+  const std::vector<AtBound> at = held_at_bounds(L, x, at_bounds);
   if (covariance_rules && !at.empty()) {
     const CovarianceOutcome free = obj.covariance(x, w, before_bounds, inflation);
     std::vector<std::size_t> pulled;
     const std::vector<double> step = step_past_bounds(free, at, L.size(), &pulled);
-    const std::size_t m = step.empty() ? 0 : free.indices.size();  // nothing pulled: nothing held
-    std::vector<Eigen::Index> in_b;  // positions of the pulled entries in the covariance
-    for (std::size_t j : pulled)
-      in_b.push_back(Eigen::Index(std::find(free.indices.begin(), free.indices.end(), j) - free.indices.begin()));
-    const Eigen::Map<const Eigen::MatrixXd> S(free.cov.data(), Eigen::Index(m), Eigen::Index(m));
-    Eigen::MatrixXd Sbb(in_b.size(), in_b.size());
-    for (std::size_t u = 0; u < in_b.size(); ++u)
-      for (std::size_t v = 0; v < in_b.size(); ++v) Sbb(Eigen::Index(u), Eigen::Index(v)) = S(in_b[u], in_b[v]);
-    const Eigen::LDLT<Eigen::MatrixXd> bb(Sbb);
     for (const auto& p : L.physics()) {
-      if (m == 0 || p.index < 0 || rep.held[std::size_t(p.index)]) continue;
+      if (step.empty() || p.index < 0 || rep.held[std::size_t(p.index)]) continue;
       const std::size_t i = std::size_t(p.index);
-      const auto a = Eigen::Index(std::find(free.indices.begin(), free.indices.end(), i) - free.indices.begin());
-      if (a == Eigen::Index(m)) continue;
-      Eigen::VectorXd sib(in_b.size());
-      for (std::size_t u = 0; u < in_b.size(); ++u) sib(Eigen::Index(u)) = S(a, in_b[u]);
-      const double cond = S(a, a) - sib.dot(bb.solve(sib));
-      const double half = kZ95 * std::sqrt(std::max(0.0, cond));
+      const double half = kZ95 * std::sqrt(conditional_variance(free, i, pulled));
       if (std::abs(step[i]) > half) flag(int(i), bound_partner_reason(L, x, i, pulled, step[i], half));
     }
   }
@@ -225,14 +229,9 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     const std::size_t m = cov.indices.size();
     if (m == 0) break;
     const double lmax = cov.eig_values.empty() ? 0 : cov.eig_values.back();
-    auto physics_at = [&](std::size_t i) -> const PhysicsParam* {
-      for (const auto& p : L.physics())
-        if (p.index == int(i)) return &p;
-      return nullptr;
-    };
     for (std::size_t a = 0; a < m; ++a) {
       const std::size_t i = cov.indices[a];
-      const PhysicsParam* p = physics_at(i);
+      const PhysicsParam* p = L.physics_at(i);
       if (!p) continue;
       if (!(cov.info_diag[a] > 0)) {
         more |= flag(int(i), "the predicted force does not depend on it (zero sensitivity)");
@@ -266,9 +265,8 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
   rep.inflation = inflation;
   // Position of x entry i in the covariance (or npos).
   auto pos = [&](std::size_t i) -> std::ptrdiff_t {
-    for (std::size_t a = 0; a < cov.indices.size(); ++a)
-      if (cov.indices[a] == i) return std::ptrdiff_t(a);
-    return -1;
+    const std::size_t a = cov.position(i);
+    return a == cov.indices.size() ? -1 : std::ptrdiff_t(a);
   };
   const std::size_t m = cov.indices.size();
   auto var = [&](std::ptrdiff_t a) {

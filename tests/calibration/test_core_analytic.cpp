@@ -596,3 +596,52 @@ TEST(CalibrationCore, ACheaperProfilePointStopsEveryProfileSharingTheFlag) {
   const auto other = bc::profile_parameter(obj, off, cost_off, s.w, c1, thr, {}, shared);
   EXPECT_EQ(other.lower.points.size() + other.upper.points.size(), 0u);
 }
+
+// The covariance's gradient (Jᵀr, which step_past_bounds weighs against the bounds) is the
+// cost's: central differences of evaluate() at a point off the optimum, entry by entry.
+TEST(CalibrationCore, TheCovariancesGradientIsTheCostsCentralDifferences) {
+  const auto s = make(true, true, 4);
+  const bc::Objective obj(*s.layout, ptrs(s), settings(true));
+  std::vector<double> x = s.layout->initial();
+  const auto cov = obj.covariance(x, s.w, {});
+  ASSERT_TRUE(cov.ok);
+  ASSERT_EQ(cov.gradient.size(), cov.indices.size());
+  for (std::size_t a = 0; a < cov.indices.size(); ++a) {
+    const std::size_t i = cov.indices[a];
+    const double h = 1e-5 * std::max(1.0, std::abs(x[i]));
+    std::vector<double> up = x, down = x;
+    up[i] += h;
+    down[i] -= h;
+    const double cd = (obj.evaluate(up, s.w).cost - obj.evaluate(down, s.w).cost) / (2 * h);
+    EXPECT_NEAR(cov.gradient[a], cd, 1e-5 * std::max(1.0, std::abs(cd))) << s.layout->name(i);
+  }
+}
+
+// conditional_variance (the covariance rules' half-width of a constant with the entries at
+// their bounds held) is the covariance computed with those entries held, from the free one.
+TEST(CalibrationCore, TheConditionalVarianceIsTheCovarianceWithTheOthersHeld) {
+  Converged c(5, true);
+  const auto& [s, obj, fit] = c;
+  ASSERT_TRUE(fit.usable);
+  const auto free = obj.covariance(fit.x, s.w, {});
+  ASSERT_TRUE(free.ok);
+  std::size_t alpha = 0, mu = 0, c1 = 0;
+  for (const auto& p : s.layout->physics())
+    if (p.label == 1) (p.kind == bc::PhysKind::kAlpha ? alpha : p.kind == bc::PhysKind::kMu ? mu : c1) = std::size_t(p.index);
+  const std::size_t lag = std::size_t(s.layout->recordings()[0].lag);
+  for (const std::vector<std::size_t>& held : {std::vector<std::size_t>{alpha}, {alpha, lag}}) {
+    std::vector<bool> hold(fit.x.size(), false);
+    for (std::size_t j : held) hold[j] = true;
+    const auto cond = obj.covariance(fit.x, s.w, hold);
+    ASSERT_TRUE(cond.ok);
+    for (std::size_t i : {mu, c1}) {
+      const std::size_t a = cond.position(i), m = cond.indices.size();
+      ASSERT_LT(a, m);
+      // Both share the residual variance (the held entries count as parameters in its dof).
+      EXPECT_NEAR(bc::conditional_variance(free, i, held) / free.residual_variance,
+                  cond.cov[a * m + a] / cond.residual_variance, 1e-6 * cond.cov[a * m + a] / cond.residual_variance)
+          << s.layout->name(i) << " with " << held.size() << " held";
+    }
+  }
+  EXPECT_TRUE(std::isnan(bc::conditional_variance(free, 999, {alpha})));
+}

@@ -7,6 +7,7 @@
 // with the spindle channel 1 more: (predicted load + idle + viscous·krpm − measured)/σ_S.
 // The robust loss is applied per residual (not per recording, which is what a Ceres
 // LossFunction on a whole residual block would do): r̃ = sign(r)·√ρ(r²), so Σ r̃² = Σ ρ(r²).
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -107,6 +108,10 @@ struct CovarianceOutcome {
   // With channels besides the force: JᵀJ over every row (info) and over the force rows
   // and priors alone (info_force), |indices|² row-major, to compare what each adds.
   std::vector<double> info, info_force;
+  // Where x entry `entry` sits in `indices` (indices.size(): not covered).
+  std::size_t position(std::size_t entry) const {
+    return std::size_t(std::find(indices.begin(), indices.end(), entry) - indices.begin());
+  }
 };
 
 class Objective {

@@ -90,6 +90,8 @@ class Layout {
   const Channels& channels() const { return channels_; }
 
   const std::vector<PhysicsParam>& physics() const { return physics_; }
+  // The physics parameter at x entry `entry` (nullptr: a nuisance).
+  const PhysicsParam* physics_at(std::size_t entry) const;
   const std::vector<RecordingNuisance>& recordings() const { return recordings_; }
   std::size_t size() const { return n_; }  // free values
   std::vector<std::uint8_t> labels() const;

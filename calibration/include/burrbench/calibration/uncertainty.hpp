@@ -57,6 +57,11 @@ struct AtBound {
   int side = 0;
 };
 
+// The entries at a bound: the physics entries `physics` (each at one of its bounds) and
+// every nuisance at its bound (nuisances_at_bounds), with their sides.
+std::vector<AtBound> held_at_bounds(const Layout& L, const std::vector<double>& x,
+                                    const std::vector<std::size_t>& physics);
+
 // Entries at a bound stop where the data would not let them stop when the cost's gradient
 // points out of the box: they want a value beyond. Every entry that moves with them was
 // fitted against them held there, and its interval (a profile re-optimises inside the
@@ -67,6 +72,10 @@ struct AtBound {
 // no entry at a bound is pulled outwards; `pulled` gets those that are.
 std::vector<double> step_past_bounds(const CovarianceOutcome& cov, const std::vector<AtBound>& at, std::size_t n,
                                      std::vector<std::size_t>* pulled = nullptr);
+// The variance of entry i with the entries `held` held (Gaussian conditioning, the Schur
+// complement Σ_ii − Σ_iB Σ_BB⁻¹ Σ_Bi), from a covariance with them free; NaN when i is not
+// covered. The covariance rules weigh step_past_bounds against 1.96·√ of it.
+double conditional_variance(const CovarianceOutcome& cov, std::size_t i, const std::vector<std::size_t>& held);
 // The reason given to physics entry i, which that step moves by shift_log in ln θ against a
 // 95 % half-width of half_log, for the entries `pulled` (physics or nuisances).
 std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, std::size_t i,
