@@ -22,10 +22,15 @@
 #     constant's profile interval width (hi/lo) and error before and after, and the
 #     trabecular C1–α correlation; and the coverage of the 95 % intervals of such fits over
 #     REPS seeds (time scale 0.5, default calibration).
+#  8. issue 10's own case, the held-out polish (tests/calibration/layered_fixture.hpp: one
+#     recording, plunge + sweep calibrate, polish validates) over HELDOUT_REPS seeds
+#     (default 10), with its [fit] section and with none: constants within the issue's
+#     tolerances, confident misses (identifiable and outside them; goal 0), not
+#     identifiable, and the profile intervals' coverage.
 # The test manifests ask for 4 starts; every run here passes --starts 16, the default.
 # Environment: COVERAGE_TIME_SCALE (default 0.5); SKIP_TIMING=1 runs only the coverages;
-# COVERAGE=reference|registration|mismatch|channels runs one of the four (default all);
-# MISMATCH_REPS; NO_BUILD (below).
+# COVERAGE=reference|registration|mismatch|channels|heldout runs one of the five (default
+# all); MISMATCH_REPS; HELDOUT_REPS; NO_BUILD (below).
 # Usage: calibration.sh BUILD_DIR [REPS]
 set -euo pipefail
 build=$(cd "${1:-build}" && pwd)
@@ -123,6 +128,26 @@ mismatch() {
   echo "$hits $lim $wrong $total $wd $wc"
 }
 
+# The held-out case: prints "within wrong held total not_identifiable" over both variants.
+heldout() {
+  local within=0 wrong=0 held=0 total=0 unid=0 seed ms v a b c d e
+  for seed in $(seq 1 "${HELDOUT_REPS:-10}"); do
+    ms=$("$G" "$work/ho$seed" "$B" "$seed" 1 layered)
+    sed '/^\[fit\]/,$d' "$ms" > "$work/ho$seed/defaults.toml"  # the [fit] section is last
+    for v in "$ms" "$work/ho$seed/defaults.toml"; do
+      if ! "$B" calibrate --experiment "$v" --out "$work/ho$seed/out" --no-cross-validation > /dev/null 2>&1; then
+        total=$((total+6)); wrong=$((wrong+6)); rm -rf "$work/ho$seed/out"; continue  # a failed fit recovers nothing
+      fi
+      read -r a b c d e <<<"$($PY "$here/fit_vs_truth.py" tolerance "$work/ho$seed/out/fit.json" "$work/ho$seed/truth.toml")"
+      within=$((within+a)); wrong=$((wrong+b)); held=$((held+c)); total=$((total+d)); unid=$((unid+e))
+      echo "  held-out seed $seed $(basename "$v"): $a/$d within tolerance, $b confidently wrong, $e not identifiable, $c/$d intervals hold the truth" >&2
+      rm -rf "$work/ho$seed/out"
+    done
+    rm -rf "$work/ho$seed"
+  done
+  echo "$within $wrong $held $total $unid"
+}
+
 # The channels: prints one line per constant and the correlation line.
 channels() {
   local mw
@@ -155,12 +180,13 @@ print(f"  trabecular C1-alpha correlation: {corr(a)} -> {corr(b)}")
 PY
 }
 
-hits=0 chits=0 total=0 idf=0 dsaid=- rhits=0 rchits=0 rtotal=0 ridf=0 whits=0 wchits=0 wtotal=0 widf=0 mhits=0 mlim=0 mwrong=0 mtotal=0 mwd=0 mwc=0 chan=-
+hits=0 chits=0 total=0 idf=0 dsaid=- rhits=0 rchits=0 rtotal=0 ridf=0 whits=0 wchits=0 wtotal=0 widf=0 mhits=0 mlim=0 mwrong=0 mtotal=0 mwd=0 mwc=0 chan=- hwithin=0 hwrong=0 hheld=0 htotal=0 hunid=0
 run_part() { [[ ${COVERAGE:-all} == all || ${COVERAGE:-all} == "$1" ]]; }
 run_part reference && read -r hits chits total idf dsaid <<<"$(coverage "")"
 run_part registration && read -r rhits rchits rtotal ridf _ <<<"$(coverage registration)"
 run_part mismatch && read -r mhits mlim mwrong mtotal mwd mwc <<<"$(mismatch)"
 run_part channels && chan=$(channels) && read -r whits wchits wtotal widf _ <<<"$(coverage wrench)"
+run_part heldout && read -r hwithin hwrong hheld htotal hunid <<<"$(heldout)"
 
 # "p % (hits/total)", or "-" for a coverage that was not run.
 cover() { if (( $2 == 0 )); then echo -; else $PY -c "print(f'{100*$1/$2:.1f} % ($1/$2)')"; fi; }
@@ -189,5 +215,8 @@ printf '%-62s %-22s %-10s %s\n' "  wall at 0.05 mm: default / --coarse-to-fine (
 printf '%-62s %-22s %-10s %s\n' "force, moments and spindle load: profile coverage, $reps seeds" "$(cover $whits $wtotal)" ">= 90 %" "$(covered $whits $wtotal)"
 printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(cover $wchits $wtotal)" - -
 printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$widf/$wtotal" - -
+printf '%-62s %-22s %-10s %s\n' "held-out polish, [fit] / defaults, ${HELDOUT_REPS:-10} seeds: within tolerance" "$hwithin/$htotal" - -
+printf '%-62s %-22s %-10s %s\n' "  confidently wrong / not identifiable" "$hwrong / $hunid" "0 / -" "$( (( htotal == 0 )) && echo - || ok "$hwrong == 0")"
+printf '%-62s %-22s %-10s %s\n' "  profile intervals holding the truth" "$(cover $hheld $htotal)" ">= 90 %" "$(covered $hheld $htotal)"
 printf '%s\n' "force alone -> force, moments and spindle load (profile interval width hi/lo, error against the truth):"
 printf '%s\n' "$chan"
