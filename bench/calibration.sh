@@ -60,7 +60,7 @@ PY
 }
 
 fd_wall=- fd_cpu=- fd_rep=- fd_it=- se_wall=- se_cpu=- se_rep=- se_it=- def_wall=- def_cpu=- def_rep=-
-fine_wall=- fine_cpu=- fine_rep=- fine_err=- def_stages=- ffd_wall=- ffd_rep=- fse_wall=- fse_rep=- fine_local="- -"
+fine_wall=- fine_cpu=- fine_rep=- fine_err=- def_stages=- ffd_wall=- ffd_rep=- fse_wall=- fse_rep=- fine_iters="- -"
 if [[ -z ${SKIP_TIMING:-} ]]; then
   m=$("$G" "$work/ref" "$B" 1 3 fine)
   mc="$work/ref/experiment.toml"
@@ -74,9 +74,9 @@ if [[ -z ${SKIP_TIMING:-} ]]; then
   echo "  0.05 mm: $fine_wall s wall, $fine_cpu s CPU, $fine_rep replays" >&2
   # The single-start pair again at R/l = 20, where a lab's micro-CT is.
   single=(--starts 1 --no-profiles --no-discretization-check --no-depth-check)
-  read -r ffd_wall _ ffd_rep ffd_it <<<"$(calib "$work/ref/ffd" "$m" "${single[@]}" --derivatives fd)"
-  read -r fse_wall _ fse_rep fse_it <<<"$(calib "$work/ref/fse" "$m" "${single[@]}")"
-  fine_local=$($PY - "$work/ref/ffd/fit.json" "$work/ref/fse/fit.json" <<'PY'
+  read -r ffd_wall _ ffd_rep _ <<<"$(calib "$work/ref/ffd" "$m" "${single[@]}" --derivatives fd)"
+  read -r fse_wall _ fse_rep _ <<<"$(calib "$work/ref/fse" "$m" "${single[@]}")"
+  fine_iters=$($PY - "$work/ref/ffd/fit.json" "$work/ref/fse/fit.json" <<'PY'
 import json, sys
 print(" ".join(str(json.load(open(p))["multistart"][0]["iterations"]) for p in sys.argv[1:]))
 PY
@@ -213,9 +213,9 @@ printf '%-62s %-22s %-10s %s\n' "default calibration (16 starts, profiles), R/l 
 printf '%-62s %s\n' "  where the time went (stage wall, replays)" "$def_stages"
 printf '%-62s %-22s %-10s %s\n' "same on the sample resampled to 0.05 mm (R/l = 20): wall" "${fine_wall} s (${fine_cpu} CPU, $fine_rep replays)" "report" -
 printf '%-62s %s\n' "  0.05 mm: held values against the truth (profile interval)" "$fine_err"
-read -r ffd_loc fse_loc <<<"$fine_local"
+read -r ffd_its fse_its <<<"$fine_iters"
 printf '%-62s %-22s %-10s %s\n' "  0.05 mm single start: fd / sensitivities wall (replays)" "$ffd_wall s ($ffd_rep) / $fse_wall s ($fse_rep)" report -
-printf '%-62s %-22s %-10s %s\n' "    ratio; a start's iterations (pre-fit + local) fd / sens." "$($PY -c "print(f'{$ffd_wall/$fse_wall:.2f}x')" 2>/dev/null || echo -); $ffd_loc / $fse_loc" report -
+printf '%-62s %-22s %-10s %s\n' "    ratio; a start's iterations (pre-fit + local) fd / sens." "$($PY -c "print(f'{$ffd_wall/$fse_wall:.2f}x')" 2>/dev/null || echo -); $ffd_its / $fse_its" report -
 printf '%-62s %-22s %-10s %s\n' "profile 95 % interval coverage, 6 constants, $reps seeds" "$(cover $hits $total)" ">= 90 %" "$(covered $hits $total)"
 printf '%-62s %-22s %-10s %s\n' "  covariance interval coverage (identifiable only count)" "$(cover $chits $total)" - -
 printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$idf/$total" - -
