@@ -31,7 +31,7 @@
 # The test manifests ask for 4 starts; every run here passes --starts 16, the default.
 # Environment: COVERAGE_TIME_SCALE (default 0.5); SKIP_TIMING=1 runs only the coverages;
 # COVERAGE=reference|registration|mismatch|channels|heldout runs one of the five (default
-# all); MISMATCH_REPS; HELDOUT_REPS; NO_BUILD (below).
+# all; none: the timings alone); MISMATCH_REPS; HELDOUT_REPS; NO_BUILD (below).
 # Usage: calibration.sh BUILD_DIR [REPS]
 set -euo pipefail
 build=$(cd "${1:-build}" && pwd)

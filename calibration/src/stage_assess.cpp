@@ -108,7 +108,7 @@ void held_by_bounds(Run& run, const CovarianceOutcome& cov, std::vector<std::str
     if (run.verdict[pj.entry] == "at_bound") physics.push_back(pj.entry);
   const std::vector<AtBound> at = held_at_bounds(L, run.x, physics);
   if (at.empty()) return;
-  std::vector<std::size_t> pulled;
+  std::vector<AtBound> pulled;
   const std::vector<double> step = step_past_bounds(cov, at, L.size(), &pulled);
   if (step.empty()) return;
   for (const auto& pr : run.profiles) {

@@ -104,7 +104,7 @@ std::vector<AtBound> held_at_bounds(const Layout& L, const std::vector<double>& 
 }
 
 std::vector<double> step_past_bounds(const CovarianceOutcome& cov, const std::vector<AtBound>& at, std::size_t n,
-                                     std::vector<std::size_t>* pulled) {
+                                     std::vector<AtBound>* pulled) {
   const std::size_t m = cov.indices.size();
   if (pulled) pulled->clear();
   if (!cov.ok || cov.gradient.size() != m) return {};
@@ -116,7 +116,7 @@ std::vector<double> step_past_bounds(const CovarianceOutcome& cov, const std::ve
     // Outwards: the cost falls beyond the bound (an upper bound with ∂cost/∂x < 0).
     if (c == m || !(-cov.gradient[c] * b.side > 0)) continue;
     any = true;
-    if (pulled) pulled->push_back(b.entry);
+    if (pulled) pulled->push_back(b);
     for (std::size_t a = 0; a < m; ++a)
       if (cov.indices[a] < n) step[cov.indices[a]] -= cov.cov[a * m + c] * cov.gradient[c] / scale;
   }
@@ -141,12 +141,12 @@ double conditional_variance(const CovarianceOutcome& cov, std::size_t i, const s
 }
 
 std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, std::size_t i,
-                                 const std::vector<std::size_t>& pulled, double shift_log, double half_log) {
+                                 const std::vector<AtBound>& pulled, double shift_log, double half_log) {
   std::string who, widen;
   for (std::size_t k = 0; k < pulled.size(); ++k) {
-    const std::size_t j = pulled[k];
+    const std::size_t j = pulled[k].entry;
     const PhysicsParam* pj = L.physics_at(j);
-    const bool up = L.upper(j) - x[j] < x[j] - L.lower(j);
+    const bool up = pulled[k].side > 0;
     who += (k == 0 ? "" : k + 1 == pulled.size() ? " and " : ", ") + L.name(j) +
            (pj ? fmt::format(" (at its {} bound, {:.4g}{})", up ? "upper" : "lower", std::exp(x[j]),
                              data_schema::unit_suffix(unit_of(pj->kind)))
@@ -213,12 +213,14 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
   const std::vector<AtBound> at = held_at_bounds(L, x, at_bounds);
   if (covariance_rules && !at.empty()) {
     const CovarianceOutcome free = obj.covariance(x, w, before_bounds, inflation);
-    std::vector<std::size_t> pulled;
+    std::vector<AtBound> pulled;
     const std::vector<double> step = step_past_bounds(free, at, L.size(), &pulled);
+    std::vector<std::size_t> pulled_entries;
+    for (const AtBound& b : pulled) pulled_entries.push_back(b.entry);
     for (const auto& p : L.physics()) {
       if (step.empty() || p.index < 0 || rep.held[std::size_t(p.index)]) continue;
       const std::size_t i = std::size_t(p.index);
-      const double half = kZ95 * std::sqrt(conditional_variance(free, i, pulled));
+      const double half = kZ95 * std::sqrt(conditional_variance(free, i, pulled_entries));
       if (std::abs(step[i]) > half) flag(int(i), bound_partner_reason(L, x, i, pulled, step[i], half));
     }
   }

@@ -45,10 +45,12 @@ TEST(BoundPartners, TheStepMinimisesTheQuadraticModelOfThePulledGradient) {
   // Entry 1 at its upper bound with the cost falling upwards (pulled out); the gradient of
   // the others, stationary at an optimum, is left out of the step whatever it is.
   const glm::dvec3 g(0.3, -2.0, 0.7);
-  std::vector<std::size_t> pulled;
+  std::vector<bc::AtBound> pulled;
   const auto step = bc::step_past_bounds(outcome(H, g), {{1, +1}}, 3, &pulled);
   ASSERT_EQ(step.size(), 3u);
-  EXPECT_EQ(pulled, std::vector<std::size_t>{1});
+  ASSERT_EQ(pulled.size(), 1u);
+  EXPECT_EQ(pulled[0].entry, 1u);
+  EXPECT_EQ(pulled[0].side, +1);
   // ∇(gᵀ_B Δ + ½ ΔᵀHΔ) = g_B + HΔ = 0.
   const glm::dvec3 r = glm::dvec3(0.0, g[1], 0.0) + H * vec(step);
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(r[k], 0.0, 1e-12) << k;
@@ -58,16 +60,19 @@ TEST(BoundPartners, TheStepMinimisesTheQuadraticModelOfThePulledGradient) {
 TEST(BoundPartners, TwoPulledEntriesMoveTogether) {
   const glm::dmat3 H = information();
   const glm::dvec3 g(1.5, -2.0, 0.7);  // 0 at its lower bound pulled down, 1 at its upper pulled up
-  std::vector<std::size_t> pulled;
+  std::vector<bc::AtBound> pulled;
   const auto step = bc::step_past_bounds(outcome(H, g), {{0, -1}, {1, +1}}, 3, &pulled);
-  EXPECT_EQ(pulled, (std::vector<std::size_t>{0, 1}));
+  ASSERT_EQ(pulled.size(), 2u);
+  EXPECT_EQ(pulled[0].entry, 0u);
+  EXPECT_EQ(pulled[0].side, -1);
+  EXPECT_EQ(pulled[1].entry, 1u);
   const glm::dvec3 r = glm::dvec3(g[0], g[1], 0.0) + H * vec(step);
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(r[k], 0.0, 1e-12) << k;
 }
 
 TEST(BoundPartners, AnEntryPulledInwardsOrMissingGivesNoStep) {
   const glm::dmat3 H = information();
-  std::vector<std::size_t> pulled{9};
+  std::vector<bc::AtBound> pulled{{9, +1}};
   // At its upper bound with the cost rising upwards: the optimum lies inside, not held.
   EXPECT_TRUE(bc::step_past_bounds(outcome(H, {0, 2.0, 0}), {{1, +1}}, 3, &pulled).empty());
   EXPECT_TRUE(pulled.empty());
@@ -104,18 +109,22 @@ TEST(BoundPartners, TheReasonNamesThePartnersTheMoveAndWhatToWiden) {
   const std::size_t lag = std::size_t(L.recordings().at(0).lag);
   x[alpha] = L.upper(alpha);
   x[lag] = L.upper(lag);
-  const std::string why = bc::bound_partner_reason(L, x, mu, {alpha}, std::log(1.031), std::log(1.008));
+  const std::string why = bc::bound_partner_reason(L, x, mu, {{alpha, +1}}, std::log(1.031), std::log(1.008));
   EXPECT_EQ(why.rfind("moves with compact.alpha (at its upper bound, 300 N/mm^2), which the data pull beyond its bound", 0), 0u) << why;
   EXPECT_NE(why.find("moves this constant by +3.1 % (to about 0.4124)"), std::string::npos) << why;
   EXPECT_NE(why.find("±0.8 %"), std::string::npos) << why;
   EXPECT_NE(why.find("widen [fit.classes.compact] alpha"), std::string::npos) << why;
-  const std::string both = bc::bound_partner_reason(L, x, mu, {alpha, lag}, std::log(2.36), std::log(1.01));
+  const std::string both = bc::bound_partner_reason(L, x, mu, {{alpha, +1}, {lag, +1}}, std::log(2.36), std::log(1.01));
   EXPECT_NE(both.find("compact.alpha (at its upper bound, 300 N/mm^2) and sweep.lag (at its upper bound: see the "
                       "warnings), which the data pull beyond their bounds"), std::string::npos) << both;
   EXPECT_NE(both.find("up by a factor of 2.36"), std::string::npos) << both;
   EXPECT_NE(both.find("widen [fit.classes.compact] alpha, [fit.nuisance] lag_bounds_ms"), std::string::npos) << both;
-  const std::string far = bc::bound_partner_reason(L, x, mu, {lag}, -51.8, std::log(1.02));
+  const std::string far = bc::bound_partner_reason(L, x, mu, {{lag, +1}}, -51.8, std::log(1.02));
   EXPECT_NE(far.find("down by more than a factor of 1000"), std::string::npos) << far;
   EXPECT_EQ(far.find("to about"), std::string::npos) << far;
   EXPECT_NE(far.find("widen [fit.nuisance] lag_bounds_ms"), std::string::npos) << far;
+  x[alpha] = L.lower(alpha);  // the side is the one given, as held_at_bounds found it
+  const std::string low = bc::bound_partner_reason(L, x, mu, {{alpha, -1}}, std::log(0.9), std::log(1.01));
+  EXPECT_EQ(low.rfind("moves with compact.alpha (at its lower bound, 1 N/mm^2)", 0), 0u) << low;
+  EXPECT_NE(low.find("by -10 %"), std::string::npos) << low;
 }

@@ -71,15 +71,16 @@ std::vector<AtBound> held_at_bounds(const Layout& L, const std::vector<double>& 
 // entry (size n, 0 for entries the covariance lacks), empty when the covariance failed or
 // no entry at a bound is pulled outwards; `pulled` gets those that are.
 std::vector<double> step_past_bounds(const CovarianceOutcome& cov, const std::vector<AtBound>& at, std::size_t n,
-                                     std::vector<std::size_t>* pulled = nullptr);
+                                     std::vector<AtBound>* pulled = nullptr);
 // The variance of entry i with the entries `held` held (Gaussian conditioning, the Schur
 // complement Σ_ii − Σ_iB Σ_BB⁻¹ Σ_Bi), from a covariance with them free; NaN when i is not
 // covered. The covariance rules weigh step_past_bounds against 1.96·√ of it.
 double conditional_variance(const CovarianceOutcome& cov, std::size_t i, const std::vector<std::size_t>& held);
 // The reason given to physics entry i, which that step moves by shift_log in ln θ against a
-// 95 % half-width of half_log, for the entries `pulled` (physics or nuisances).
+// 95 % half-width of half_log, for the entries `pulled` (physics or nuisances, at the sides
+// held_at_bounds gave them).
 std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, std::size_t i,
-                                 const std::vector<std::size_t>& pulled, double shift_log, double half_log);
+                                 const std::vector<AtBound>& pulled, double shift_log, double half_log);
 
 // `initial`: parameters already flagged (held, with reasons), e.g. by contact_checks or by
 // their profiles. `covariance_rules`: also apply the α slice check and rules 3–5 (used
