@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <ctime>
+#include <limits>
 
 #include "burrbench/data_schema/error.hpp"
 
@@ -52,6 +54,12 @@ namespace {
 // (bench/sensitivity.sh on 2026-11-28: 1 / 4 / 8 asked for cost 2.54 / 3.35 / 4.04 at
 // R/l = 10, 2.71 / 3.54 / 4.35 at R/l = 20; docs/model.md "Cost"). Only the order of the
 // jobs depends on it, never a result.
+double thread_cpu_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
 double job_work(const ReplayPool::Job& job) {
   const std::size_t dirs = job.options.directions ? job.options.directions->size() : 0;
   return double(job.trajectory.t_s.size()) * (dirs > 0 ? 2.35 + 0.22 * double(dirs) : 1.0);
@@ -67,6 +75,7 @@ void ReplayPool::run(std::vector<Job>& jobs) {
       const double work = job_work(job);
       auto at = std::find_if(queue_.begin(), queue_.end(), [&](const Queued& q) { return q.work < work; });
       queue_.insert(at, Queued{work, [this, &job, &remaining, &error](std::size_t w) {
+        const double cpu0 = thread_cpu_s();
         try {
           auto& vol = volumes_[w].for_replay(*job.sample_id, job.trajectory, job.radius_mm);
           job.result = model::replay(vol, job.radius_mm, job.params, job.trajectory, job.options, true);
@@ -74,7 +83,12 @@ void ReplayPool::run(std::vector<Job>& jobs) {
           std::lock_guard lk2(mu_);
           if (!error) error = std::current_exception();
         }
+        const double cpu_s = thread_cpu_s() - cpu0;
         std::lock_guard lk2(mu_);
+        Tally& t = job_work(job) > double(job.trajectory.t_s.size()) ? done_.sensitivity : done_.plain;
+        ++t.replays;
+        t.samples += job.trajectory.t_s.size();
+        t.cpu_s += cpu_s;
         if (--remaining == 0) done_cv_.notify_all();
       }});
     }
@@ -83,6 +97,17 @@ void ReplayPool::run(std::vector<Job>& jobs) {
   std::unique_lock lk(mu_);
   done_cv_.wait(lk, [&] { return remaining == 0; });
   if (error) std::rethrow_exception(error);
+}
+
+ReplayPool::Work ReplayPool::work_done() const {
+  std::lock_guard lk(mu_);
+  return done_;
+}
+
+double ReplayPool::Work::sensitivity_cost() const {
+  if (plain.samples == 0 || sensitivity.samples == 0 || plain.cpu_s <= 0)
+    return std::numeric_limits<double>::quiet_NaN();
+  return (sensitivity.cpu_s / double(sensitivity.samples)) / (plain.cpu_s / double(plain.samples));
 }
 
 ReplayRecordingModel::ReplayRecordingModel(const model::AlignedRecording& rec, ReplayPool& pool,

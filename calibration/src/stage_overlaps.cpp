@@ -20,6 +20,9 @@ void name_overlaps(const Run& run, CalibrationOutput& res) {
     res.summary += "warning: " + o.text() + "\n";
   }
   res.fit.solver.replays += run.exp.recordings.size();
+  auto& equivalents = res.fit.settings["derivatives"]["replay_work"]["replay_equivalents"];
+  if (equivalents.is_number())  // these are plain replays
+    equivalents = equivalents.get<double>() + double(run.exp.recordings.size());
 }
 
 }  // namespace burrbench::calibration::detail

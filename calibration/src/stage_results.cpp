@@ -21,6 +21,33 @@ nlohmann::json named(const Layout& L, const std::vector<double>& x) {
   return j;
 }
 
+// The replays' cost in plain-replay equivalents (the bench's fd/sensitivities comparison,
+// docs/calibration.md "Derivatives"): `replays` with each sensitivity replay counted at
+// its measured CPU per sample over a plain replay's on the same pool (the coarse level's
+// replays at 2l have a pool, and a ratio, of their own). Null where a pool ran
+// sensitivity replays but no plain one to measure them against.
+nlohmann::json replay_work_json(const Run& run, std::uint64_t replays) {
+  auto tally = [](const ReplayPool::Tally& t) {
+    return nlohmann::json{{"replays", t.replays}, {"samples", t.samples}, {"cpu_s", t.cpu_s}};
+  };
+  const ReplayPool::Work w = run.pool->work_done();
+  nlohmann::json j = {{"plain", tally(w.plain)}, {"sensitivity", tally(w.sensitivity)}};
+  double equivalents = double(replays);
+  bool known = true;
+  std::vector<ReplayPool::Work> pools{w};
+  if (run.coarse && run.coarse->pool) pools.push_back(run.coarse->pool->work_done());
+  for (const ReplayPool::Work& p : pools) {
+    if (p.sensitivity.replays == 0) continue;
+    const double k = p.sensitivity_cost();
+    known = known && std::isfinite(k);
+    if (std::isfinite(k)) equivalents += (k - 1) * double(p.sensitivity.replays);
+  }
+  const double k = w.sensitivity_cost();
+  j["sensitivity_cost_plain"] = std::isfinite(k) ? nlohmann::json(k) : nlohmann::json(nullptr);
+  j["replay_equivalents"] = known ? nlohmann::json(equivalents) : nlohmann::json(nullptr);
+  return j;
+}
+
 }  // namespace
 
 // rms(residual/σ) above which the fit is reported as limited by model error.
@@ -179,6 +206,7 @@ CalibrationOutput results(Run& run) {
     deriv["step_depth_mm"] = run.steps.depth_mm;
     deriv["sweeps"] = run.sweeps;
   }
+  deriv["replay_work"] = replay_work_json(run, out.solver.replays);
   st["derivatives"] = deriv;
   const SearchTally& t = run.tally;
   st["global_search"] = {{"starts", run.starts},
@@ -310,9 +338,18 @@ CalibrationOutput results(Run& run) {
                    run.search.reached_best, run.starts,
                    run.tally.near > 0 ? fmt::format(", {} more ended inside its 95 % intervals", run.tally.near) : "",
                    run.search.solved, run.tally.higher_optima, run.tally.stopped_short);
-  s += fmt::format("solver: {} iterations, cost {:.6g} → {:.6g}, {} replays ({} derivatives), {}\n",
+  const auto& work = out.settings["derivatives"]["replay_work"];
+  s += fmt::format("solver: {} iterations, cost {:.6g} → {:.6g}, {} replays ({} derivatives{}), {}\n",
                    run.fit.iterations, run.fit.initial_cost, run.fit.final_cost, out.solver.replays,
-                   to_string(run.opt.derivatives), run.fit.termination);
+                   to_string(run.opt.derivatives),
+                   work["sensitivity"]["replays"].get<std::uint64_t>() > 0 && work["replay_equivalents"].is_number()
+                       ? fmt::format("; {} of them with sensitivities, each the CPU of {:.2f} plain ones: {:.0f} "
+                                     "plain-replay equivalents",
+                                     work["sensitivity"]["replays"].get<std::uint64_t>(),
+                                     work["sensitivity_cost_plain"].get<double>(),
+                                     work["replay_equivalents"].get<double>())
+                       : "",
+                   run.fit.termination);
   {
     std::string t;
     for (const auto& st : run.stages)

@@ -392,6 +392,31 @@ TEST(CalibrateCli, DivergedBandIsLeftOutNotDrawn) {
   const fs::path m = long_reference(dir);
   const auto r = calibrate(m, dir / "out", "--no-cross-validation --no-profiles --no-discretization-check --starts 1");
   ASSERT_EQ(r.code, 0) << r.err;
+  {
+    // fit.json's replay work adds up: every replay of the fit but the overlaps stage's one
+    // per recording ran on the pool, and the plain-replay equivalents weigh its
+    // sensitivity replays (the diverged ones too) at their measured cost.
+    std::ifstream f(dir / "out" / "fit.json");
+    const auto j = nlohmann::json::parse(f);
+    const auto& w = j.at("settings").at("derivatives").at("replay_work");
+    const auto replays = j.at("solver").at("replays").get<double>();
+    const auto sens = w.at("sensitivity").at("replays").get<double>();
+    const auto plain = w.at("plain").at("replays").get<double>();
+    const auto& stages = j.at("solver").at("stages");
+    ASSERT_EQ(stages.back().at("stage"), "overlaps");
+    const auto overlaps = stages.back().at("replays").get<double>();
+    EXPECT_GT(sens, 0);
+    EXPECT_EQ(plain + sens + overlaps, replays) << w.dump();
+    const double k = w.at("sensitivity_cost_plain").get<double>();
+    EXPECT_GT(k, 1.0);
+    EXPECT_NEAR(w.at("replay_equivalents").get<double>(), replays + (k - 1) * sens, 1e-9 * replays);
+    // The summary is written before the overlaps stage.
+    EXPECT_NE(r.out.find(fmt::format("{} of them with sensitivities, each the CPU of {:.2f} plain ones: {:.0f} "
+                                     "plain-replay equivalents",
+                                     sens, k, replays - overlaps + (k - 1) * sens)),
+              std::string::npos)
+        << r.out;
+  }
   auto run = [&](const std::string& args) { return run_cli(args, dir / "run.stderr"); };
   ASSERT_EQ(run(fmt::format("sample resample --merge 2 '{}' --out '{}'", (dir / "sample.h5").string(),
                             (dir / "coarse.h5").string())).code, 0);

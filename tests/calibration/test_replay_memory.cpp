@@ -1,6 +1,7 @@
 // ReplayRecordingModel remembers its last predictions: a solve that starts where the one
 // before ended (refine after the search, the covariance at the optimum) gets the Jacobian
 // there without replaying it, identical to a fresh replay.
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -95,4 +96,47 @@ TEST(ReplayMemory, AJacobianAtAPointAlreadyReplayedIsNotReplayedAgain) {
   EXPECT_GT(fresh.replays, 0u);
   expect_same(first, fresh);
   fs::remove_all(dir);
+}
+
+// The pool tallies what its replays cost, by kind, for the plain-replay equivalents that
+// fit.json and the summary report (docs/calibration.md "Derivatives"): every replay run
+// counts once in its kind, with its samples; a remembered prediction costs none; a
+// sensitivity replay does a plain replay's work and its tangents, so it costs more CPU
+// per sample.
+TEST(ReplayMemory, ThePoolTalliesItsReplaysByKind) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("bb_replay_work_{}", ::getpid());
+  fs::remove_all(dir);
+  bc::testing::ReferenceSpec s;
+  s.time_scale = 0.5;
+  const auto exp = burrbench::model::load_experiment(bc::testing::make_reference_experiment(dir, s, cli()));
+  bc::ReplayPool pool(exp.samples, 2);
+  const auto& rec = exp.recordings.front();
+  bc::ReplayRecordingModel m(rec, pool);
+  const std::vector<bc::Column> cols{{bc::ColumnKind::kLogAlpha, 1}, {bc::ColumnKind::kLagMs, 0}};
+  bc::Prediction p;
+  m.set_derivatives(bc::Derivatives::kSensitivities);
+  for (double c1 : {16.0, 16.0, 16.5}) m.predict(point(c1), cols, p);  // the second is remembered
+  for (double c1 : {17.0, 17.5}) m.predict(point(c1), {}, p);
+  const std::uint64_t n = m.size();
+  auto w = pool.work_done();
+  EXPECT_EQ(w.sensitivity.replays, 2u);
+  EXPECT_EQ(w.sensitivity.samples, 2 * n);
+  EXPECT_EQ(w.plain.replays, 2u);
+  EXPECT_EQ(w.plain.samples, 2 * n);
+  EXPECT_GT(w.plain.cpu_s, 0);
+  EXPECT_GT(w.sensitivity_cost(), 1.0) << w.sensitivity.cpu_s << " s against " << w.plain.cpu_s << " s";
+  // The differences: the base and a pair per column that needs one (ln α, lag), all plain.
+  m.set_derivatives(bc::Derivatives::kFiniteDifferences);
+  m.predict(point(18), cols, p);
+  EXPECT_EQ(p.replays, 5u);
+  w = pool.work_done();
+  EXPECT_EQ(w.plain.replays, 7u);
+  EXPECT_EQ(w.sensitivity.replays, 2u);
+  // A pool that replayed only with sensitivities has nothing to weigh them against.
+  bc::ReplayPool alone(exp.samples, 1);
+  bc::ReplayRecordingModel a(rec, alone);
+  a.set_derivatives(bc::Derivatives::kSensitivities);
+  a.predict(point(16), cols, p);
+  EXPECT_TRUE(std::isnan(alone.work_done().sensitivity_cost()));
+  if (!HasFailure()) fs::remove_all(dir);
 }

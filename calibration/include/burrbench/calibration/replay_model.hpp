@@ -55,11 +55,27 @@ class ReplayPool {
   void run(std::vector<Job>& jobs);
   int threads() const { return int(workers_.size()); }
 
+  // What the pool's replays have cost so far, by kind: plain, or carrying sensitivities
+  // (Job::options.directions set). The CPU time is the worker thread's own, so a busy
+  // machine does not inflate it. From it a fit reports its replays in plain-replay
+  // equivalents (docs/calibration.md "Derivatives").
+  struct Tally {
+    std::uint64_t replays = 0;
+    std::uint64_t samples = 0;  // trajectory samples replayed
+    double cpu_s = 0;
+  };
+  struct Work {
+    Tally plain, sensitivity;
+    // CPU per sample of a sensitivity replay over that of a plain one; NaN without both.
+    double sensitivity_cost() const;
+  };
+  Work work_done() const;
+
  private:
   void work(std::size_t w);
   std::vector<model::ReachVolumes> volumes_;  // per worker
   std::vector<std::thread> workers_;
-  std::mutex mu_;
+  mutable std::mutex mu_;
   std::condition_variable cv_, done_cv_;
   struct Queued {
     double work;  // plain-replay equivalents × samples
@@ -67,6 +83,7 @@ class ReplayPool {
   };
   std::deque<Queued> queue_;  // ordered by work, most first; equal work in arrival order
   bool stop_ = false;
+  Work done_;  // under mu_
 };
 
 struct DiffSteps {
