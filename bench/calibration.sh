@@ -2,7 +2,9 @@
 # Calibration figures (issue 10) on the synthetic reference experiment (R/l = 10, two
 # classes, plunge + sweep + polish, bias and lag free; ≈ 15 s at 1 kHz at time scale 3):
 #  1. one single-start fit (--starts 1 --no-profiles --no-discretization-check --no-depth-check) with --derivatives fd against the
-#     forward sensitivities: wall time and replays;
+#     forward sensitivities: wall time, replays and plain-replay equivalents, and the ceiling
+#     of the ratio were every sensitivity replay free (docs/calibration.md "Why fd /
+#     sensitivities stays far from 8×");
 #  2. the default calibration (16 starts, profiles, no cross-validation): wall time;
 #  3. the same experiment calibrated on the sample resampled to 0.05 mm voxels (R/l = 20):
 #     wall time, the estimates against the truth (data made at 0.1 mm), whether each profile
@@ -46,8 +48,10 @@ here=$(cd "$(dirname "$0")" && pwd)
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
-# Runs `burrbench calibrate` and prints "wall_s cpu_s replays iterations" (the CPU time
-# tells a busy machine from a slow fit).
+# Runs `burrbench calibrate` and prints "wall_s cpu_s replays iterations equivalents
+# sensitivity_replays" (the CPU time tells a busy machine from a slow fit; equivalents: the
+# replays in plain-replay equivalents, a sensitivity replay weighed at its measured CPU,
+# fit.json settings.derivatives.replay_work).
 calib() {  # OUT MANIFEST ARGS...
   local out=$1 m=$2; shift 2
   local TIMEFORMAT='%R %U %S' times
@@ -55,22 +59,25 @@ calib() {  # OUT MANIFEST ARGS...
   $PY - "$out/fit.json" $times <<'PY'
 import json, sys
 f = json.load(open(sys.argv[1]))
-print(f"{float(sys.argv[2]):.1f} {float(sys.argv[3]) + float(sys.argv[4]):.1f} {f['solver']['replays']} {f['solver']['iterations']}")
+w = f["settings"]["derivatives"]["replay_work"]
+eq = w["replay_equivalents"]
+print(f"{float(sys.argv[2]):.1f} {float(sys.argv[3]) + float(sys.argv[4]):.1f} {f['solver']['replays']} "
+      f"{f['solver']['iterations']} {'-' if eq is None else f'{eq:.0f}'} {w['sensitivity']['replays']}")
 PY
 }
 
-fd_wall=- fd_cpu=- fd_rep=- fd_it=- se_wall=- se_cpu=- se_rep=- se_it=- def_wall=- def_cpu=- def_rep=-
+fd_wall=- fd_cpu=- fd_rep=- fd_it=- fd_eq=- se_wall=- se_cpu=- se_rep=- se_it=- se_eq=- se_sens=- def_wall=- def_cpu=- def_rep=-
 fine_wall=- fine_cpu=- fine_rep=- fine_err=- def_stages=- ffd_wall=- ffd_rep=- fse_wall=- fse_rep=- fine_iters="- -"
 if [[ -z ${SKIP_TIMING:-} ]]; then
   m=$("$G" "$work/ref" "$B" 1 3 fine)
   mc="$work/ref/experiment.toml"
-  read -r fd_wall fd_cpu fd_rep fd_it <<<"$(calib "$work/ref/fd" "$mc" --starts 1 --no-profiles --no-discretization-check --no-depth-check --derivatives fd)"
+  read -r fd_wall fd_cpu fd_rep fd_it fd_eq _ <<<"$(calib "$work/ref/fd" "$mc" --starts 1 --no-profiles --no-discretization-check --no-depth-check --derivatives fd)"
   echo "  fd single start: $fd_wall s wall, $fd_cpu s CPU, $fd_rep replays" >&2
-  read -r se_wall se_cpu se_rep se_it <<<"$(calib "$work/ref/se" "$mc" --starts 1 --no-profiles --no-discretization-check --no-depth-check)"
+  read -r se_wall se_cpu se_rep se_it se_eq se_sens <<<"$(calib "$work/ref/se" "$mc" --starts 1 --no-profiles --no-discretization-check --no-depth-check)"
   echo "  sensitivities single start: $se_wall s wall, $se_cpu s CPU, $se_rep replays" >&2
-  read -r def_wall def_cpu def_rep def_it <<<"$(calib "$work/ref/def" "$mc" --starts 16)"
+  read -r def_wall def_cpu def_rep _ <<<"$(calib "$work/ref/def" "$mc" --starts 16)"
   echo "  default calibration: $def_wall s wall, $def_cpu s CPU, $def_rep replays" >&2
-  read -r fine_wall fine_cpu fine_rep fine_it <<<"$(calib "$work/ref/fine" "$m" --starts 16)"
+  read -r fine_wall fine_cpu fine_rep _ <<<"$(calib "$work/ref/fine" "$m" --starts 16)"
   echo "  0.05 mm: $fine_wall s wall, $fine_cpu s CPU, $fine_rep replays" >&2
   # The single-start pair again at R/l = 20, where a lab's micro-CT is.
   single=(--starts 1 --no-profiles --no-discretization-check --no-depth-check)
@@ -209,6 +216,10 @@ printf '%-62s %-22s %-10s %s\n' figure value goal ok?
 printf '%-62s %-22s %-10s %s\n' "single start, --derivatives fd: wall / replays / iterations" "${fd_wall} s (${fd_cpu} CPU) / $fd_rep / $fd_it" - -
 printf '%-62s %-22s %-10s %s\n' "single start, sensitivities: wall / replays / iterations" "${se_wall} s (${se_cpu} CPU) / $se_rep / $se_it" - -
 printf '%-62s %-22s %-10s %s\n' "  wall time fd / sensitivities" "${ratio}x" ">= 8x" "$(ok "$ratio >= 8")"
+printf '%-62s %-22s %-10s %s\n' "  plain-replay equivalents fd / sensitivities" "$fd_eq / $se_eq ($($PY -c "print(f'{$fd_eq/$se_eq:.2f}x')" 2>/dev/null || echo -))" - -
+# The most the sensitivities could give: every one of their replays free, the plain ones
+# (pre-fit, trial points, checks) left, and nothing but replays taking time.
+printf '%-62s %-22s %-10s %s\n' "  ceiling with free Jacobians: fd / the plain replays left" "$fd_eq / $($PY -c "print($se_rep - $se_sens)" 2>/dev/null || echo -) ($($PY -c "print(f'{$fd_eq/($se_rep - $se_sens):.2f}x')" 2>/dev/null || echo -))" - -
 printf '%-62s %-22s %-10s %s\n' "default calibration (16 starts, profiles), R/l = 10: wall" "${def_wall} s (${def_cpu} CPU, $def_rep replays)" "<= 60 s" "$(ok "$def_wall <= 60")"
 printf '%-62s %s\n' "  where the time went (stage wall, replays)" "$def_stages"
 printf '%-62s %-22s %-10s %s\n' "same on the sample resampled to 0.05 mm (R/l = 20): wall" "${fine_wall} s (${fine_cpu} CPU, $fine_rep replays)" "report" -
