@@ -39,14 +39,19 @@ void expect_same(const bc::Prediction& a, const bc::Prediction& b) {
   for (std::size_t c = 0; c < a.columns.size(); ++c) EXPECT_EQ(a.columns[c], b.columns[c]) << c;
 }
 
+// The reference experiment at time scale 0.5, made afresh in DIR.
+burrbench::model::Experiment short_reference(const fs::path& dir) {
+  fs::remove_all(dir);
+  bc::testing::ReferenceSpec s;
+  s.time_scale = 0.5;
+  return burrbench::model::load_experiment(bc::testing::make_reference_experiment(dir, s, cli()));
+}
+
 }  // namespace
 
 TEST(ReplayMemory, AJacobianAtAPointAlreadyReplayedIsNotReplayedAgain) {
   const fs::path dir = fs::temp_directory_path() / fmt::format("bb_replay_memory_{}", ::getpid());
-  fs::remove_all(dir);
-  bc::testing::ReferenceSpec s;
-  s.time_scale = 0.5;
-  const auto exp = burrbench::model::load_experiment(bc::testing::make_reference_experiment(dir, s, cli()));
+  const auto exp = short_reference(dir);
   bc::ReplayPool pool(exp.samples, 2);
   const auto& rec = exp.recordings.front();
   bc::ReplayRecordingModel m(rec, pool);
@@ -105,10 +110,7 @@ TEST(ReplayMemory, AJacobianAtAPointAlreadyReplayedIsNotReplayedAgain) {
 // per sample.
 TEST(ReplayMemory, ThePoolTalliesItsReplaysByKind) {
   const fs::path dir = fs::temp_directory_path() / fmt::format("bb_replay_work_{}", ::getpid());
-  fs::remove_all(dir);
-  bc::testing::ReferenceSpec s;
-  s.time_scale = 0.5;
-  const auto exp = burrbench::model::load_experiment(bc::testing::make_reference_experiment(dir, s, cli()));
+  const auto exp = short_reference(dir);
   bc::ReplayPool pool(exp.samples, 2);
   const auto& rec = exp.recordings.front();
   bc::ReplayRecordingModel m(rec, pool);
