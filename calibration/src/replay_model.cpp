@@ -49,19 +49,25 @@ void ReplayPool::work(std::size_t w) {
 }
 
 namespace {
-// A job's work in plain-replay sample equivalents, to start the longest first: a
-// sensitivity replay costs ≈ 2.35 plain replays plus ≈ 0.22 per direction asked for
-// (bench/sensitivity.sh on 2026-11-28: 1 / 4 / 8 asked for cost 2.54 / 3.35 / 4.04 at
-// R/l = 10, 2.71 / 3.54 / 4.35 at R/l = 20; docs/model.md "Cost"). Only the order of the
-// jobs depends on it, never a result.
+// The calling thread's CPU time (s): a replay's own cost, whatever else the machine runs.
 double thread_cpu_s() {
   timespec ts{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
   return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
+// Directions a job's replay carries sensitivities in (0: a plain replay).
+std::size_t directions(const ReplayPool::Job& job) {
+  return job.options.directions ? job.options.directions->size() : 0;
+}
+
+// A job's work in plain-replay sample equivalents, to start the longest first: a
+// sensitivity replay costs ≈ 2.35 plain replays plus ≈ 0.22 per direction asked for
+// (bench/sensitivity.sh on 2026-11-28: 1 / 4 / 8 asked for cost 2.54 / 3.35 / 4.04 at
+// R/l = 10, 2.71 / 3.54 / 4.35 at R/l = 20; docs/model.md "Cost"). Only the order of the
+// jobs depends on it, never a result.
 double job_work(const ReplayPool::Job& job) {
-  const std::size_t dirs = job.options.directions ? job.options.directions->size() : 0;
+  const std::size_t dirs = directions(job);
   return double(job.trajectory.t_s.size()) * (dirs > 0 ? 2.35 + 0.22 * double(dirs) : 1.0);
 }
 }  // namespace
@@ -85,7 +91,7 @@ void ReplayPool::run(std::vector<Job>& jobs) {
         }
         const double cpu_s = thread_cpu_s() - cpu0;
         std::lock_guard lk2(mu_);
-        Tally& t = job_work(job) > double(job.trajectory.t_s.size()) ? done_.sensitivity : done_.plain;
+        Tally& t = directions(job) > 0 ? done_.sensitivity : done_.plain;
         ++t.replays;
         t.samples += job.trajectory.t_s.size();
         t.cpu_s += cpu_s;
