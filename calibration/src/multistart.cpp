@@ -157,6 +157,7 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
     SolveOptions full;
     full.max_iterations = opt.iterations;
     full.function_tolerance = opt.function_tolerance;
+    full.hold = opt.hold;
     full.threads = std::max(1, opt.concurrent);  // the pool bounds the CPUs; a lone last solve uses both
     if (opt.abandon_hopeless)
       full.stop_early = [&](const std::vector<double>& costs) {

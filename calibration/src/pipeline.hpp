@@ -87,6 +87,8 @@ struct Run {
   std::map<std::size_t, std::string> imprecise_reason;  // x entry → why "imprecise"
   std::vector<std::string> warnings;
   SearchTally tally;  // the search's ends against the optimum and its intervals
+  // Why the optimum is not confirmed (optimum_doubts): its constants are "unconfirmed".
+  std::vector<std::string> doubts;
 
   // coarse level (coarse-to-fine, discretization check); built on first use
   std::unique_ptr<CoarseLevel> coarse;
@@ -94,6 +96,8 @@ struct Run {
   std::string coarse_termination;    // how that refit ended
   std::uint64_t coarse_iterations = 0;
   double coarse_cost = NAN;          // coarse-to-fine: the coarse optimum's cost
+  double coarse_cost_rise = NAN;     // discretization check: refit's cost at 2l − the optimum's at l
+  bool coarse_grid_explains = false;  // that rise is significant against the misfit at l
 
   // depth check: fit.json settings.depth_check (empty: not run)
   nlohmann::json depth = nlohmann::json::object();
@@ -124,6 +128,14 @@ std::pair<double, double> check_interval(const ds::FitParameter& fp);
 // A percentage for a message: "0.047", "0.50", "13.6" ("+" first with `sign`). One fixed
 // decimal would print a ±0.05 % interval as ±0.0 %.
 std::string percent(double pct, bool sign = false);
+
+// rms(residual/σ) above which an optimum does not confirm its constants (docs/calibration.md
+// "Verdicts that follow the evidence"): the residual variance is more than twice the noise's.
+inline constexpr double kUnconfirmedRms = 1.5;
+// Evidence against the optimum, each a phrase: reached by at most one start (of several
+// solved), a profile point still cheaper after the restarts (`cheaper_left`), a misfit far
+// above the noise. Empty: nothing speaks against it.
+std::vector<std::string> optimum_doubts(const Run& run, const SearchTally& t, const std::string& cheaper_left);
 
 void select_recordings(Run& run);   // recordings, classes, layout, pool, weights, σ
 CoarseLevel& coarse_level(Run& run);  // built on first use (after choose_steps)

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <ctime>
+#include <deque>
 #include <limits>
 
 #include "burrbench/data_schema/error.hpp"
@@ -153,7 +154,7 @@ void ReplayRecordingModel::set_channels(const Channels& c, const std::string& fi
 }
 
 void ReplayRecordingModel::fill_base(const model::ReplayResult& base, const model::Trajectory& tr,
-                                     Prediction& out) const {
+                                     const model::PoseCorrection* pose, Prediction& out) const {
   const std::size_t n = size();
   BURRBENCH_CHECK(base.samples.size() == n, "replay returned one contact per force sample");
   out.force_sensor_N.resize(n);
@@ -164,17 +165,18 @@ void ReplayRecordingModel::fill_base(const model::ReplayResult& base, const mode
   if (channels_.spindle) out.spindle_Nmm.resize(n);
   for (std::size_t j = 0; j < n; ++j) {
     const auto& c = base.samples[j].contact;
-    out.force_sensor_N[j] = rec_.sensor_force_from_burr_force(c.force_N);
+    out.force_sensor_N[j] = rec_.sensor_force_from_burr_force(c.force_N, pose);
     out.buried[j] = c.buried ? 1 : 0;
     out.class_mask[j] = c.class_mask;
     if (channels_.torque)
-      out.torque_sensor_Nmm[j] = rec_.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[j]);
+      out.torque_sensor_Nmm[j] = rec_.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[j], pose);
     if (channels_.spindle) out.spindle_Nmm[j] = model::spindle_torque_Nmm(c.moment_Nmm, tr.omega_vol_rad_s[j]);
   }
 }
 
 std::shared_ptr<const FixedGeometryTerms> ReplayRecordingModel::fixed_geometry_terms(
-    const EvalPoint& at, const model::ReplayResult& base, const model::Trajectory& tr) const {
+    const EvalPoint& at, const model::ReplayResult& base, const model::Trajectory& tr,
+    const model::PoseCorrection* pose) const {
   auto out = std::make_shared<FixedGeometryTerms>();
   out->at = at.physics;
   std::uint32_t seen = 0;
@@ -189,12 +191,12 @@ std::shared_ptr<const FixedGeometryTerms> ReplayRecordingModel::fixed_geometry_t
     for (std::size_t i = 0; i < nl; ++i) {
       const std::size_t k = out->labels[i];
       auto& t = out->terms[j * nl + i];
-      t.elastic_force = rec_.sensor_force_from_burr_force(c.dF_dC1[k]);
+      t.elastic_force = rec_.sensor_force_from_burr_force(c.dF_dC1[k], pose);
       t.elastic_N = glm::length(c.dF_dC1[k]);
-      t.friction_force = rec_.sensor_force_from_burr_force(c.dFmu_dmu[k]);
+      t.friction_force = rec_.sensor_force_from_burr_force(c.dFmu_dmu[k], pose);
       if (!wrench) continue;
-      t.elastic_moment = rec_.sensor_torque_from_burr_wrench(c.dF_dC1[k], glm::dvec3(0), tr.centre_vol_mm[j]);
-      t.friction_moment = rec_.sensor_torque_from_burr_wrench(c.dFmu_dmu[k], c.dTmu_dmu[k], tr.centre_vol_mm[j]);
+      t.elastic_moment = rec_.sensor_torque_from_burr_wrench(c.dF_dC1[k], glm::dvec3(0), tr.centre_vol_mm[j], pose);
+      t.friction_moment = rec_.sensor_torque_from_burr_wrench(c.dFmu_dmu[k], c.dTmu_dmu[k], tr.centre_vol_mm[j], pose);
       t.friction_spindle = model::spindle_torque_Nmm(c.dTmu_dmu[k], tr.omega_vol_rad_s[j]);
     }
   }
@@ -302,7 +304,14 @@ void ReplayRecordingModel::compute(const EvalPoint& at, const std::vector<Column
                            rec_.trajectory(lag, depth, p), options_, {}};
   };
   std::vector<ReplayPool::Job> jobs;
-  jobs.push_back(job(at.physics, lag_s, at.depth_mm));
+  std::vector<const model::PoseCorrection*> job_pose;  // per job: the pose it was replayed with
+  std::deque<model::PoseCorrection> shifted_poses;     // the pose pairs' (stable addresses)
+  auto add = [&](ReplayPool::Job j, const model::PoseCorrection* p) {
+    jobs.push_back(std::move(j));
+    job_pose.push_back(p);
+  };
+  const model::PoseCorrection* base_pose = at.has_pose ? &pose : nullptr;
+  add(job(at.physics, lag_s, at.depth_mm), base_pose);
   // Which difference pairs are needed: ln α of a class (own column or coupling term of
   // its C1/μ), lag, depth.
   std::array<int, kLabels> alpha_pair;
@@ -320,26 +329,26 @@ void ReplayRecordingModel::compute(const EvalPoint& at, const std::vector<Column
       for (double s : {+1.0, -1.0}) {
         PhysicsValues v = at.physics;
         v.alpha[c.label] *= std::exp(s * steps_.log_alpha[c.label]);
-        jobs.push_back(job(v, lag_s, at.depth_mm));
+        add(job(v, lag_s, at.depth_mm), base_pose);
       }
     }
     if (c.kind == ColumnKind::kLagMs && lag_pair < 0) {
       lag_pair = int(jobs.size());
       for (double s : {+1.0, -1.0})
-        jobs.push_back(job(at.physics, lag_s + s * steps_.lag_ms * 1e-3, at.depth_mm));
+        add(job(at.physics, lag_s + s * steps_.lag_ms * 1e-3, at.depth_mm), base_pose);
     }
     if (c.kind == ColumnKind::kDepthMm && depth_pair < 0) {
       depth_pair = int(jobs.size());
       for (double s : {+1.0, -1.0})
-        jobs.push_back(job(at.physics, lag_s, at.depth_mm + s * steps_.depth_mm));
+        add(job(at.physics, lag_s, at.depth_mm + s * steps_.depth_mm), base_pose);
     }
     if (c.kind == ColumnKind::kPose && pose_pair[c.label] < 0) {
       pose_pair[c.label] = int(jobs.size());
       for (double s : {+1.0, -1.0}) {
-        model::PoseCorrection q = pose;
+        model::PoseCorrection& q = shifted_poses.emplace_back(pose);
         if (c.label < 3) q.rotation_rad[c.label] += s * kPoseStep[c.label];
         else q.translation_mm[c.label - 3] += s * kPoseStep[c.label];
-        jobs.push_back(job(at.physics, lag_s, at.depth_mm, &q));
+        add(job(at.physics, lag_s, at.depth_mm, &q), &q);
       }
     }
   }
@@ -347,8 +356,8 @@ void ReplayRecordingModel::compute(const EvalPoint& at, const std::vector<Column
   out.replays = jobs.size() + spent;
   const std::size_t n = size();
   const auto& base = jobs[0].result;
-  fill_base(base, jobs[0].trajectory, out);
-  if (!at.geometry_terms) out.fixed = fixed_geometry_terms(at, base, jobs[0].trajectory);
+  fill_base(base, jobs[0].trajectory, base_pose, out);
+  if (!at.geometry_terms) out.fixed = fixed_geometry_terms(at, base, jobs[0].trajectory, base_pose);
   // A column of every fitted channel: the force (sensor frame), and with the moment and
   // spindle channels their columns, from the same partials and difference pairs.
   struct Deriv {
@@ -356,23 +365,25 @@ void ReplayRecordingModel::compute(const EvalPoint& at, const std::vector<Column
     double spindle = 0;
   };
   const bool wrench = channels_.torque || channels_.spindle;
-  auto wrench_of = [&](const model::ContactResult& c, const model::Trajectory& tr, std::size_t j) {
-    return Deriv{rec_.sensor_force_from_burr_force(c.force_N),
-                 wrench ? rec_.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[j]) : glm::dvec3(0),
-                 wrench ? model::spindle_torque_Nmm(c.moment_Nmm, tr.omega_vol_rad_s[j]) : 0.0};
+  auto wrench_of = [&](std::size_t job_index, std::size_t j) {
+    const auto& J = jobs[job_index];
+    const model::ContactResult& c = J.result.samples[j].contact;
+    const model::PoseCorrection* p = job_pose[job_index];
+    return Deriv{rec_.sensor_force_from_burr_force(c.force_N, p),
+                 wrench ? rec_.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, J.trajectory.centre_vol_mm[j], p)
+                        : glm::dvec3(0),
+                 wrench ? model::spindle_torque_Nmm(c.moment_Nmm, J.trajectory.omega_vol_rad_s[j]) : 0.0};
   };
   auto central = [&](int pair, double h, std::size_t j) {
-    const auto& P = jobs[std::size_t(pair)];
-    const auto& M = jobs[std::size_t(pair) + 1];
-    const Deriv a = wrench_of(P.result.samples[j].contact, P.trajectory, j);
-    const Deriv b = wrench_of(M.result.samples[j].contact, M.trajectory, j);
+    const Deriv a = wrench_of(std::size_t(pair), j);
+    const Deriv b = wrench_of(std::size_t(pair) + 1, j);
     return Deriv{(a.force - b.force) / (2 * h), (a.moment - b.moment) / (2 * h), (a.spindle - b.spindle) / (2 * h)};
   };
   // At fixed geometry: dF and dT on the burr (volume frame) → every channel.
   const auto& tr0 = jobs[0].trajectory;
   auto fixed = [&](const glm::dvec3& dF, const glm::dvec3& dT, std::size_t j) {
-    return Deriv{rec_.sensor_force_from_burr_force(dF),
-                 wrench ? rec_.sensor_torque_from_burr_wrench(dF, dT, tr0.centre_vol_mm[j]) : glm::dvec3(0),
+    return Deriv{rec_.sensor_force_from_burr_force(dF, base_pose),
+                 wrench ? rec_.sensor_torque_from_burr_wrench(dF, dT, tr0.centre_vol_mm[j], base_pose) : glm::dvec3(0),
                  wrench ? model::spindle_torque_Nmm(dT, tr0.omega_vol_rad_s[j]) : 0.0};
   };
   out.columns.clear();
@@ -474,30 +485,74 @@ void ReplayRecordingModel::predict_sensitivities(const EvalPoint& at, const std:
   const std::size_t n = size();
   const auto& base = jobs[0].result;
   const auto& tr = jobs[0].trajectory;
-  fill_base(base, tr, out);
+  const model::PoseCorrection* p_at = at.has_pose ? &pose : nullptr;
+  fill_base(base, tr, p_at, out);
   out.columns.clear();
   out.torque_columns.clear();
   out.spindle_columns.clear();
+  // The sensor's origin in the corrected volume frame (the moment's lever).
+  const glm::dvec3 origin_vol = [&] {
+    const glm::dvec3 o = rec_.rig_to_vol.apply(rec_.sensor_origin_rig_mm);
+    return p_at ? p_at->apply(o) : o;
+  }();
   for (std::size_t c = 0; c < columns.size(); ++c) {
     std::vector<glm::dvec3> col(n);
     const std::size_t di = std::size_t(dir_of[c]);
     const auto& d = sens.dforce_N[di];
-    for (std::size_t j = 0; j < n; ++j) col[j] = rec_.sensor_force_from_burr_force(d[j]);
+    // A turn of the pose (ω_k) also turns the rig's axes the sensor reads in, its origin
+    // and the spin axis: e_k × (the vector) for each, at the corrected pose. The friction
+    // turns with the spin axis ω̂ (F_μ = Σ_k μ_k G_k × ω̂); what the replay does not
+    // differentiate is the couple's and the erosion's dependence on the axis
+    // (docs/calibration.md "The pose correction, applied whole").
+    const bool turn = columns[c].kind == ColumnKind::kPose && columns[c].label < 3;
+    glm::dvec3 e(0);
+    if (turn) e[columns[c].label] = 1;
+    auto turned_friction = [&](std::size_t j) {
+      const auto& ct = base.samples[j].contact;
+      const double w = glm::length(tr.omega_vol_rad_s[j]);
+      glm::dvec3 df(0);
+      if (!(w > 0) || !ct.class_mask) return df;
+      const glm::dvec3 de = glm::cross(e, tr.omega_vol_rad_s[j] / w);
+      for (int k = 1; k < kLabels; ++k)
+        if ((ct.class_mask >> k) & 1u) df += at.physics.mu[std::size_t(k)] * glm::cross(ct.friction_lever[std::size_t(k)], de);
+      return df;
+    };
+    std::vector<glm::dvec3> axis_term(turn ? n : 0);
+    for (std::size_t j = 0; j < axis_term.size(); ++j) axis_term[j] = turned_friction(j);
+    for (std::size_t j = 0; j < n; ++j) {
+      glm::dvec3 f = d[j];
+      if (turn) f += axis_term[j] - glm::cross(e, base.samples[j].contact.force_N);
+      col[j] = rec_.sensor_force_from_burr_force(f, p_at);
+    }
     out.columns.push_back(std::move(col));
     if (!channels_.torque && !channels_.spindle) continue;
-    // Moment about the sensor origin: s·Qᵀ·Rᵀ((p − o) × ∂F + ∂p × F + ∂T); spindle −∂T·ω̂.
+    // Moment about the sensor origin: s·Qᵀ·Rᵀ((p − o) × ∂F + (∂p − ∂o) × F + ∂T), and for a
+    // turn − e × m; spindle −∂T·ω̂ (− T·(e × ω̂) for a turn).
     const auto& dT = sens.dmoment_Nmm[di];
     const auto& dp = dirs[di].dcentre_vol_mm;  // empty for the constants
+    const glm::dvec3 dorigin = turn ? glm::cross(e, origin_vol - pose.centre_vol_mm) : glm::dvec3(0);
     std::vector<glm::dvec3> tcol;
     std::vector<double> scol;
     for (std::size_t j = 0; j < n; ++j) {
       const auto& ct = base.samples[j].contact;
       if (channels_.torque) {
-        glm::dvec3 m = rec_.sensor_torque_from_burr_wrench(d[j], dT[j], tr.centre_vol_mm[j]);
-        if (!dp.empty()) m += rec_.sensor_force_from_burr_force(glm::cross(dp[j], ct.force_N));
+        const glm::dvec3 dF = turn ? d[j] + axis_term[j] : d[j];
+        glm::dvec3 m = rec_.sensor_torque_from_burr_wrench(dF, dT[j], tr.centre_vol_mm[j], p_at);
+        glm::dvec3 extra(0);
+        if (!dp.empty()) extra += glm::cross(dp[j], ct.force_N);
+        if (turn) {
+          const glm::dvec3 m_vol = glm::cross(tr.centre_vol_mm[j] - origin_vol, ct.force_N) + ct.moment_Nmm;
+          extra -= glm::cross(dorigin, ct.force_N) + glm::cross(e, m_vol);
+        }
+        m += rec_.sensor_force_from_burr_force(extra, p_at);
         tcol.push_back(m);
       }
-      if (channels_.spindle) scol.push_back(model::spindle_torque_Nmm(dT[j], tr.omega_vol_rad_s[j]));
+      if (channels_.spindle) {
+        double sp = model::spindle_torque_Nmm(dT[j], tr.omega_vol_rad_s[j]);
+        const double w = glm::length(tr.omega_vol_rad_s[j]);
+        if (turn && w > 0) sp -= glm::dot(ct.moment_Nmm, glm::cross(e, tr.omega_vol_rad_s[j] / w));
+        scol.push_back(sp);
+      }
     }
     out.torque_columns.push_back(std::move(tcol));
     out.spindle_columns.push_back(std::move(scol));

@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/model/job_queue.hpp"
@@ -123,10 +124,30 @@ void held_by_bounds(Run& run, const CovarianceOutcome& cov, std::vector<std::str
 
 }  // namespace
 
+std::vector<std::string> optimum_doubts(const Run& run, const SearchTally& t, const std::string& cheaper_left) {
+  std::vector<std::string> d;
+  // An end within the threshold of the optimum, or inside every one of its intervals, is a
+  // second find of its basin. A lone find is in doubt when the cost demonstrably has other
+  // minima (another start converged outside the intervals) or when no start's end reached
+  // it at all; a lone find whose other starts were abandoned far above it is neither
+  // confirmed nor contradicted, and keeps the lone-optimum warning only.
+  if (run.search.solved > 1 && t.reached + t.near <= 1 && (t.higher_optima > 0 || t.reached == 0))
+    d.push_back(fmt::format("the best optimum was reached by {} of {} starts{}", t.reached, run.starts,
+                            t.higher_optima > 0 ? fmt::format(" and {} converged to other minima", t.higher_optima)
+                                                : std::string()));
+  if (!cheaper_left.empty()) d.push_back(cheaper_left);
+  const double rms = run.ev.residuals_used ? std::sqrt(2 * run.ev.cost / double(run.ev.residuals_used)) : NAN;
+  if (rms > kUnconfirmedRms)
+    d.push_back(fmt::format("rms(residual/σ) = {:.3f}, far above 1 (limit {:.2g}): the model does not follow the data "
+                            "at this optimum", rms, kUnconfirmedRms));
+  return d;
+}
+
 void assess(Run& run) {
   const Layout& L = *run.layout;
   Flags flags;
   CovarianceOutcome cov;
+  std::string cheaper_left;  // a profile point still cheaper than the optimum ("" if none)
   for (;;) {
     run.ev = run.obj->evaluate(run.x, run.w_all);
     const double dof = double(run.ev.residuals_used) - double(L.size());
@@ -146,10 +167,14 @@ void assess(Run& run) {
     for (const auto& p : run.profiles)
       if (p.found_lower && (!cheaper || p.lower_cost < cheaper->lower_cost)) cheaper = &p;
     if (!cheaper || run.restarts >= kMaxRestarts) {
-      if (cheaper)
+      if (cheaper) {
         run.warnings.push_back(fmt::format("a profile point is still cheaper than the optimum "
                                            "(cost {:.6g} < {:.6g}) after {} restarts",
                                            cheaper->lower_cost, run.fit.final_cost, run.restarts));
+        cheaper_left = fmt::format("a profile point of {} is cheaper than the optimum (cost {:.6g} < {:.6g}) after {} "
+                                   "restarts", L.name(cheaper->entry), cheaper->lower_cost, run.fit.final_cost,
+                                   run.restarts);
+      }
       break;
     }
     run.stage("refit", fmt::format("the profile of {} found a cheaper point (cost {:.6g} < {:.6g}): refitting "
@@ -221,6 +246,25 @@ void assess(Run& run) {
       reason[i] = why;
     }
     held_by_bounds(run, cov, reason);
+    // The optimum itself in doubt: no constant is called identifiable at it.
+    std::vector<std::pair<double, double>> box(L.size(), {-INFINITY, INFINITY});
+    for (const auto& pr : run.profiles)
+      box[pr.entry] = {pr.lower.closed ? pr.lower.crossing : -INFINITY, pr.upper.closed ? pr.upper.crossing : INFINITY};
+    const std::vector<std::string> doubts =
+        optimum_doubts(run, tally(run.search.ends, run.fit.final_cost, run.threshold, box), cheaper_left);
+    if (!doubts.empty()) {
+      const std::string why = fmt::format("the optimum is not confirmed: {}", fmt::join(doubts, "; "));
+      run.doubts = doubts;
+      run.warnings.push_back(fmt::format("{}: no constant is called identifiable at it, and params.toml flags them "
+                                         "all (more starts: --starts; check the registration, the sensor frame "
+                                         "and the model)", why));
+      for (const auto& pr : run.profiles) {
+        const std::size_t i = pr.entry;
+        if (run.verdict[i] != "identifiable" && run.verdict[i] != "imprecise") continue;
+        run.verdict[i] = "unconfirmed";
+        reason[i] = why;
+      }
+    }
     for (const auto& pr : run.profiles) {
       const std::size_t i = pr.entry;
       if (run.verdict[i] == "imprecise") {

@@ -11,6 +11,7 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/import/volume.hpp"
@@ -90,6 +91,20 @@ void discretization_check(Run& run) {
                            "discretization error is given");
     return;
   }
+  // Is the grid what moves the constants? Discretization error misfits the data more at
+  // 2l than at l. A misfit the same at both (an optimum that does not fit, a model error
+  // of another kind) moves constants between the grids along a flat valley of that misfit,
+  // and says nothing about the voxel: the coarse cost must rise significantly (p < 0.001
+  // for one parameter, in the profile threshold's unit) and by a tenth of the misfit in
+  // excess of the noise at l at least (docs/calibration.md "Discretization").
+  const double dof = double(run.ev.residuals_used) - double(L.size());
+  const double rise = fit.final_cost - run.fit.final_cost;
+  const double excess = std::max(0.0, run.fit.final_cost - 0.5 * dof);
+  const double significant = 0.5 * 10.828 * run.residual_scale;  // χ²₁(0.999)/2
+  const bool grid_explains = rise > significant && rise > 0.1 * excess;
+  run.coarse_cost_rise = rise;
+  run.coarse_grid_explains = grid_explains;
+  std::vector<std::string> not_grid;
   for (auto& fp : run.out.parameters) {
     const PhysicsParam* p = physics_of(L, fp);
     if (!p || p->index < 0 || fp.fixed || !fp.identifiable) continue;
@@ -102,11 +117,14 @@ void discretization_check(Run& run) {
     const double half = std::max(std::log(hi / fp.estimate), std::log(fp.estimate / lo));
     fp.ci95_with_discretization_low = lo * std::exp(-err);
     fp.ci95_with_discretization_high = hi * std::exp(err);
-    fp.limited_by_discretization = err > 0.5 * half;
+    fp.limited_by_discretization = err > 0.5 * half && grid_explains;
+    if (err > 0.5 * half && !grid_explains)
+      not_grid.push_back(fmt::format("{} {} ({})", fp.class_name, fp.name,
+                                     percent(100 * (std::exp(fit.x[i] - run.x[i]) - 1), true)));
     // A refit that ran into a bound measured nothing but the bound: the coarse model is
     // outside the range where halving the voxel is a small change.
     constexpr double kBoundLog = 0.01;
-    if (fit.x[i] - L.lower(i) < kBoundLog || L.upper(i) - fit.x[i] < kBoundLog) {
+    if (grid_explains && (fit.x[i] - L.lower(i) < kBoundLog || L.upper(i) - fit.x[i] < kBoundLog)) {
       fp.limited_by_discretization = true;
       fp.ci95_with_discretization_low = fp.ci95_with_discretization_high = NAN;
       run.warnings.push_back(fmt::format(
@@ -126,6 +144,12 @@ void discretization_check(Run& run) {
           c.voxel_mm, percent(100 * (std::exp(half) - 1)), fp.ci95_with_discretization_low, fp.ci95_with_discretization_high,
           data_schema::unit_suffix(fp.unit)));
   }
+  if (!not_grid.empty())
+    run.warnings.push_back(fmt::format(
+        "discretization check: {} move(s) when the voxels are merged ({:.4g} → {:.4g} mm) by more than half their "
+        "95 % interval, but the misfit barely changes (cost {:+.4g} at 2l, against {:.4g} in excess of the noise at "
+        "l): that is not discretization error, and they are not flagged as limited by it",
+        fmt::join(not_grid, ", "), c.fine_voxel_mm, c.voxel_mm, rise, excess));
 }
 
 }  // namespace burrbench::calibration::detail

@@ -95,10 +95,17 @@ CalibrationOutput results(Run& run) {
         f[j] += g.at.mu[g.labels[i]] * g.terms[j * g.labels.size() + i].friction_force;
     friction.add(p.force_sensor_N, f, run.models[r]->measured_sensor_N(), p.class_mask, run.w_all[r]);
   }
+  // Both compare the readings with the prediction at the optimum: at an optimum in doubt
+  // (optimum_doubts) the misfit may be the optimum's, not the sensor's or the spin's.
   for (std::string& w : frame_and_friction_lines(frame.result(), friction.result(),
                                                  run.exp.manifest.sensor.rotation_sensor_to_rig,
                                                  run.exp.manifest.burr.spin_sign))
-    run.warnings.push_back(std::move(w));
+    run.warnings.push_back(run.doubts.empty()
+                               ? std::move(w)
+                               : fmt::format("conditional on an optimum that is not confirmed ({}), which may misfit "
+                                             "for reasons of its own — find a better optimum first (more starts), "
+                                             "then read this: {}",
+                                             fmt::join(run.doubts, "; "), w));
   // A lag, depth offset or pose that ended at a bound: the constants were fitted with it
   // held there.
   const std::vector<NuisanceAtBound> pinned = nuisances_at_bounds(L, run.x);
@@ -224,13 +231,18 @@ CalibrationOutput results(Run& run) {
                     {"threshold_cost", run.threshold},
                     {"threshold", "chi2_1(0.95)/2 x residual variance x noise-model inflation"},
                     {"restarts_from_profile", run.restarts}};
+  st["optimum_doubts"] = run.doubts;
   st["warnings"] = run.warnings;
   st["discretization_check"] = {
       {"computed", std::isfinite(run.coarse_voxel_mm)},
       {"coarse_voxel_mm", std::isfinite(run.coarse_voxel_mm) ? nlohmann::json(run.coarse_voxel_mm) : nlohmann::json(nullptr)},
       {"method", "refit from the optimum on the sample with voxels merged by 2; error of ln(theta) = "
                  "|ln theta_2l - ln theta_l| (Richardson, first order); limited when above half the 95 % "
-                 "interval's half-width in ln(theta); interval widened by it on both sides"},
+                 "interval's half-width in ln(theta) and the refit's cost at 2l rises significantly above the "
+                 "optimum's at l (p < 0.001, and by a tenth of the misfit in excess of the noise at l); interval "
+                 "widened by it on both sides"},
+      {"cost_rise_at_coarse", std::isfinite(run.coarse_cost_rise) ? nlohmann::json(run.coarse_cost_rise) : nlohmann::json(nullptr)},
+      {"grid_explains_the_move", run.coarse_grid_explains},
       {"refit_termination", run.coarse_termination.empty() ? nlohmann::json(nullptr) : nlohmann::json(run.coarse_termination)},
       {"refit_iterations", run.coarse_iterations}};
   st["depth_check"] = run.depth.empty() ? nlohmann::json({{"computed", false}}) : run.depth;

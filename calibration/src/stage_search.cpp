@@ -75,6 +75,14 @@ void global_search(Run& run) {
   if (residuals > 0 && points.size() > 1)
     mo.function_tolerance = std::max(mo.function_tolerance, 0.1 * (0.5 * kChi2_1_95) / (0.5 * residuals));
   run.search_function_tolerance = mo.function_tolerance;
+  // The constants' basin first, at the registration as given: a pose correction free in
+  // the starts' short solves absorbs what wrong constants misfit (tens of µm against a
+  // 5 µm prior) and leads them into basins of their own. The refinement frees it.
+  if (!L.mountings().empty()) {
+    mo.hold.assign(L.size(), false);
+    for (const auto& m : L.mountings())
+      for (int k = 0; k < 6; ++k) mo.hold[std::size_t(m.offset + k)] = true;
+  }
   run.search = multistart(*run.obj, points, run.w_all, mo, 0.0);
   if (run.search.ends.empty() || !run.search.ends.front().usable)
     throw InputError(run.mfile, "fit", "a start from which the solver can evaluate the cost",

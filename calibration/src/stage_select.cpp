@@ -40,6 +40,25 @@ std::optional<double> estimate_sigma(const Objective& obj, const Evaluation& ev,
   return model::no_contact_sigma_N(quiet, n_used);
 }
 
+// The load about its least-squares line in the speed (idle + slope·Δkrpm), or about its
+// mean when the speed does not vary; the robust spread of these is the noise.
+std::vector<double> idle_line_residuals(const std::vector<double>& krpm, const std::vector<double>& load) {
+  const double n = double(load.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t j = 0; j < load.size(); ++j) {
+    sx += krpm[j];
+    sy += load[j];
+    sxx += krpm[j] * krpm[j];
+    sxy += krpm[j] * load[j];
+  }
+  const double det = n * sxx - sx * sx;
+  const double slope = n > 1 && det / (n * n) > 1e-6 ? (n * sxy - sx * sy) / det : 0.0;
+  const double idle = n > 0 ? (sy - slope * sx) / n : 0.0;
+  std::vector<double> out(load.size());
+  for (std::size_t j = 0; j < load.size(); ++j) out[j] = load[j] - idle - slope * krpm[j];
+  return out;
+}
+
 bool any(const std::vector<std::uint8_t>& v) {
   return std::any_of(v.begin(), v.end(), [](std::uint8_t u) { return u != 0; });
 }
@@ -199,12 +218,22 @@ void select_recordings(Run& run) {
     run.replays_before += probe.replays();
     std::vector<std::vector<glm::dvec3>> qt(run.models.size());
     std::vector<std::vector<double>> qs(run.models.size());
-    for (std::size_t r = 0; r < run.models.size(); ++r)
+    for (std::size_t r = 0; r < run.models.size(); ++r) {
+      std::vector<double> krpm;
       for (std::size_t j = 0; j < run.models[r]->size(); ++j) {
         if (!(run.w_all[r][j] > 0) || ev0.predictions[r].class_mask[j] != 0) continue;
         if (ch.torque) qt[r].push_back(run.models[r]->measured_torque_Nmm()[j]);
-        if (ch.spindle) qs[r].push_back(run.models[r]->measured_spindle_Nmm()[j]);
+        // The drive's load without contact is its idle line, idle + viscous·Δkrpm, not a
+        // constant: with the speed varying, the spread about one median holds the line's
+        // slope (issue 55: 0.154 N·mm for a true 0.1). Only samples with the spindle
+        // turning are on that line.
+        if (ch.spindle && run.recs[r]->spindle_rpm.at(run.models[r]->t_s()[j]) != 0) {
+          qs[r].push_back(run.models[r]->measured_spindle_Nmm()[j]);
+          krpm.push_back(run.models[r]->spindle_krpm()[j]);
+        }
       }
+      if (ch.spindle) qs[r] = idle_line_residuals(krpm, qs[r]);
+    }
     auto pick = [&](const std::optional<double>& given, std::optional<double> est, std::size_t n,
                     const char* field, double& into, std::string& source) {
       if (given) {
@@ -226,6 +255,9 @@ void select_recordings(Run& run) {
     if (ch.spindle) {
       const auto est = model::no_contact_sigma(qs, n);
       pick(M.spindle.sigma_Nmm, est, n, "spindle.sigma_Nmm", run.settings.sigma_spindle_Nmm, run.sigma_spindle_source);
+      if (!M.spindle.sigma_Nmm)
+        run.sigma_spindle_source = fmt::format("estimated from {} no-contact samples with the spindle turning "
+                                               "(1.4826·MAD about each recording's idle line in the speed)", n);
     }
   }
   run.obj = std::make_unique<Objective>(*run.layout, run.models, run.settings);

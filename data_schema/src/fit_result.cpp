@@ -76,6 +76,7 @@ std::string describe_fit_parameter(const FitParameter& p, double coarse_voxel_mm
   if (!p.identifiable) {
     const std::string v = p.verdict == "at_bound"                       ? "AT BOUND"
                           : p.verdict == "conditional_on_bound"         ? "CONDITIONAL on a bound"
+                          : p.verdict == "unconfirmed"                  ? "UNCONFIRMED optimum"
                           : p.verdict == "practically_non_identifiable" ? "NOT identifiable (practically)"
                                                                         : "NOT identifiable";
     std::string s = fmt::format("{}   {} (held {}{}): {}\n", head, v, num(p.held), u, p.reason);

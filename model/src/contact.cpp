@@ -396,7 +396,8 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   }
   for (int k = 1; k < kMaxClasses; ++k) {
     if (!((out.class_mask >> k) & 1u)) continue;  // G_k = 0: no lens voxel of class k
-    out.dFmu_dmu[k] = glm::cross(glm::dvec3(G[k][0], G[k][1], G[k][2]), w);
+    out.friction_lever[k] = glm::dvec3(G[k][0], G[k][1], G[k][2]);
+    out.dFmu_dmu[k] = glm::cross(out.friction_lever[k], w);
     out.friction_N += prm.by_label[k].mu * out.dFmu_dmu[k];
     out.dTmu_dmu[k] = glm::dvec3(TA[k][0], TA[k][1], TA[k][2]) - TB[k] * w;
     out.moment_Nmm += prm.by_label[k].mu * out.dTmu_dmu[k];

@@ -58,14 +58,21 @@ Trajectory AlignedRecording::trajectory(double lag, double depth_offset_mm,
   for (std::size_t k = 0; k < t_s.size(); ++k) {
     const double tau = t_s[k] - lag;  // the force at t_k answers the position at t_k − lag
     tr.centre_vol_mm[k] = centre_vol_mm(stage_rig_mm.at(tau), depth_offset_mm);
-    if (pose) tr.centre_vol_mm[k] = pose->apply(tr.centre_vol_mm[k]);
     tr.omega_vol_rad_s[k] = omega_vol_rad_s(spindle_rpm.at(tau));
+    if (pose) {
+      tr.centre_vol_mm[k] = pose->apply(tr.centre_vol_mm[k]);
+      tr.omega_vol_rad_s[k] = pose->rotate(tr.omega_vol_rad_s[k]);
+    }
   }
   for (const auto& v : via_times) {
     const double tau = v.t_s - lag;
     glm::dvec3 c = centre_vol_mm(stage_rig_mm.at(tau), depth_offset_mm);
-    if (pose) c = pose->apply(c);
-    tr.vias.push_back({v.after, v.t_s, c, omega_vol_rad_s(spindle_rpm.at(tau))});
+    glm::dvec3 w = omega_vol_rad_s(spindle_rpm.at(tau));
+    if (pose) {
+      c = pose->apply(c);
+      w = pose->rotate(w);
+    }
+    tr.vias.push_back({v.after, v.t_s, c, w});
   }
   return tr;
 }
@@ -93,15 +100,19 @@ std::vector<double> AlignedRecording::spindle_krpm_deviation() const {
   return k;
 }
 
-glm::dvec3 AlignedRecording::sensor_force_from_burr_force(const glm::dvec3& f_burr_vol) const {
-  const glm::dvec3 f_rig = glm::transpose(rig_to_vol.R) * f_burr_vol;
+glm::dvec3 AlignedRecording::sensor_force_from_burr_force(const glm::dvec3& f_burr_vol,
+                                                          const PoseCorrection* pose) const {
+  const glm::dvec3 f_rig = glm::transpose(rig_to_vol.R) * (pose ? pose->unrotate(f_burr_vol) : f_burr_vol);
   return sensor_sign * (glm::transpose(sensor_to_rig) * f_rig);
 }
 
 glm::dvec3 AlignedRecording::sensor_torque_from_burr_wrench(const glm::dvec3& f_vol, const glm::dvec3& t_vol,
-                                                            const glm::dvec3& p_vol) const {
-  const glm::dvec3 o_vol = rig_to_vol.apply(sensor_origin_rig_mm);
-  const glm::dvec3 m_rig = glm::transpose(rig_to_vol.R) * (glm::cross(p_vol - o_vol, f_vol) + t_vol);
+                                                            const glm::dvec3& p_vol,
+                                                            const PoseCorrection* pose) const {
+  glm::dvec3 o_vol = rig_to_vol.apply(sensor_origin_rig_mm);
+  if (pose) o_vol = pose->apply(o_vol);
+  const glm::dvec3 m_vol = glm::cross(p_vol - o_vol, f_vol) + t_vol;
+  const glm::dvec3 m_rig = glm::transpose(rig_to_vol.R) * (pose ? pose->unrotate(m_vol) : m_vol);
   return sensor_sign * (glm::transpose(sensor_to_rig) * m_rig);
 }
 

@@ -351,6 +351,7 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
   const double lag_ms = fit.lag_ms.value_or(r.lag_s * 1000.0);
   const double depth_mm = fit.depth_offset_mm.value_or(0.0);
   const Trajectory tr = prediction_trajectory(r, options);
+  const PoseCorrection* pose = fit.pose ? &*fit.pose : nullptr;  // the rig as the fit corrected it
   ReplayOptions ro = options.replay;
   Sensitivities sens;
   const bool band = options.band && !options.band->directions.empty();
@@ -399,8 +400,8 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
   for (std::size_t k = 0; k < n; ++k) {
     const ContactResult& c = res.samples[k].contact;
     p.force_burr_vol_N[k] = c.force_N;
-    p.force_sensor_pred_N[k] = r.sensor_force_from_burr_force(c.force_N);
-    p.friction_sensor_pred_N[k] = r.sensor_force_from_burr_force(c.friction_N);
+    p.force_sensor_pred_N[k] = r.sensor_force_from_burr_force(c.force_N, pose);
+    p.friction_sensor_pred_N[k] = r.sensor_force_from_burr_force(c.friction_N, pose);
     p.normal_vol[k] = c.normal;
     p.depth_b_mm[k] = c.depth_b_mm;
     p.class_mask[k] = c.class_mask;
@@ -409,7 +410,7 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
     p.used_calibrate[k] = r.use_calibrate[k] && counts;
     p.used_validate[k] = r.use_validate[k] && counts;
     p.moment_burr_vol_Nmm[k] = c.moment_Nmm;
-    p.torque_sensor_pred_Nmm[k] = r.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[k]);
+    p.torque_sensor_pred_Nmm[k] = r.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[k], pose);
     p.spindle_torque_pred_Nmm[k] = spindle_torque_Nmm(c.moment_Nmm, tr.omega_vol_rad_s[k]);
     if (c.class_mask == 0) {
       free_sum += r.force_sensor_N[k];
@@ -438,7 +439,7 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
     p.band95_N.resize(n);
     std::vector<glm::dvec3> g(m);
     for (std::size_t k = 0; k < n; ++k) {
-      for (std::size_t a = 0; a < m; ++a) g[a] = r.sensor_force_from_burr_force(sens.dforce_N[a][k]);
+      for (std::size_t a = 0; a < m; ++a) g[a] = r.sensor_force_from_burr_force(sens.dforce_N[a][k], pose);
       glm::dvec3 var(0);
       for (std::size_t a = 0; a < m; ++a)
         for (std::size_t b = 0; b < m; ++b) var += g[a] * g[b] * C[a * m + b];

@@ -172,15 +172,22 @@ void check_fiducial_fit(const RegistrationFit& fit, const std::vector<glm::dvec3
                                fit.residual_mm[worst], swapped));
 }
 
-glm::dvec3 PoseCorrection::apply(const glm::dvec3& p) const {
-  const double a = glm::length(rotation_rad);
-  glm::dvec3 r = p - centre_vol_mm;
-  if (a > 0) {  // Rodrigues
-    const glm::dvec3 k = rotation_rad / a;
-    r = r * std::cos(a) + glm::cross(k, r) * std::sin(a) + k * glm::dot(k, r) * (1 - std::cos(a));
-  }
-  return centre_vol_mm + r + translation_mm;
+namespace {
+// Rodrigues: v turned by the angle |w| about w/|w|.
+glm::dvec3 rodrigues(const glm::dvec3& w, const glm::dvec3& v) {
+  const double a = glm::length(w);
+  if (!(a > 0)) return v;
+  const glm::dvec3 k = w / a;
+  return v * std::cos(a) + glm::cross(k, v) * std::sin(a) + k * glm::dot(k, v) * (1 - std::cos(a));
 }
+}  // namespace
+
+glm::dvec3 PoseCorrection::apply(const glm::dvec3& p) const {
+  return centre_vol_mm + rodrigues(rotation_rad, p - centre_vol_mm) + translation_mm;
+}
+
+glm::dvec3 PoseCorrection::rotate(const glm::dvec3& v) const { return rodrigues(rotation_rad, v); }
+glm::dvec3 PoseCorrection::unrotate(const glm::dvec3& v) const { return rodrigues(-rotation_rad, v); }
 
 glm::dvec3 PoseCorrection::derivative(int k, const glm::dvec3& p) const {
   glm::dvec3 e(0);

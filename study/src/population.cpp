@@ -34,7 +34,8 @@ Extracted extract(const std::vector<std::pair<std::string, ds::FitResult>>& fits
     }
     // The profile's verdict where there is one ("imprecise" is identifiable, only wide).
     const bool bad_verdict = p->verdict == "practically_non_identifiable" || p->verdict == "non_identifiable" ||
-                             p->verdict == "at_bound" || p->verdict == "conditional_on_bound";
+                             p->verdict == "at_bound" || p->verdict == "conditional_on_bound" ||
+                             p->verdict == "unconfirmed";
     if (!p->identifiable || bad_verdict) {
       out.excluded.push_back({specimen, "not identifiable (" + (p->verdict.empty() ? std::string("covariance") : p->verdict) +
                                             (p->reason.empty() ? std::string(")") : "): " + p->reason)});

@@ -67,6 +67,9 @@ struct MultistartOptions {
   // Abandon a local solve that cannot reach the best pre-fit cost in its remaining
   // iterations (hopeless_start below); its end is kept with that termination.
   bool abandon_hopeless = true;
+  // Per x entry: held at its start value in the local solves (empty: none). The search
+  // holds the registration's pose correction: docs/calibration.md "Global search".
+  std::vector<bool> hold;
   Progress* progress = nullptr;
 };
 

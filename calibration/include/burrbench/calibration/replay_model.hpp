@@ -126,11 +126,14 @@ class ReplayRecordingModel final : public RecordingModel {
                              Prediction& out) const;
   void forget();
   // The base replay's predictions (force, and the moment and spindle load when asked).
-  void fill_base(const model::ReplayResult& base, const model::Trajectory& tr, Prediction& out) const;
+  // `pose`: the registration's correction the replay was made with (null: none).
+  void fill_base(const model::ReplayResult& base, const model::Trajectory& tr, const model::PoseCorrection* pose,
+                 Prediction& out) const;
   // The kernel's fixed-geometry partials of the base replay (Prediction::fixed).
   std::shared_ptr<const FixedGeometryTerms> fixed_geometry_terms(const EvalPoint& at,
                                                                  const model::ReplayResult& base,
-                                                                 const model::Trajectory& tr) const;
+                                                                 const model::Trajectory& tr,
+                                                                 const model::PoseCorrection* pose) const;
   const model::AlignedRecording& rec_;
   ReplayPool& pool_;
   Channels channels_;

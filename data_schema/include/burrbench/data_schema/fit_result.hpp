@@ -40,7 +40,9 @@ struct FitParameter {
   std::string verdict{};  // identifiable | imprecise (identifiable, but its interval is wider
                         // than [fit.precision] asks; `reason` says by how much) |
                         // practically_non_identifiable | non_identifiable | at_bound |
-                        // conditional_on_bound | fixed
+                        // conditional_on_bound | unconfirmed (its profile closes, but
+                        // the optimum is in doubt: reached by one start, a cheaper
+                        // profile point, a misfit far above the noise) | fixed
                         // ("" in 1.0 files)
   double profile_ci95_low = kNaN, profile_ci95_high = kNaN;
   nlohmann::json profile = nlohmann::json::array();

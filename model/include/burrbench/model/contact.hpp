@@ -36,6 +36,10 @@ struct ContactResult {
   std::array<glm::dvec3, kMaxClasses> dFmu_dmu{};
   // T = Σ_k μ_k · dTmu_dmu[k] (T, like F_μ, also scales with |F_e|).
   std::array<glm::dvec3, kMaxClasses> dTmu_dmu{};
+  // Friction before the cross product with the spin axis: dFmu_dmu[k] = friction_lever[k] × ω̂
+  // (Σ over class k's contact voxels of χΔσP·v/|v|). How the friction turns with the spin
+  // axis: the registration's pose correction turns the axis (calibration's Jacobian).
+  std::array<glm::dvec3, kMaxClasses> friction_lever{};
 };
 
 ContactResult evaluate(const Volume&, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,

@@ -148,7 +148,8 @@ struct AlignedRecording {
 
   // The trajectory at the force timestamps, and through the stage's path at via_times, for
   // a lag (s) and depth offset (mm): cheap re-interpolation, no file I/O. Use this in fits.
-  // With `pose`, every centre is corrected by it (the registration's pose nuisance).
+  // With `pose` (the registration's pose nuisance), every centre is corrected by it and
+  // the spin axis turned with it.
   Trajectory trajectory(double lag_s, double depth_offset_mm = 0,
                         const PoseCorrection* pose = nullptr) const;
   Trajectory trajectory() const { return trajectory(lag_s, 0); }
@@ -162,15 +163,19 @@ struct AlignedRecording {
   // mean speed) — the fit's nuisance and the report's offset use this one definition.
   std::vector<double> spindle_krpm_deviation() const;
 
-  // What the sensor should read for a force on the burr in the volume frame.
-  glm::dvec3 sensor_force_from_burr_force(const glm::dvec3& force_on_burr_vol_N) const;
+  // What the sensor should read for a force on the burr in the volume frame. With `pose`
+  // (the registration's correction) the rig, and the sensor with it, is turned by it.
+  glm::dvec3 sensor_force_from_burr_force(const glm::dvec3& force_on_burr_vol_N,
+                                          const PoseCorrection* pose = nullptr) const;
   // What its moment channel should read for the burr's wrench (MODEL.md "Moments"): the
   // force F acting through the burr centre p plus the couple T about p, taken about the
   // sensor origin o and with the force's sign convention: s·Qᵀ((p − o) × F + T), N·mm,
-  // sensor frame (s = −1 for a sensor under the sample).
+  // sensor frame (s = −1 for a sensor under the sample). With `pose`, the sensor's origin
+  // o and its axes move with the corrected rig (centre_vol_mm is the corrected centre).
   glm::dvec3 sensor_torque_from_burr_wrench(const glm::dvec3& force_on_burr_vol_N,
                                             const glm::dvec3& moment_on_burr_vol_Nmm,
-                                            const glm::dvec3& centre_vol_mm) const;
+                                            const glm::dvec3& centre_vol_mm,
+                                            const PoseCorrection* pose = nullptr) const;
 };
 
 // A position stream's interval longer than this many times its median interval is a gap

@@ -32,9 +32,15 @@ struct RigidTransform {
 // A small correction of a registration, about a centre (the fiducials' centroid, volume
 // frame): p' = c + R(ω)·(p − c) + τ, R(ω) the rotation by the vector ω (rad, Rodrigues).
 // The calibration fits it as a nuisance per sample mounting (docs/calibration.md).
+// The correction is a rigid motion of the whole rig as the volume sees it: with it, every
+// rig quantity mapped into the volume frame moves too — burr centres (apply), the burr's
+// spin axis and the directions the sensor's force and moment are read in (rotate,
+// unrotate), the sensor's origin (apply).
 struct PoseCorrection {
   glm::dvec3 rotation_rad{0}, translation_mm{0}, centre_vol_mm{0};
   glm::dvec3 apply(const glm::dvec3& p) const;
+  glm::dvec3 rotate(const glm::dvec3& v) const;    // R(ω)·v (a direction: no centre, no τ)
+  glm::dvec3 unrotate(const glm::dvec3& v) const;  // R(ω)ᵀ·v
   // ∂p'/∂θ_k at p for θ = (ωx, ωy, ωz, τx, τy, τz): e_k × (p' − c) for the rotations (exact
   // at ω = 0, first order in ω), e_k for the translations.
   glm::dvec3 derivative(int k, const glm::dvec3& p) const;
