@@ -132,6 +132,12 @@ std::string percent(double pct, bool sign = false);
 // rms(residual/σ) above which an optimum does not confirm its constants (docs/calibration.md
 // "Verdicts that follow the evidence"): the residual variance is more than twice the noise's.
 inline constexpr double kUnconfirmedRms = 1.5;
+// A lone find (reached by one start) is confirmed by the noise floor when it fits to within
+// this rms(residual/σ): no other optimum can then fit much better than the noise allows.
+inline constexpr double kLoneFindRms = 1.2;
+// The cost expected at the true constants when the model and the noise levels are right:
+// half the used residuals less the free entries (a χ² with that many degrees of freedom).
+double noise_floor_cost(const Run& run);
 // Evidence against the optimum, each a phrase: reached by at most one start (of several
 // solved), a profile point still cheaper after the restarts (`cheaper_left`), a misfit far
 // above the noise. Empty: nothing speaks against it.

@@ -124,6 +124,10 @@ void held_by_bounds(Run& run, const CovarianceOutcome& cov, std::vector<std::str
 
 }  // namespace
 
+double noise_floor_cost(const Run& run) {
+  return 0.5 * std::max(0.0, double(run.ev.residuals_used) - double(run.layout->size()));
+}
+
 std::vector<std::string> optimum_doubts(const Run& run, const SearchTally& t, const std::string& cheaper_left) {
   std::vector<std::string> d;
   // An end within the threshold of the optimum, or inside every one of its intervals, is a
@@ -131,12 +135,18 @@ std::vector<std::string> optimum_doubts(const Run& run, const SearchTally& t, co
   // minima (another start converged outside the intervals) or when no start's end reached
   // it at all; a lone find whose other starts were abandoned far above it is neither
   // confirmed nor contradicted, and keeps the lone-optimum warning only.
-  if (run.search.solved > 1 && t.reached + t.near <= 1 && (t.higher_optima > 0 || t.reached == 0))
-    d.push_back(fmt::format("the best optimum was reached by {} of {} starts{}", t.reached, run.starts,
-                            t.higher_optima > 0 ? fmt::format(" and {} converged to other minima", t.higher_optima)
-                                                : std::string()));
-  if (!cheaper_left.empty()) d.push_back(cheaper_left);
+  // A lone find that fits to the noise is confirmed by the noise floor instead: no other
+  // optimum can fit much better.
   const double rms = run.ev.residuals_used ? std::sqrt(2 * run.ev.cost / double(run.ev.residuals_used)) : NAN;
+  if (run.search.solved > 1 && t.reached + t.near <= 1 && (t.higher_optima > 0 || t.reached == 0) &&
+      !(rms <= kLoneFindRms))
+    d.push_back(fmt::format("the best optimum was reached by {} of {} starts{}, and its misfit (rms(residual/σ) "
+                            "{:.3f}) is above the noise floor's {:.2g}",
+                            t.reached, run.starts,
+                            t.higher_optima > 0 ? fmt::format(" and {} converged to other minima", t.higher_optima)
+                                                : std::string(),
+                            rms, kLoneFindRms));
+  if (!cheaper_left.empty()) d.push_back(cheaper_left);
   if (rms > kUnconfirmedRms)
     d.push_back(fmt::format("rms(residual/σ) = {:.3f}, far above 1 (limit {:.2g}): the model does not follow the data "
                             "at this optimum", rms, kUnconfirmedRms));

@@ -91,17 +91,23 @@ void discretization_check(Run& run) {
                            "discretization error is given");
     return;
   }
-  // Is the grid what moves the constants? Discretization error misfits the data more at
-  // 2l than at l. A misfit the same at both (an optimum that does not fit, a model error
-  // of another kind) moves constants between the grids along a flat valley of that misfit,
-  // and says nothing about the voxel: the coarse cost must rise significantly (p < 0.001
-  // for one parameter, in the profile threshold's unit) and by a tenth of the misfit in
-  // excess of the noise at l at least (docs/calibration.md "Discretization").
+  // Is the grid what limits the constants? Discretization error at l shows as a misfit
+  // at l above the noise that grows at 2l. A fit at l that follows the data to the noise
+  // shows no discretization error there (the refit at 2l then measures the coarse model,
+  // not this one: data made on the fit's own grid); a misfit the same at both (an optimum
+  // that does not fit, a model error of another kind) moves constants between the grids
+  // along a flat valley of that misfit and says nothing about the voxel. So: the fit at l
+  // misfits (rms(residual/σ) above kMisfitAtFine, past the few per cent a σ estimated
+  // from the no-contact samples is off), and the coarse cost rises significantly (p <
+  // 0.001 for one parameter, in the profile threshold's unit) and by a tenth of that
+  // excess misfit at least (docs/calibration.md "Discretization").
+  constexpr double kMisfitAtFine = 1.1;
   const double dof = double(run.ev.residuals_used) - double(L.size());
   const double rise = fit.final_cost - run.fit.final_cost;
   const double excess = std::max(0.0, run.fit.final_cost - 0.5 * dof);
+  const double rms_fine = run.ev.residuals_used ? std::sqrt(2 * run.fit.final_cost / double(run.ev.residuals_used)) : NAN;
   const double significant = 0.5 * 10.828 * run.residual_scale;  // χ²₁(0.999)/2
-  const bool grid_explains = rise > significant && rise > 0.1 * excess;
+  const bool grid_explains = rms_fine > kMisfitAtFine && rise > significant && rise > 0.1 * excess;
   run.coarse_cost_rise = rise;
   run.coarse_grid_explains = grid_explains;
   std::vector<std::string> not_grid;
@@ -147,9 +153,15 @@ void discretization_check(Run& run) {
   if (!not_grid.empty())
     run.warnings.push_back(fmt::format(
         "discretization check: {} move(s) when the voxels are merged ({:.4g} → {:.4g} mm) by more than half their "
-        "95 % interval, but the misfit barely changes (cost {:+.4g} at 2l, against {:.4g} in excess of the noise at "
-        "l): that is not discretization error, and they are not flagged as limited by it",
-        fmt::join(not_grid, ", "), c.fine_voxel_mm, c.voxel_mm, rise, excess));
+        "95 % interval, but {}: that move measures the coarse model, not a discretization error of this fit, and "
+        "they are not flagged as limited by it (`burrbench verify` on a finer sample tells whether the model has "
+        "converged)",
+        fmt::join(not_grid, ", "), c.fine_voxel_mm, c.voxel_mm,
+        rms_fine <= kMisfitAtFine
+            ? fmt::format("the fit at {:.4g} mm follows the data to the noise (rms(residual/σ) {:.3f})", c.fine_voxel_mm,
+                          rms_fine)
+            : fmt::format("the misfit is the same at both (cost {:+.4g} at 2l, against {:.4g} in excess of the noise "
+                          "at l)", rise, excess)));
 }
 
 }  // namespace burrbench::calibration::detail

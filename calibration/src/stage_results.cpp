@@ -225,6 +225,9 @@ CalibrationOutput results(Run& run) {
                          {"higher_optima", t.higher_optima},
                          {"stopped_short", t.stopped_short},
                          {"tolerance_cost", run.search.tolerance},
+                         {"noise_floor_cost", noise_floor_cost(run)},
+                         {"noise_floor", "half the used residuals less the free entries: the cost expected at the "
+                                         "true constants when the model and the noise levels are right"},
                          {"local_function_tolerance", run.search_function_tolerance},
                          {"seed", run.exp.manifest.fit.seed}};
   st["profiles"] = {{"computed", run.opt.profiles},
@@ -238,9 +241,9 @@ CalibrationOutput results(Run& run) {
       {"coarse_voxel_mm", std::isfinite(run.coarse_voxel_mm) ? nlohmann::json(run.coarse_voxel_mm) : nlohmann::json(nullptr)},
       {"method", "refit from the optimum on the sample with voxels merged by 2; error of ln(theta) = "
                  "|ln theta_2l - ln theta_l| (Richardson, first order); limited when above half the 95 % "
-                 "interval's half-width in ln(theta) and the refit's cost at 2l rises significantly above the "
-                 "optimum's at l (p < 0.001, and by a tenth of the misfit in excess of the noise at l); interval "
-                 "widened by it on both sides"},
+                 "interval's half-width in ln(theta), the fit at l misfits (rms(residual/sigma) > 1.1) and the "
+                 "refit's cost at 2l rises significantly above it (p < 0.001, and by a tenth of the misfit in excess "
+                 "of the noise at l); interval widened by it on both sides"},
       {"cost_rise_at_coarse", std::isfinite(run.coarse_cost_rise) ? nlohmann::json(run.coarse_cost_rise) : nlohmann::json(nullptr)},
       {"grid_explains_the_move", run.coarse_grid_explains},
       {"refit_termination", run.coarse_termination.empty() ? nlohmann::json(nullptr) : nlohmann::json(run.coarse_termination)},
@@ -350,6 +353,15 @@ CalibrationOutput results(Run& run) {
                    run.search.reached_best, run.starts,
                    run.tally.near > 0 ? fmt::format(", {} more ended inside its 95 % intervals", run.tally.near) : "",
                    run.search.solved, run.tally.higher_optima, run.tally.stopped_short);
+  {
+    const double floor = noise_floor_cost(run);
+    const double rms = out.residuals_summary.rms_normalised;
+    s += fmt::format("optimum: cost {:.6g} against the noise floor {:.6g} (rms(residual/σ) {:.3f}): {}\n",
+                     run.fit.final_cost, floor, rms,
+                     rms <= kLoneFindRms ? "it fits to the noise, so no other optimum can fit much better"
+                     : rms <= kUnconfirmedRms ? "above the noise: another optimum or model error"
+                                              : "far above the noise: not the answer");
+  }
   const auto& work = out.settings["derivatives"]["replay_work"];
   s += fmt::format("solver: {} iterations, cost {:.6g} → {:.6g}, {} replays ({} derivatives{}), {}\n",
                    run.fit.iterations, run.fit.initial_cost, run.fit.final_cost, out.solver.replays,

@@ -1,0 +1,105 @@
+// A realistic session calibrated with the defaults (issue 55): the global optimum, or an
+// honest "not sure" — never a confident miss. session_fixture.hpp says what the session
+// holds. BURRBENCH_KEEP_SESSION=1 keeps the folder (its path is printed).
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "burrbench/data_schema/fit_result.hpp"
+#include "session_fixture.hpp"
+
+namespace fs = std::filesystem;
+namespace ds = burrbench::data_schema;
+namespace bt = burrbench::calibration::testing;
+
+namespace {
+
+std::string cli() { return bt::burrbench_cli(); }
+
+int run(const std::string& args, std::string& log, const fs::path& lf) {
+  const std::string cmd = fmt::format("'{}' {} > '{}' 2>&1", cli(), args, lf.string());
+  const int st = std::system(cmd.c_str());
+  std::ifstream f(lf);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  log = ss.str();
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+bool keep() { return std::getenv("BURRBENCH_KEEP_SESSION") != nullptr; }
+
+struct Truth {
+  int label;
+  const char* name;
+  double value, tolerance;
+};
+
+std::vector<Truth> truths(const bt::SessionSpec& s) {
+  return {{1, "alpha", s.alpha1, 0.10}, {1, "c1", s.c1_1, 0.02}, {1, "mu", s.mu1, 0.05},
+          {2, "alpha", s.alpha2, 0.10}, {2, "c1", s.c1_2, 0.02}, {2, "mu", s.mu2, 0.05}};
+}
+
+// Each constant: a confident miss is one called identifiable (or imprecise) whose estimate
+// is off by more than the tolerance or whose 95 % profile interval misses the truth.
+int confident_misses(const ds::FitResult& fit, const bt::SessionSpec& s) {
+  int misses = 0;
+  for (const Truth& t : truths(s)) {
+    const auto* p = fit.parameter(std::uint8_t(t.label), t.name);
+    if (!p) {
+      ADD_FAILURE() << t.name << " of class " << t.label << " missing from fit.json";
+      continue;
+    }
+    const double lo = std::isnan(p->profile_ci95_low) ? 0.0 : p->profile_ci95_low;
+    const double hi = std::isnan(p->profile_ci95_high) ? INFINITY : p->profile_ci95_high;
+    const bool holds = lo <= t.value && t.value <= hi;
+    const double err = p->held / t.value - 1;
+    const bool miss = p->identifiable && (!holds || (p->verdict != "imprecise" && std::abs(err) > t.tolerance));
+    std::printf("  %-10s %-5s %-22s held %-10.6g (%+6.2f %%) profile [%.6g, %.6g] %s%s\n", p->class_name.c_str(),
+                t.name, p->verdict.c_str(), p->held, 100 * err, lo, hi, holds ? "holds" : "MISSES",
+                miss ? "  <- CONFIDENT MISS" : "");
+    misses += miss;
+  }
+  return misses;
+}
+
+}  // namespace
+
+// The defaults on the realistic session: no constant is a confident miss, and the optimum
+// is the global one: its cost within 0.1 % of the cost at the true constants with every
+// nuisance fitted (calibrate --hold-physics-at truth.toml).
+TEST(RealisticSession, DefaultCalibrationReachesTheGlobalOptimumOrSaysItIsNotSure) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("bb_session_{}", ::getpid());
+  fs::remove_all(dir);
+  bt::SessionSpec s;
+  const auto c = bt::make_session(dir, s);
+  std::string log;
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(run(fmt::format("calibrate '{}' --out '{}' --no-cross-validation", c.manifest.string(),
+                            (dir / "out").string()), log, dir / "cal.log"), 0) << log;
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("%s\n  default calibration: %.1f s wall\n", log.substr(log.find("calibrated")).c_str(), wall);
+  const ds::FitResult fit = ds::read_fit(dir / "out" / "fit.json");
+  EXPECT_EQ(confident_misses(fit, s), 0);
+  // The bound: the true constants held, the nuisances (pose, lags, biases, idle) fitted.
+  const fs::path held = bt::with_constants_fixed(c.manifest, s);
+  ASSERT_EQ(run(fmt::format("calibrate '{}' --out '{}' --starts 1 --no-cross-validation --no-profiles "
+                            "--no-discretization-check",
+                            held.string(), (dir / "at_truth").string()),
+                log, dir / "truth.log"), 0) << log;
+  const ds::FitResult at_truth = ds::read_fit(dir / "at_truth" / "fit.json");
+  const double cost = fit.solver.final_cost, bound = at_truth.solver.final_cost;
+  std::printf("  optimum's cost %.6g, at the truth with the nuisances fitted %.6g (%+.3f %%)\n", cost, bound,
+              100 * (cost / bound - 1));
+  EXPECT_LT(cost, bound * 1.001) << "a local optimum";
+  if (keep()) std::printf("  kept %s\n", dir.string().c_str());
+  else if (!HasFailure()) fs::remove_all(dir);
+}
