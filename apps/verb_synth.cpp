@@ -28,7 +28,7 @@ struct Args {
   bool overwrite = false;
   double noise_N = 0, lag_ms = 0, step_us = 0;
   std::vector<double> bias_N{0, 0, 0};
-  double torque_noise_Nmm = 0, spindle_noise_Nmm = 0, spindle_idle_Nmm = 0, spindle_viscous = 0;
+  double torque_noise_Nmm = 0, spindle_noise_Nmm = 0, spindle_idle_Nmm = 0, spindle_viscous = 0, spindle_lag_ms = 0;
   std::vector<double> torque_bias_Nmm{0, 0, 0};
   std::uint64_t seed = 1;
 };
@@ -62,6 +62,7 @@ void run(const Args& a) {
   o.spindle_noise_Nmm = a.spindle_noise_Nmm;
   o.spindle_idle_Nmm = a.spindle_idle_Nmm;
   o.spindle_viscous_Nmm_per_krpm = a.spindle_viscous;
+  o.spindle_lag_ms = a.spindle_lag_ms;
   o.seed = a.seed;
   o.replay.step_s = a.step_us * 1e-6;
   const Provenance prov = make_provenance_hashed(read);
@@ -115,6 +116,8 @@ void setup(CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--spindle-viscous-Nmm-per-krpm", a->spindle_viscous,
                   "viscous drag: + this × |rpm|/1000 on the spindle torque (N·mm)")->capture_default_str();
+  cmd->add_option("--spindle-lag-ms", a->spindle_lag_ms,
+                  "the spindle torque logged this much later than the force (ms; its own stream)")->capture_default_str();
   cmd->add_option("--seed", a->seed, "noise seed")->capture_default_str();
   cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period; at most the sample period)")
       ->capture_default_str();

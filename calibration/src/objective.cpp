@@ -52,6 +52,7 @@ double sample_weight(const ObjectiveSettings& s, double w, bool buried) {
 struct Offsets {
   glm::dvec3 bias{0}, torque_bias{0};
   double idle = 0, viscous = 0;
+  double spindle_lag_ms = 0;
 };
 Offsets offsets_at(const RecordingNuisance& nz, const double* x) {
   Offsets o;
@@ -62,7 +63,34 @@ Offsets offsets_at(const RecordingNuisance& nz, const double* x) {
     o.idle = x[nz.spindle];
     o.viscous = x[nz.spindle + 1];
   }
+  if (nz.spindle_lag >= 0) o.spindle_lag_ms = x[nz.spindle_lag];
   return o;
+}
+
+// A predicted series at t_j − lag, linear between the samples (held at the ends), and its
+// slope there (per s). The drive's own lag shifts the predicted load, which is smooth,
+// rather than the measured one, whose slope is its noise.
+struct Shifted {
+  std::size_t i = 0;  // t_s[i] ≤ t < t_s[i + 1]
+  double u = 0;       // the weight of t_s[i + 1]
+  double dt = 0;      // t_s[i + 1] − t_s[i] (0 at the ends)
+  template <class V>
+  double value(const V& v) const { return dt > 0 ? (1 - u) * v[i] + u * v[i + 1] : v[i]; }
+  template <class V>
+  double slope(const V& v) const { return dt > 0 ? (v[i + 1] - v[i]) / dt : 0.0; }
+};
+Shifted shifted(const std::vector<double>& t_s, std::size_t j, double lag_ms) {
+  Shifted s;
+  s.i = j;
+  if (lag_ms == 0 || t_s.size() < 2) return s;
+  const double t = t_s[j] - 1e-3 * lag_ms;
+  if (t <= t_s.front()) { s.i = 0; return s; }
+  if (t >= t_s.back()) { s.i = t_s.size() - 1; return s; }
+  const auto it = std::upper_bound(t_s.begin(), t_s.end(), t);
+  s.i = std::size_t(it - t_s.begin()) - 1;
+  s.dt = t_s[s.i + 1] - t_s[s.i];
+  s.u = (t - t_s[s.i]) / s.dt;
+  return s;
 }
 
 // The raw residuals of sample j (before the weight and the robust loss), rows in the
@@ -77,9 +105,11 @@ void raw_residuals(const ObjectiveSettings& s, const Channels& ch, const Recordi
     for (int a = 0; a < 3; ++a)
       r[k++] = (p.torque_sensor_Nmm[j][a] + o.torque_bias[a] - mt[j][a]) / s.sigma_torque_Nmm;
   }
-  if (ch.spindle)
-    r[k] = (p.spindle_Nmm[j] + o.idle + o.viscous * m.spindle_krpm()[j] - m.measured_spindle_Nmm()[j]) /
+  if (ch.spindle) {
+    const Shifted at = shifted(m.t_s(), j, o.spindle_lag_ms);
+    r[k] = (at.value(p.spindle_Nmm) + o.idle + o.viscous * m.spindle_krpm()[j] - m.measured_spindle_Nmm()[j]) /
            s.sigma_spindle_Nmm;
+  }
 }
 
 // The point a recording is evaluated at: physics, its lag, depth offset and pose.
@@ -147,6 +177,7 @@ class RecordingCost final : public ceres::CostFunction {
     if (n.pose >= 0) { pose_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.pose), 6}); cols_.push_back({ColumnKind::kPose, 0}); }
     if (n.torque_bias >= 0) { tbias_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.torque_bias), 3}); cols_.push_back({}); }
     if (n.spindle >= 0) { spindle_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.spindle), 2}); cols_.push_back({}); }
+    if (n.spindle_lag >= 0) { slag_block_ = int(blocks_.size()); blocks_.push_back({std::size_t(n.spindle_lag), 1}); cols_.push_back({}); }
     for (const auto& b : blocks_) mutable_parameter_block_sizes()->push_back(int(b.size));
     rows_ = std::size_t(L.channels().rows_per_sample());
     set_num_residuals(int(rows_ * obj.models()[rec]->size()));
@@ -217,6 +248,7 @@ class RecordingCost final : public ceres::CostFunction {
       const double w = sample_weight(s, w_[j], pred.buried[j] != 0);
       const double sw = std::sqrt(w);
       raw_residuals(s, ch, *model, pred, off, j, raw.data());
+      const Shifted sp_at = ch.spindle ? shifted(model->t_s(), j, off.spindle_lag_ms) : Shifted{};
       for (std::size_t a = 0; a < R; ++a) {
         const std::size_t row = R * j + a;
         const double r = raw[a];
@@ -233,7 +265,7 @@ class RecordingCost final : public ceres::CostFunction {
         auto column = [&](std::size_t c) {  // d(prediction of this row)/d(column c)
           return chan == 0 ? pred.columns[c][j][axis]
                  : chan == 1 ? pred.torque_columns[c][j][axis]
-                             : pred.spindle_columns[c][j];
+                             : sp_at.value(pred.spindle_columns[c]);
         };
         for (std::size_t b = 0; b < blocks_.size(); ++b) {
           if (!jac[b]) continue;
@@ -246,6 +278,8 @@ class RecordingCost final : public ceres::CostFunction {
           } else if (int(b) == spindle_block_) {
             J[0] = chan == 2 ? g : 0.0;
             J[1] = chan == 2 ? g * model->spindle_krpm()[j] : 0.0;
+          } else if (int(b) == slag_block_) {
+            J[0] = chan == 2 ? -1e-3 * g * sp_at.slope(pred.spindle_Nmm) : 0.0;
           } else if (int(b) == pose_block_) {
             for (std::size_t k = 0; k < 6; ++k) J[k] = g * column(std::size_t(col_of_block[b]) + k);
           } else {
@@ -267,7 +301,8 @@ class RecordingCost final : public ceres::CostFunction {
     const auto& L = obj_.layout();
     std::vector<Column> want;
     for (std::size_t b = 0; b < blocks_.size(); ++b)
-      if (with_jac[b] && int(b) != bias_block_ && int(b) != tbias_block_ && int(b) != spindle_block_) {
+      if (with_jac[b] && int(b) != bias_block_ && int(b) != tbias_block_ && int(b) != spindle_block_ &&
+          int(b) != slag_block_) {
         if (col_of_block) (*col_of_block)[b] = int(want.size());
         if (int(b) == pose_block_)
           for (std::uint8_t k = 0; k < 6; ++k) want.push_back({ColumnKind::kPose, k});
@@ -301,7 +336,7 @@ class RecordingCost final : public ceres::CostFunction {
   std::vector<bool> free_;   // per block: not constant (Ceres asks for its Jacobian)
   std::vector<Layout::Block> blocks_;
   std::vector<Column> cols_;
-  int bias_block_ = -1, pose_block_ = -1, tbias_block_ = -1, spindle_block_ = -1;
+  int bias_block_ = -1, pose_block_ = -1, tbias_block_ = -1, spindle_block_ = -1, slag_block_ = -1;
   std::size_t rows_ = 3;  // residuals per sample
   mutable std::mutex error_mu_;
   mutable std::exception_ptr error_;  // the first error of an evaluation

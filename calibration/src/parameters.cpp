@@ -73,6 +73,9 @@ Layout::Layout(
       r.spindle = add(id + ".spindle", 0.0, -1e9, 1e9, false, 2);
       names_[std::size_t(r.spindle)] = id + ".spindle_idle";
       names_[std::size_t(r.spindle) + 1] = id + ".spindle_viscous";
+      // The drive is another device, polled and timestamped on its own: its lag against the
+      // force is its own (docs/calibration.md "Channels").
+      if (nuisance.lag) r.spindle_lag = add(id + ".spindle_lag", 0.0, r.lag_bounds_ms[0], r.lag_bounds_ms[1], false, 1);
     }
     recordings_.push_back(std::move(r));
   }

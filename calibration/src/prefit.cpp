@@ -49,6 +49,7 @@ SolveOutcome Objective::prefit(const std::vector<double>& x0, const SampleWeight
     if (p.index >= 0 && p.kind == PhysKind::kAlpha) hold[std::size_t(p.index)] = true;
   for (const auto& r : L.recordings()) {
     if (r.lag >= 0) hold[std::size_t(r.lag)] = true;
+    if (r.spindle_lag >= 0) hold[std::size_t(r.spindle_lag)] = true;
     if (r.depth >= 0) hold[std::size_t(r.depth)] = true;
     if (r.pose >= 0)
       for (int k = 0; k < 6; ++k) hold[std::size_t(r.pose + k)] = true;

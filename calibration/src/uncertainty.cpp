@@ -333,6 +333,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
       add("spindle_idle", "N*mm", r.spindle, 0.0);
       add("spindle_viscous", "N*mm per 1000 rpm", r.spindle + 1, 0.0);
     }
+    if (r.spindle_lag >= 0) add("spindle_lag", "ms", r.spindle_lag, 0.0);
   }
   // A mounting's pose correction, listed under the mounting's name (its sample id).
   static const char* kPose[6] = {"pose_rx", "pose_ry", "pose_rz", "pose_tx", "pose_ty", "pose_tz"};

@@ -51,7 +51,7 @@ const std::set<std::string> kParamNames{"alpha", "c1", "mu"};
 const std::set<std::string> kNuisanceNames{"bias_x",  "bias_y",  "bias_z",  "lag",     "depth_offset",
                                             "pose_rx", "pose_ry", "pose_rz", "pose_tx", "pose_ty",
                                             "pose_tz", "torque_bias_x", "torque_bias_y", "torque_bias_z",
-                                            "spindle_idle", "spindle_viscous"};
+                                            "spindle_idle", "spindle_viscous", "spindle_lag"};
 
 }  // namespace
 

@@ -146,6 +146,20 @@ void add_wrench_offsets(const AlignedRecording& r, const ReplayResult& res, cons
     for (auto& t : p.torque_sensor_pred_Nmm) t += p.torque_bias_Nmm;
   }
   if (p.spindle_torque_meas_Nmm.empty()) return;
+  // The drive's own lag on top of the force's (the fit's spindle_lag): the load logged at t
+  // answers the cut at t − lag, linear between the samples (the fit's objective.cpp shift).
+  if (fit.spindle_lag_ms != 0 && n > 1) {
+    const std::vector<double> cut = p.spindle_torque_pred_Nmm;
+    const std::vector<double>& t = tr.t_s;
+    for (std::size_t k = 0; k < n; ++k) {
+      const double tq = t[k] - 1e-3 * fit.spindle_lag_ms;
+      if (tq <= t.front()) { p.spindle_torque_pred_Nmm[k] = cut.front(); continue; }
+      if (tq >= t.back()) { p.spindle_torque_pred_Nmm[k] = cut.back(); continue; }
+      const std::size_t i = std::size_t(std::upper_bound(t.begin(), t.end(), tq) - t.begin()) - 1;
+      const double u = (tq - t[i]) / (t[i + 1] - t[i]);
+      p.spindle_torque_pred_Nmm[k] = (1 - u) * cut[i] + u * cut[i + 1];
+    }
+  }
   // The drive's viscous term acts on the speed's deviation from the recording's mean
   // (AlignedRecording::spindle_krpm_deviation, as in the fit). The tare: the load without
   // contact while spinning, fitted as idle + slope·Δkrpm by least squares (a mean when the

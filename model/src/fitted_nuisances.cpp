@@ -57,6 +57,7 @@ FittedNuisances fitted_nuisances(const ds::FitResult& fit, const std::string& re
   n.torque_bias_Nmm = estimate3(fit, rec, "torque_bias");
   n.spindle_idle_Nmm = estimate(fit, rec, "spindle_idle");
   n.spindle_viscous_Nmm_per_krpm = estimate(fit, rec, "spindle_viscous").value_or(0.0);
+  n.spindle_lag_ms = estimate(fit, rec, "spindle_lag").value_or(0.0);
   n.pose = fitted_pose(fit, rec);
   return n;
 }

@@ -58,6 +58,8 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
     throw InputError(opt, "torque bias / spindle idle", "finite values (N·mm)");
   if (!std::isfinite(o.lag_ms) || std::abs(o.lag_ms) > 1e4)
     throw InputError(opt, "lag_ms", "a finite lag within ±10 s (ms)");
+  if (!std::isfinite(o.spindle_lag_ms) || std::abs(o.spindle_lag_ms) > 1e4)
+    throw InputError(opt, "spindle_lag_ms", "a finite lag within ±10 s (ms)");
   const ModelParams mp = ModelParams::from(params);
   const RigidTransform reg = o.rig_to_vol.value_or(RigidTransform{});
   if (o.rig_to_vol) check_rotation(reg.R, opt, "registration.rotation");
@@ -104,7 +106,14 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
   data_schema::Channel torque{data_schema::kTorque, "N*mm", 3, std::vector<double>(3 * n, 0.0)};
   rec.streams.push_back(stream("ft_sensor", {force, torque}));
   rec.streams.push_back(stream("stage", {pos}));
-  rec.streams.push_back(stream("spindle", {rpm, load}));
+  if (o.spindle_lag_ms == 0) {
+    rec.streams.push_back(stream("spindle", {rpm, load}));
+  } else {  // the drive's load stamped spindle_lag_ms late: a device of its own
+    rec.streams.push_back(stream("spindle", {rpm}));
+    rec.streams.push_back(stream("spindle_drive", {load}));
+    for (auto& t : rec.streams.back().t_ns) t += std::llround(o.spindle_lag_ms * 1e6);
+    rec.streams.back().t_send_ns = rec.streams.back().t_recv_ns = rec.streams.back().t_ns;
+  }
   rec.events.push_back({t_ns.front(), "start", "", "synthetic session"});
   for (std::size_t k = 0; k < n; ++k)
     if (k == 0 || path.move[k] != path.move[k - 1])
@@ -132,7 +141,7 @@ SynthResult synthesize(const data_schema::SampleVolume& sample, const Protocol& 
   GaussianSource gauss_wrench(o.seed ^ 0x9E3779B97F4A7C15ull);  // moments and spindle
   auto& f = rec.streams[0].channels[0].values;
   auto& tq = rec.streams[0].channels[1].values;
-  auto& sp = rec.streams[2].channels[1].values;
+  auto& sp = o.spindle_lag_ms == 0 ? rec.streams[2].channels[1].values : rec.streams[3].channels[0].values;
   const Trajectory tr = aligned.trajectory();
   out.force_true_sensor_N.resize(n);
   out.force_burr_vol_N.resize(n);
@@ -223,6 +232,7 @@ nlohmann::json truth_json(const SynthResult& r, const data_schema::SampleVolume&
       {"spindle_noise_Nmm", o.spindle_noise_Nmm},
       {"spindle_idle_Nmm", o.spindle_idle_Nmm},
       {"spindle_viscous_Nmm_per_krpm", o.spindle_viscous_Nmm_per_krpm},
+      {"spindle_lag_ms", o.spindle_lag_ms},
       // the step actually used (replay.hpp): by default half the sample period, never more than it
       {"replay_step_s", replay_step_s(o.replay.step_s, r.path.t_s)},
       {"provenance", data_schema::provenance_json(prov)},

@@ -37,7 +37,8 @@ struct SessionSpec {
   std::uint64_t seed = 1;              // sensor noise and fiducial noise
   double fiducial_noise_mm = 0.005;    // RMS 3-D per bead
   double noise_N = 0.02, noise_Nmm = 0.05, spindle_noise_Nmm = 0.1;
-  double lag_ms = 3.0;
+  double lag_ms = 3.0;               // the force and moment behind the stage
+  double spindle_lag_ms = 5.0;       // the drive's load behind the force (8 ms behind the stage)
   double sensor_depth_mm = 34.0;       // the sensor origin below the sample's top
   bool plunge_only = false;            // only the two plunges (the plunge-only variant)
   double time_scale = 0.5;             // < 1: shorter moves, fewer strokes
@@ -170,6 +171,7 @@ speed_mm_s = 2.0
     o.spindle_noise_Nmm = s.spindle_noise_Nmm;
     o.spindle_idle_Nmm = 0.3;
     o.spindle_viscous_Nmm_per_krpm = 0.05;
+    o.spindle_lag_ms = s.spindle_lag_ms;
     o.seed = s.seed * 100 + std::uint64_t(i);
     o.rig_to_vol = c.vol_from_rig;
     model::SynthResult res = model::synthesize(sample, proto, truth, o);

@@ -56,6 +56,9 @@ struct RecordingNuisance {
   int pose = -1;  // registration pose correction of its mounting: 6 consecutive (ω rad, τ mm), shared
   int torque_bias = -1;  // moment bias, N·mm, sensor frame: 3 consecutive (torque channel fitted)
   int spindle = -1;      // spindle idle torque (N·mm) and viscous term (N·mm per 1000 rpm): 2 consecutive
+  // The drive's load logged this much later than the force (ms; its own lag on top of the
+  // force's): the predicted load at t − spindle_lag answers the load logged at t.
+  int spindle_lag = -1;
   int mounting = -1;                    // index into Layout::mountings(), -1 = none
   double lag_fixed_ms = 0;              // value used when the lag is fixed (and start value)
   std::array<double, 2> lag_bounds_ms{-20, 20};

@@ -25,6 +25,7 @@ struct FittedNuisances {
   std::optional<glm::dvec3> force_bias_N, torque_bias_Nmm;
   std::optional<double> spindle_idle_Nmm;
   double spindle_viscous_Nmm_per_krpm = 0;  // per 1000 rpm of deviation from the mean speed
+  double spindle_lag_ms = 0;  // the drive's load logged this much later than the force
   std::optional<PoseCorrection> pose;       // fit.json settings.registration.<id>.pose_correction
 };
 // InputError (naming fit.json) on a malformed pose correction.

@@ -50,6 +50,9 @@ struct SynthOptions {
   double spindle_noise_Nmm = 0;    // σ of the spindle torque
   double spindle_idle_Nmm = 0;     // the drive's idle torque (bearings), added always
   double spindle_viscous_Nmm_per_krpm = 0;  // + this × |rpm|/1000 (viscous drag)
+  // The drive's load logged this much later than the force (ms): a device of its own,
+  // timestamped late by it. With it, the load gets a stream of its own ("spindle_drive").
+  double spindle_lag_ms = 0;
   std::uint64_t seed = 1;
   std::optional<RigidTransform> rig_to_vol;  // absent: rig frame = volume frame
   ReplayOptions replay;                      // internal step (0 → half the sample period)
