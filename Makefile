@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS  ?= 2
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release -DBURRBENCH_WERROR=ON
 
-.PHONY: all deps configure build test demo bench fuzz clean
+.PHONY: all deps configure build test test-loaded demo bench fuzz clean
 
 all: build
 
@@ -18,6 +18,11 @@ build: configure
 
 test: build
 	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
+
+# The tests labelled `load` (acquisition's promises) beside two busy processes, as on a lab
+# PC that also runs the stage software and a camera (docs/rig.md, "A loaded host").
+test-loaded: build
+	@scripts/test-loaded $(BUILD)
 
 demo: build
 	@scripts/demo $(BUILD)

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <csignal>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 #include <new>
 
@@ -53,6 +54,15 @@ int main(int argc, char** argv) {
     std::cerr << "burrbench: " << (f.empty() ? std::string("error") : f)
               << ": out of memory" << (f.empty() ? "" : " while reading it")
               << " (a memory limit, or an input too large for this machine)\n";
+    return 3;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // One line naming the path and the system's reason, not the library's raw text
+    // ("filesystem error: cannot create directories: ... [path]"): issue 59, N7.
+    std::string op = e.what();
+    if (const auto p = op.find("filesystem error: "); p != std::string::npos) op = op.substr(p + 18);
+    if (const auto p = op.find(": "); p != std::string::npos) op = op.substr(0, p);
+    std::cerr << "burrbench: " << (e.path1().empty() ? std::string("error") : e.path1().string()) << ": " << op
+              << ": " << e.code().message() << "\n";
     return 3;
   } catch (const InvariantError& e) {
     std::cerr << "burrbench: " << e.what() << " — please report this\n";

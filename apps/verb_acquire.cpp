@@ -202,6 +202,17 @@ void run(const Options& o) {
     std::cout << fmt::format("{:<14} {:>9.1f} {:>9.1f} {:>10} {:>9.0f} µs {:>9} {:>8} {:>10} {:>7} {:>7}\n", d.name,
                              d.rate_hz, d.achieved_hz, d.samples, d.jitter_p99_us, d.timeouts, d.errors, d.reconnects,
                              d.missed_polls, d.fifo ? std::to_string(d.lost) : std::string("-"));
+  // Records lost are never only a number in a table: one line each, on stderr with the
+  // other warnings (scripts/demo repeats them in its summary).
+  for (const auto& d : status.devices)
+    if (d.fifo && d.lost > 0)
+      std::cerr << fmt::format("warning: {} lost {} of {} FIFO records in {} overrun(s): the device's FIFO overflowed "
+                               "before a poll took them (gap events in the recording; docs/rig.md, \"A loaded host\")\n",
+                               d.name, d.lost, d.samples + d.lost, d.overruns);
+  if (status.realtime_denied > 0)
+    std::cerr << fmt::format("note: {} of {} acquisition threads ran without real-time priority ({}); on a busy host "
+                             "FIFO records may be lost: docs/rig.md, \"A loaded host\"\n",
+                             status.realtime_denied, status.threads, status.realtime_reason);
 }
 
 void setup(CLI::App& root) {

@@ -52,6 +52,8 @@ void run(const Args& a) {
   std::vector<fs::path> inputs{manifest.file};
   for (const auto& s : manifest.samples) inputs.push_back(s.path);
   for (const auto& r : manifest.recordings) inputs.push_back(r.path);
+  // The criteria are an input too: --overwrite never replaces them (issue 59, N1).
+  if (!a.criteria.empty()) inputs.emplace_back(a.criteria);
   // Written whole at the end, or not at all (a failed or interrupted fit leaves nothing).
   data_schema::OutputFolder folder(a.out, "--out", a.overwrite);
   folder.refuse_inputs(

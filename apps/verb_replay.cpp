@@ -79,7 +79,7 @@ void run(const Args& a) {
   outputs.write(a.out, [&](const fs::path& p) { model::write_prediction(p, prediction, prov); });
   if (!a.csv.empty()) outputs.write(a.csv, [&](const fs::path& p) { model::write_prediction_csv(p, preds); });
   check_unchanged(prov.inputs, "replay");  // else the prediction would name files it did not come from
-  outputs.commit();
+  outputs.commit(a.overwrite);
   std::string rem;
   for (int k = 1; k < model::kMaxClasses; ++k) {
     if (removed[std::size_t(k)] == 0) continue;

@@ -225,7 +225,7 @@ void setup(CLI::App& root) {
     OutputFiles outputs;  // the pair appears together or not at all
     outputs.write(lp, [&](const fs::path& p) { write_nrrd(p, labels_image(s), VoxelType::kUint8); });
     outputs.write(fp, [&](const fs::path& p) { write_nrrd(p, fraction_image(s), VoxelType::kFloat32); });
-    outputs.commit();
+    outputs.commit(*exp_overwrite);
     std::cout << fmt::format("wrote {} and {}\n", lp, fp);
   });
 }

@@ -3,9 +3,11 @@
 // as separate jobs, then summarize), locally with --cores or on Slurm with --profile;
 // burrbench writes no scheduler of its own. `summarize` pools the specimens' fits into
 // population constants (study/population.hpp) with a report.
+#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -110,21 +112,63 @@ fs::path write_plan(const study::StudyManifest& s, const fs::path& out) {
   return dir / "plan.json";
 }
 
+// Snakemake runs in a process group of its own (its local jobs with it), and a SIGINT or
+// SIGTERM to burrbench is forwarded to that whole group; burrbench then waits for
+// Snakemake to stop (it ends its jobs and removes their incomplete outputs) and only then
+// dies of the signal. Before, the signal stopped burrbench alone and the jobs went on
+// writing after it had exited (issue 59, N6).
+std::atomic<pid_t> g_child_group{0};
+std::atomic<int> g_forwarded{0};
+void forward_signal(int sig) {
+  g_forwarded = sig;
+  if (const pid_t g = g_child_group.load(); g > 0) ::kill(-g, sig);
+}
+
 int run_process(const std::vector<std::string>& argv) {
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
   std::cout.flush();
+  struct sigaction sa {}, old_int {}, old_term {};
+  sa.sa_handler = forward_signal;
+  sigemptyset(&sa.sa_mask);
+  // Blocked until the child's group exists, so a signal in between is forwarded, not lost.
+  sigset_t block, prev;
+  sigemptyset(&block);
+  sigaddset(&block, SIGINT);
+  sigaddset(&block, SIGTERM);
+  ::sigprocmask(SIG_BLOCK, &block, &prev);
+  sigaction(SIGINT, &sa, &old_int);
+  sigaction(SIGTERM, &sa, &old_term);
   const pid_t pid = ::fork();
-  if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
+  if (pid < 0) {
+    ::sigprocmask(SIG_SETMASK, &prev, nullptr);
+    throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
+  }
   if (pid == 0) {
+    ::setpgid(0, 0);
+    ::signal(SIGINT, SIG_DFL);
+    ::signal(SIGTERM, SIG_DFL);
+    ::sigprocmask(SIG_SETMASK, &prev, nullptr);
     ::execv(args[0], args.data());
     std::fprintf(stderr, "burrbench: cannot run %s: %s\n", args[0], std::strerror(errno));
     std::_Exit(127);
   }
+  ::setpgid(pid, pid);  // as the child does: whichever runs first
+  g_child_group = pid;
+  ::sigprocmask(SIG_SETMASK, &prev, nullptr);
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0)
     if (errno != EINTR) throw std::runtime_error(std::string("waitpid: ") + std::strerror(errno));
+  g_child_group = 0;
+  sigaction(SIGINT, &old_int, nullptr);
+  sigaction(SIGTERM, &old_term, nullptr);
+  if (const int sig = g_forwarded.load()) {
+    std::cerr << fmt::format("burrbench: study: {} forwarded to Snakemake, which has stopped; running the same "
+                             "command again resumes\n", sig == SIGINT ? "SIGINT" : "SIGTERM");
+    ::signal(sig, SIG_DFL);
+    ::raise(sig);
+  }
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 

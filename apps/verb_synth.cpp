@@ -76,7 +76,7 @@ void run(const Args& a) {
   data_schema::OutputFiles outputs;  // the recording and its truth appear together or not at all
   outputs.write(a.out, [&](const fs::path& p) { data_schema::write_recording(p, res.recording); });
   outputs.write(a.truth, [&](const fs::path& p) { data_schema::write_file_atomic(p, truth.dump(2) + "\n"); });
-  outputs.commit();
+  outputs.commit(a.overwrite);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::string removed;
   for (const auto& [name, v] : truth["removed_mm3_by_class"].items())

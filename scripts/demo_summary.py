@@ -1,6 +1,11 @@
 """Prints the demo's five-line summary: report path, fitted vs true constants per class,
-the gate's verdict and the wall time. Usage: demo_summary.py OUT TRUTH.toml GATE SECONDS"""
+the gate's verdict and the wall time; and a sixth, `warning:` line with the counts when
+an acquisition lost FIFO records (from acquire's own warnings in OUT/acquire-*.log).
+Usage: demo_summary.py OUT TRUTH.toml GATE SECONDS"""
+import glob
 import json
+import os
+import re
 import sys
 import tomllib
 
@@ -24,3 +29,16 @@ for name, cls in truth.items():
     print(f"{name + ':':<12}" + "; ".join(parts))
 print(f"{'gate:':<12}{'PASS' if gate == 0 else 'FAIL'} on held-out polish (examples/criteria/release.toml)")
 print(f"{'time:':<12}{seconds} s after the build")
+
+lost = {}
+for log in sorted(glob.glob(f"{out}/acquire-*.log")):
+    session = os.path.basename(log)[len("acquire-"):-len(".log")]
+    for line in open(log, errors="replace"):
+        m = re.match(r"warning: (\S+) lost (\d+) of (\d+) FIFO records", line)
+        if m:
+            lost.setdefault(m.group(1), []).append((session, int(m.group(2)), int(m.group(3))))
+if lost:
+    parts = [f"{dev} {sum(n for _, n, _ in v)} of {sum(t for _, _, t in v)} ("
+             + ", ".join(f"{s} {n}" for s, n, _ in v) + ")" for dev, v in lost.items()]
+    print(f"{'warning:':<12}FIFO records lost in acquisition: " + "; ".join(parts)
+          + f" (a loaded host; {out}/acquire-*.log, docs/rig.md)")

@@ -11,6 +11,7 @@
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
+#include "burrbench/data_schema/json_input.hpp"
 #include "burrbench/data_schema/manifest.hpp"
 #include "burrbench/data_schema/nesting.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
@@ -219,6 +220,11 @@ std::string declared_format(const std::filesystem::path& path) {
   while (in.get(c) && std::isspace(static_cast<unsigned char>(c))) {
   }
   if (c == '{') {
+    // Bounded before it is read, as every JSON input is (read_json_file; issue 59, D11).
+    const auto size = std::filesystem::file_size(path, ec);
+    if (ec || size > kMaxJsonBytes)
+      throw InputError(file, "<file>", fmt::format("a JSON file of at most {} MiB", kMaxJsonBytes >> 20),
+                       fmt::format("{} bytes", size));
     std::ifstream all(path, std::ios::binary);
     const std::string text((std::istreambuf_iterator<char>(all)), std::istreambuf_iterator<char>());
     check_json_nesting(text, file);  // before nlohmann::json recurses

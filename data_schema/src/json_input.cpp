@@ -19,7 +19,7 @@ nlohmann::json read_json_file(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw InputError(file, "<file>", "an existing regular file");
   const auto size = std::filesystem::file_size(path, ec);
-  if (ec || size > kMaxJsonBytes) throw InputError(file, "<file>", "a JSON file of at most 256 MiB");
+  if (ec || size > kMaxJsonBytes) throw InputError(file, "<file>", fmt::format("a JSON file of at most {} MiB", kMaxJsonBytes >> 20), fmt::format("{} bytes", size));
   std::ifstream in(path, std::ios::binary);
   std::ostringstream ss;
   ss << in.rdbuf();

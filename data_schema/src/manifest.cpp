@@ -2,6 +2,7 @@
 // Messages name the TOML key path, arrays indexed from 0 ("recordings[1].lag_ms").
 #include "burrbench/data_schema/manifest.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -19,6 +20,31 @@ namespace burrbench::data_schema {
 namespace {
 
 constexpr int kMaxMultistart = 1000;
+// A position→force lag beyond 10 s is no rig's: the bound keeps lag arithmetic finite.
+constexpr double kMaxLagMs = 10000.0;
+// A burr is millimetres across; 100 mm keeps the replay's geometry finite.
+constexpr double kMaxBurrRadiusMm = 100.0;
+
+// Sample and recording ids name files and folders of the outputs (staging files, study
+// jobs): checked here, when the manifest is read, so `inspect` refuses what a run would
+// fail on at its end (issue 59, N4): non-empty, no path separator, no control character
+// (newline, NUL), not "." or "..".
+void check_id(const std::string& file, const std::string& field, const std::string& id) {
+  if (id.empty()) throw InputError(file, field, "a non-empty id");
+  const bool bad_char = std::any_of(id.begin(), id.end(), [](char c) {
+    const auto u = static_cast<unsigned char>(c);
+    return c == '/' || c == '\\' || u < 0x20 || u == 0x7f;
+  });
+  if (bad_char || id == "." || id == "..") {
+    std::string shown;
+    for (const char c : id) {
+      const auto u = static_cast<unsigned char>(c);
+      shown += (u < 0x20 || u == 0x7f) ? fmt::format("\\x{:02x}", u) : std::string(1, c);
+    }
+    throw InputError(file, field, "an id without '/', '\\' or control characters (not . or ..): it names output files",
+                     "\"" + shown + "\"");
+  }
+}
 
 std::string vec_text(const glm::dvec3& v) { return fmt::format("[{}, {}, {}]", v.x, v.y, v.z); }
 
@@ -111,13 +137,15 @@ void validate(const ExperimentManifest& m, const std::string& file) {
   for (std::size_t i = 0; i < m.samples.size(); ++i) {
     const auto& s = m.samples[i];
     const std::string f = fmt::format("samples[{}]", i);
-    if (s.id.empty()) throw InputError(file, f + ".id", "a non-empty id");
+    check_id(file, f + ".id", s.id);
     if (!ids.insert(s.id).second) throw InputError(file, f + ".id", "unique sample ids", "\"" + s.id + "\" twice");
     check_file(file, f + ".path", s.path);
   }
   const auto& b = m.burr;
-  if (!std::isfinite(b.radius_mm) || !(b.radius_mm > 0))
-    throw InputError(file, "burr.radius_mm", "a finite radius > 0 mm", fmt::format("{}", b.radius_mm));
+  // At most kMaxBurrRadiusMm: 1e308 passed and replayed to NaN (issue 59, N3).
+  if (!std::isfinite(b.radius_mm) || !(b.radius_mm > 0) || b.radius_mm > kMaxBurrRadiusMm)
+    throw InputError(file, "burr.radius_mm", fmt::format("a finite radius > 0 and ≤ {} mm", kMaxBurrRadiusMm),
+                     fmt::format("{}", b.radius_mm));
   const double axis_len = glm::length(b.shaft_axis_rig);
   if (!std::isfinite(axis_len) || std::abs(axis_len - 1.0) > 1e-9)
     throw InputError(file, "burr.shaft_axis_rig", "a non-zero vector (normalised on read)", vec_text(b.shaft_axis_rig));
@@ -136,11 +164,21 @@ void validate(const ExperimentManifest& m, const std::string& file) {
 
   if (m.recordings.empty()) throw InputError(file, "recordings", "at least one [[recordings]] entry");
   const auto& nu = m.fit.nuisance;
+  // The bounds first: a recording's lag is checked against them, so bounds the wrong way
+  // round are the bounds' fault, not the lag's (issue 59, D14). Bounds as bounds: finite,
+  // ordered and within ±kMaxLagMs (±1e308 ms passed and made Ceres fail on −inf: N5).
+  for (const double b : nu.lag_bounds_ms)
+    if (!(std::isfinite(b) && std::abs(b) <= kMaxLagMs))
+      throw InputError(file, "fit.nuisance.lag_bounds_ms", fmt::format("[lower, upper] within ±{} ms", kMaxLagMs),
+                       fmt::format("[{}, {}]", nu.lag_bounds_ms[0], nu.lag_bounds_ms[1]));
+  if (!(nu.lag_bounds_ms[0] < nu.lag_bounds_ms[1]))
+    throw InputError(file, "fit.nuisance.lag_bounds_ms", "[lower, upper] with lower < upper",
+                     fmt::format("[{}, {}]", nu.lag_bounds_ms[0], nu.lag_bounds_ms[1]));
   std::set<std::string> rids;
   for (std::size_t i = 0; i < m.recordings.size(); ++i) {
     const auto& r = m.recordings[i];
     const std::string f = fmt::format("recordings[{}]", i);
-    if (r.id.empty()) throw InputError(file, f + ".id", "a non-empty id");
+    check_id(file, f + ".id", r.id);
     if (!rids.insert(r.id).second) throw InputError(file, f + ".id", "unique recording ids", "\"" + r.id + "\" twice");
     check_file(file, f + ".path", r.path);
     if (!m.sample(r.sample))
@@ -184,10 +222,6 @@ void validate(const ExperimentManifest& m, const std::string& file) {
     throw InputError(file, "fit.loss_scale", "a finite scale > 0 (units of σ)", fmt::format("{}", fit.loss_scale));
   if (fit.multistart < 1 || fit.multistart > kMaxMultistart)
     throw InputError(file, "fit.multistart", fmt::format("1..{}", kMaxMultistart), std::to_string(fit.multistart));
-  if (!(std::isfinite(nu.lag_bounds_ms[0]) && std::isfinite(nu.lag_bounds_ms[1]) &&
-        nu.lag_bounds_ms[0] < nu.lag_bounds_ms[1]))
-    throw InputError(file, "fit.nuisance.lag_bounds_ms", "[lower, upper] with lower < upper",
-                     fmt::format("[{}, {}]", nu.lag_bounds_ms[0], nu.lag_bounds_ms[1]));
   std::set<std::string> keys;
   for (const auto& c : fit.classes) {
     const std::string f = "fit.classes." + c.key;

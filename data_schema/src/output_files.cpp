@@ -1,5 +1,7 @@
 #include "burrbench/data_schema/output_files.hpp"
 
+#include <fcntl.h>
+#include <stdio.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -11,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/atomic_file.hpp"
+#include "burrbench/data_schema/error.hpp"
 
 namespace burrbench::data_schema {
 namespace fs = std::filesystem;
@@ -64,7 +67,7 @@ void OutputFiles::write(const fs::path& target, const std::function<void(const f
   }
 }
 
-void OutputFiles::commit() {
+void OutputFiles::commit(bool replace) {
   struct Renamed {
     fs::path target, previous;  // previous: a hard link to the file it replaced, or empty
     bool existed = false;
@@ -86,7 +89,11 @@ void OutputFiles::commit() {
       // link() does not follow a symbolic link: the link itself is kept and put back.
       if (::link(f.target.c_str(), r.previous.c_str()) != 0) r.previous.clear();  // no hard links: no undo
     }
-    if (::rename(f.staged.c_str(), f.target.c_str()) != 0) {
+    // Without replace: renameat2(RENAME_NOREPLACE) fails with EEXIST, atomically, when
+    // the target exists by now (another run got there first).
+    const int rc = replace ? ::rename(f.staged.c_str(), f.target.c_str())
+                           : ::renameat2(AT_FDCWD, f.staged.c_str(), AT_FDCWD, f.target.c_str(), RENAME_NOREPLACE);
+    if (rc != 0) {
       const int err = errno;
       drop(r);
       for (auto it = renamed.rbegin(); it != renamed.rend(); ++it) {  // undo, newest first
@@ -96,6 +103,9 @@ void OutputFiles::commit() {
           ::unlink(it->target.c_str());
         drop(*it);
       }
+      if (!replace && err == EEXIST)
+        throw InputError(f.target.string(), "<output>", "a file that does not exist yet (--overwrite replaces it)",
+                         "it appeared while this command ran (another run writing the same output?); no output was written");
       throw std::runtime_error(fmt::format("{}: cannot rename the finished file onto it ({}); no output was written",
                                            f.target.string(), std::strerror(err)));
     }

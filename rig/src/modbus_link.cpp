@@ -86,7 +86,8 @@ double ModbusLink::wire_time_s(const DeviceSpec& d) const {
   return settings_.transport == Transport::Rtu ? rtu_frames_wire_s(d) : 0.0;
 }
 
-ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& regs) {
+ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& regs,
+                            const std::function<bool(std::size_t block)>& enough) {
   regs.resize(static_cast<std::size_t>(d.count));
   if (!connected_) {
     ReadResult r;
@@ -117,6 +118,8 @@ ReadResult ModbusLink::read(const DeviceSpec& d, std::vector<std::uint16_t>& reg
                                        : r.detail;
       return all;
     }
+    all.blocks_read = i + 1;
+    if (enough && i + 1 < d.blocks.size() && enough(k)) break;
   }
   return all;
 }

@@ -93,6 +93,23 @@ struct Session::Impl {
   std::vector<JournalEvent> qe;
   mutable std::mutex fm;
   std::optional<std::string> fatal;
+  std::atomic<int> threads{0}, realtime_denied{0};
+  std::string realtime_reason;  // guarded by fm
+
+  // Asks for SCHED_FIFO at `priority` for the calling thread; says so when refused.
+  void ask_realtime(int priority, int device, const char* who) {
+    sched_param sp{};
+    sp.sched_priority = priority;
+    ++threads;
+    if (const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp); rc != 0) {
+      ++realtime_denied;
+      {
+        std::lock_guard lk(fm);
+        realtime_reason = std::strerror(rc);
+      }
+      event(device, "realtime", fmt::format("{}: SCHED_FIFO not available ({}); normal priority", who, std::strerror(rc)));
+    }
+  }
 
   void push(JournalSample&& s) {
     std::lock_guard lk(qm);
@@ -131,9 +148,7 @@ struct Session::Impl {
   }
 
   void write_loop() {
-    sched_param sp{};
-    sp.sched_priority = 10;  // below the pollers, above the busy host (optional, as above)
-    pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+    ask_realtime(10, -1, "journal writer");  // below the pollers, above the busy host (optional, as below)
     std::vector<JournalSample> s;
     std::vector<JournalEvent> e;
     for (;;) {
@@ -232,27 +247,33 @@ struct Session::Impl {
     }
     // FIFO: take every record newer than the last one taken.
     const auto& f = *d.fifo;
-    const auto raw = decode_integer(regs.data() + (f.counter.address - d.start), f.counter.type, f.counter.order);
     // Records the device can have taken since the last good poll's request: its rate, with
     // 50 % margin, over that time and one period more.
     const double max_advance =
         f.device_rate_hz * 1.5 * (static_cast<double>(r.t_recv_ns - st.last_ok_before_ns) * 1e-9) + 2.0;
-    const std::int64_t newest = take_counter(st, raw, f.counter.type, max_advance);
     if (f.record_counter) {
+      // The newest record's own counter (its slot is in the block read first): a poll that
+      // stops reading early (fifo_reached) never reads the header's counter.
+      const auto& rc = *f.record_counter;
+      const auto* newest_rec = regs.data() + (f.first_register - d.start) + (f.depth - 1) * f.record_registers;
+      const std::int64_t newest = take_counter(st, decode_integer(newest_rec + rc.address, rc.type, rc.order), rc.type, max_advance);
       if (st.last_counter >= 0 && newest < st.last_counter) {
         event(st.index, "counter_reset", fmt::format("fifo counter {} → {} (device restarted: it went back further than a wrap of its {}-bit range explains)",
-                                                     st.last_counter, newest, register_count(f.counter.type) * 16));
+                                                     st.last_counter, newest, register_count(rc.type) * 16));
         st.last_counter = -1;  // start afresh from the newest record
       }
       take_counted_records(st, r, regs, newest);
       return;
     }
+    const auto raw = decode_integer(regs.data() + (f.counter.address - d.start), f.counter.type, f.counter.order);
+    const std::int64_t newest = take_counter(st, raw, f.counter.type, max_advance);
     std::int64_t from = newest;  // first poll or after a reset: the newest record only
     if (st.last_counter >= 0 && newest >= st.last_counter) {
       from = st.last_counter + 1;
       const std::int64_t oldest = newest - f.depth + 1;
       if (from < oldest) {
         event(st.index, "gap", fmt::format("fifo overrun: counter {} → {}, {} records lost", st.last_counter, oldest, oldest - from));
+        ++st.status.overruns;
         st.status.lost += static_cast<std::uint64_t>(oldest - from);
         from = oldest;
       }
@@ -296,8 +317,11 @@ struct Session::Impl {
     std::int64_t oldest_held = std::numeric_limits<std::int64_t>::max();
     // Slots the poll's first request read: the last block's (ModbusLink reads newest first).
     const int first_slot = (d.count - d.blocks.back().count - first_off + f.record_registers - 1) / f.record_registers;
+    // Slots this poll read at all: from the oldest block it reached (fifo_reached) up.
+    const auto lowest_block = d.blocks.size() - std::min(d.blocks.size(), std::max<std::size_t>(1, r.blocks_read));
+    const int lowest_slot = fifo_slots(d, lowest_block).first;
     std::int64_t newest_first = -1;
-    for (int slot = 0; slot < f.depth; ++slot) {
+    for (int slot = lowest_slot; slot < f.depth; ++slot) {
       const auto* rec = regs.data() + first_off + slot * f.record_registers;
       const std::int64_t raw = decode_integer(rec + rc.address, rc.type, rc.order);
       // Nearest to the header's newest counter, either side (a later block may be newer).
@@ -314,6 +338,7 @@ struct Session::Impl {
     else if (!slot_of.count(next) && oldest_held > next && oldest_held != std::numeric_limits<std::int64_t>::max()) {
       event(st.index, "gap", fmt::format("fifo overrun: counter {} → {}, {} records lost", st.last_counter,
                                          oldest_held, oldest_held - next));
+      ++st.status.overruns;
       st.status.lost += static_cast<std::uint64_t>(oldest_held - next);
       next = oldest_held;
     }
@@ -330,6 +355,43 @@ struct Session::Impl {
       ++st.status.samples;
     }
     st.last_counter = std::max(st.last_counter, next - 1);
+  }
+
+  // The FIFO slots wholly inside block k: [first, last).
+  static std::pair<int, int> fifo_slots(const DeviceSpec& d, std::size_t k) {
+    const auto& f = *d.fifo;
+    int at = 0;
+    for (std::size_t j = 0; j < k; ++j) at += d.blocks[j].count;
+    const int from = at - (f.first_register - d.start), to = from + d.blocks[k].count;
+    const int rr = f.record_registers;
+    const int first = from <= 0 ? 0 : (from + rr - 1) / rr;
+    const int last = to <= 0 ? 0 : std::min(f.depth, to / rr);
+    return {std::min(first, f.depth), last};
+  }
+
+  // A FIFO with record counters is read from its newest block down only as far as the poll
+  // needs: to the block that holds the record after the last one taken (or one older), and
+  // at the first poll, or after a counter reset, the newest block alone. In the steady state a
+  // poll is then a few requests, not one per block (at 1 kHz and 50 polls/s the force
+  // sensor's 20 new records are in 3 of its 12 blocks), so a loaded host or device answers
+  // it before the window moves past the records it still needs; after a stall it reads as
+  // far back as the stall asks. true: block k (just read) reaches back far enough.
+  static bool fifo_reached(const DeviceState& st, const std::vector<std::uint16_t>& regs, std::size_t k) {
+    const auto& d = *st.spec;
+    if (st.last_counter < 0) return true;
+    const auto& f = *d.fifo;
+    const auto& rc = *f.record_counter;
+    const std::int64_t range = counter_range(rc.type);
+    const std::int64_t want = (st.last_counter + 1) % range;
+    const int first_off = f.first_register - d.start;
+    const auto [first, last] = fifo_slots(d, k);
+    for (int slot = first; slot < last; ++slot) {
+      const auto* rec = regs.data() + first_off + slot * f.record_registers;
+      std::int64_t delta = ((decode_integer(rec + rc.address, rc.type, rc.order) - want) % range + range) % range;
+      if (delta >= range / 2) delta -= range;
+      if (delta <= 0) return true;  // this record is the one wanted, or older
+    }
+    return false;
   }
 
   // The unwrapped counter; after a restart (unwrap_counter gives nothing) the raw value
@@ -399,10 +461,7 @@ struct Session::Impl {
     // Real-time priority keeps the period tight on a busy host; the thread sleeps between
     // deadlines and blocks on I/O, so it cannot starve the machine. Optional: without
     // the privilege we poll at normal priority and say so.
-    sched_param sp{};
-    sp.sched_priority = 20;
-    if (const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp); rc != 0)
-      event(group.front()->index, "realtime", fmt::format("SCHED_FIFO not available ({}); normal priority", std::strerror(rc)));
+    ask_realtime(20, group.front()->index, "poller");
     ModbusLink link(*group.front()->spec);
     std::string err;
     if (!link.connect(&err)) event(group.front()->index, "fault", err);
@@ -432,7 +491,10 @@ struct Session::Impl {
           continue;
         }
       }
-      const auto r = link.read(*st->spec, regs);
+      const auto& spec = *st->spec;
+      const bool partial = spec.fifo && spec.fifo->record_counter && spec.blocks.size() > 1;
+      const auto r = partial ? link.read(spec, regs, [&](std::size_t k) { return fifo_reached(*st, regs, k); })
+                             : link.read(spec, regs);
       if (r.status == ReadStatus::Ok) on_good(*st, r, regs);
       else on_bad(*st, link, r);
     }
@@ -484,6 +546,10 @@ SessionStatus Session::status() const {
     s.devices.push_back(std::move(d));
   }
   s.journal_blocks = impl_->journal->blocks_written();
+  s.threads = impl_->threads.load();
+  s.realtime_denied = impl_->realtime_denied.load();
+  std::lock_guard lk(impl_->fm);
+  s.realtime_reason = impl_->realtime_reason;
   return s;
 }
 

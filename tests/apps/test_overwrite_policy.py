@@ -161,6 +161,21 @@ def test_an_input_named_like_an_output_is_never_replaced_not_even_with_overwrite
     no_leftovers(tmp_path)
 
 
+@pytest.mark.parametrize("name", ["params.toml", "fit.json"])
+def test_calibrate_never_replaces_its_criteria_not_even_with_overwrite(exp, tmp_path, name):
+    # Issue 59, N1: criteria named like one of calibrate's outputs, in its --out folder,
+    # were replaced by the fitted parameter set (exit 0).
+    out = tmp_path / "D"
+    out.mkdir()
+    shutil.copy(CRITERIA, out / name)
+    before = sha(out / name)
+    p = run("calibrate", exp / "experiment.toml", "--criteria", out / name, "--out", out, "--overwrite",
+            "--no-cross-validation")
+    assert_refused(p.returncode, p.stderr, out / name, "--out", "not one of the inputs")
+    assert sha(out / name) == before and os.listdir(out) == [name]
+    no_leftovers(tmp_path)
+
+
 def test_outputs_appear_all_together_or_not_at_all(exp, tmp_path):
     # A criterion about a recording the experiment lacks is found only after the replay:
     # exit 2, and no output folder, no half-written files, no staging folder.
@@ -199,3 +214,22 @@ def test_a_failed_write_into_an_output_folder_names_the_users_path(exp, tmp_path
         p.stderr
     assert ".staging-" not in lines[0], lines[0]
     assert os.listdir(tmp_path) == [], os.listdir(tmp_path)
+
+
+def test_two_runs_writing_the_same_output_never_replace_one_another(exp, tmp_path):
+    # Issue 59, N2: two `replay` runs writing the same --out/--csv without --overwrite both
+    # exited 0 in 23 of 24 pairs, the later silently replacing the earlier one's files.
+    # Now one writes them and the other is refused (exit 2, one line), as folders are.
+    for i in range(4):
+        out, csv = tmp_path / f"p{i}.h5", tmp_path / f"p{i}.csv"
+        args = [BURRBENCH, "replay", str(exp / "experiment.toml"), "--params", str(exp / "params_true.toml"),
+                "--out", str(out), "--csv", str(csv)]
+        procs = [subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)]
+        done = [(p.wait(timeout=300), p.stderr.read()) for p in procs]
+        codes = sorted(rc for rc, _ in done)
+        assert codes == [0, 2], done
+        err = next(e for rc, e in done if rc == 2)
+        last = err.strip().splitlines()[-1]  # after the replay's progress lines
+        assert last.startswith("burrbench: ") and ("p%d." % i) in last and "does not exist yet" in last, err
+        assert out.exists() and csv.exists()
+    no_leftovers(tmp_path)

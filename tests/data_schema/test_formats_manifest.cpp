@@ -329,3 +329,35 @@ TEST(FormatsManifest, CorruptedTextOnlyEverRaisesInputError) {
   EXPECT_GT(rejected, 200);
   EXPECT_GT(ok, 0);  // some corruptions leave a valid manifest: the corruptor is not all-destroying
 }
+
+// Issue 59, D14: bounds the wrong way round are the bounds' fault, not a recording's lag;
+// N5: bounds of ±1e308 ms passed (Ceres then failed on −inf and calibrate exited 0).
+TEST(FormatsManifest, LagBoundsAreCheckedAsBoundsFirst) {
+  Files f;
+  f.expect_error("lag_bounds_ms = [-20.0, 20]", "lag_bounds_ms = [20.0, -20]",
+                 {"E.toml: fit.nuisance.lag_bounds_ms: expected [lower, upper] with lower < upper"});
+  f.expect_error("lag_bounds_ms = [-20.0, 20]", "lag_bounds_ms = [-1e308, 1e308]",
+                 {"E.toml: fit.nuisance.lag_bounds_ms: expected [lower, upper] within ±10000 ms"});
+  f.expect_error("lag_bounds_ms = [-20.0, 20]", "lag_bounds_ms = [-20.0, inf]", {"E.toml: fit.nuisance.lag_bounds_ms: expected"});
+  EXPECT_EQ(f.read_with("lag_bounds_ms = [-20.0, 20]", "lag_bounds_ms = [-10000.0, 10000]").fit.nuisance.lag_bounds_ms[1],
+            10000.0);
+}
+
+// Issue 59, N4: an id with a '/', a newline or a NUL passed `inspect` and failed at the end
+// of the run naming a hidden staging file; it is refused when the manifest is read.
+TEST(FormatsManifest, IdsThatWouldNameNoFileAreRefusedOnRead) {
+  Files f;
+  f.expect_error("id = \"plunge\"", "id = \"a/b\"", {"E.toml: recordings[0].id: expected an id without '/'", "\"a/b\""});
+  f.expect_error("id = \"plunge\"", "id = \"a\\nb\"", {"E.toml: recordings[0].id: expected", "\"a\\x0ab\""});
+  f.expect_error("id = \"plunge\"", "id = \"a\\u0000b\"", {"E.toml: recordings[0].id: expected", "\\x00"});
+  f.expect_error("id = \"plunge\"", "id = \"..\"", {"E.toml: recordings[0].id: expected"});
+  f.expect_error("id = \"S1\"", "id = \"S/1\"", {"E.toml: samples[0].id: expected an id without '/'"});
+}
+
+// Issue 59, N3: burr.radius_mm = 1e308 (with the recordings' radius waived) replayed to NaN
+// and blamed the output's staging file.
+TEST(FormatsManifest, BurrRadiusIsBounded) {
+  Files f;
+  f.expect_error("radius_mm = 1.0", "radius_mm = 1e308", {"E.toml: burr.radius_mm: expected a finite radius > 0 and ≤ 100 mm"});
+  EXPECT_EQ(f.read_with("radius_mm = 1.0", "radius_mm = 100.0").burr.radius_mm, 100.0);
+}

@@ -1,5 +1,6 @@
 """End to end over Modbus TCP against the real virtual rig: every value the rig served
 during the session is in the recording, decoded exactly, with honest timestamps."""
+# ctest: load (issue 59: its promises hold beside two busy processes; make test-loaded)
 import os
 import re
 

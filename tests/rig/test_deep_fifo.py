@@ -1,6 +1,7 @@
 """Issue 11, fault 7: a FIFO deeper than one Modbus request, read in several blocks per
 poll, loses nothing through host stalls that an 8-deep FIFO cannot survive. The stalls
 are real: the acquiring process is stopped (SIGSTOP) for 60 ms at a time."""
+# ctest: load (issue 59: its promises hold beside two busy processes; make test-loaded)
 # ctest: run serial (a loaded neighbour's scheduling delay adds to the stall)
 import os
 import signal

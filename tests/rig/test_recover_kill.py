@@ -1,6 +1,7 @@
 """`kill -9` of `burrbench acquire`: `burrbench recover` rebuilds a recording holding every
 sample acquired more than 100 ms before the kill; a flipped byte costs one block; the
 journal itself is never modified."""
+# ctest: load (issue 59: its promises hold beside two busy processes; make test-loaded)
 import hashlib
 import os
 import shutil

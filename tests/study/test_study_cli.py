@@ -187,3 +187,42 @@ def test_the_same_study_runs_on_a_single_node_slurm(made, tmp_path):
     local = json.loads((made / "results" / "summary" / "population.json").read_text())["estimates"]
     slurm = json.loads((tmp_path / "onslurm" / "summary" / "population.json").read_text())["estimates"]
     assert [e["mean"] for e in slurm] == pytest.approx([e["mean"] for e in local], rel=1e-6)
+
+
+def test_a_folder_that_cannot_be_made_is_one_line_naming_it(made, tmp_path):
+    # Issue 59, N7: `study run` into a folder it cannot create exited 3 with the C++
+    # library's raw text ("filesystem error: cannot create directories: ... [path]").
+    # Here the folder's parent is a regular file (root may write anywhere, so no chmod).
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder\n")
+    p = study("run", made / "study.toml", "--out", blocker / "results", "--cores", "1", "--dry-run")
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 3 and len(lines) == 1, (p.returncode, p.stderr)
+    assert str(blocker) in lines[0] and "Not a directory" in lines[0], lines
+    assert "filesystem error" not in lines[0], lines
+    assert blocker.read_text() == "not a folder\n"
+
+
+def test_sigterm_stops_snakemake_and_its_jobs_too(made, tmp_path):
+    # Issue 59, N6: SIGTERM to `study run` stopped burrbench only; Snakemake and its jobs
+    # went on and wrote 56 files after it had exited. The signal is now forwarded to
+    # Snakemake's process group and burrbench waits for it.
+    out = tmp_path / "stopped"
+    log = open(tmp_path / "run.log", "w")  # not a pipe: waiting for its end would wait for Snakemake too
+    p = subprocess.Popen([BURRBENCH, "study", "run", str(made / "study.toml"), "--out", str(out), "--cores", "2"],
+                         stdout=log, stderr=log, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (out / ".snakemake").exists():
+        time.sleep(0.2)  # until Snakemake runs
+    time.sleep(2.0)  # and its first jobs have started
+    p.terminate()
+    p.wait(timeout=120)
+    log.close()
+    err = (tmp_path / "run.log").read_text()
+    assert p.returncode != 0, err
+    files = lambda: sorted(str(f) for f in out.rglob("*") if ".snakemake" not in f.parts)
+    after_exit = files()
+    left = subprocess.run(["pgrep", "-f", str(out)], capture_output=True, text=True).stdout.split()
+    assert not left, ("processes still at work on the folder after burrbench exited", left)
+    time.sleep(5)
+    assert files() == after_exit, set(files()) - set(after_exit)

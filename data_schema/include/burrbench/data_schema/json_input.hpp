@@ -18,7 +18,10 @@
 
 namespace burrbench::data_schema {
 
-inline constexpr std::uintmax_t kMaxJsonBytes = 256u << 20;
+// A JSON file's size, checked before it is read: parsed, a file takes about 25 times its
+// size in memory (a 100 MB fit.json took 2.6 GB, issue 59 D11). The largest fit.json of
+// a study is a few MB.
+inline constexpr std::uintmax_t kMaxJsonBytes = 32u << 20;
 
 nlohmann::json read_json_file(const std::filesystem::path& path);
 

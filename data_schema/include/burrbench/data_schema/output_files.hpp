@@ -32,7 +32,10 @@ class OutputFiles {
   void write(const std::filesystem::path& target, const std::function<void(const std::filesystem::path&)>& writer);
   // Renames every staged file onto its target (fsynced). std::runtime_error naming the
   // target when one fails (exit 3); the targets are then as they were before commit().
-  void commit();
+  // replace = false (no --overwrite): a target that appeared since the command checked it
+  // (another run writing the same output) is never replaced: InputError naming it, and
+  // no target is written (issue 59, N2; folders are refused the same way, OutputFolder).
+  void commit(bool replace = true);
 
  private:
   struct Staged {

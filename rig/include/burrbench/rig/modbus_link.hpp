@@ -3,6 +3,7 @@
 // One libmodbus connection (a TCP device or an RS-485 bus) with our own error recovery:
 // libmodbus runs with MODBUS_ERROR_RECOVERY_NONE and the poller decides what to do.
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,8 @@ struct ReadResult {
   ReadStatus status = ReadStatus::Ok;
   std::int64_t t_send_ns = 0, t_recv_ns = 0;
   std::int64_t t_first_recv_ns = 0;  // reply to the poll's first request (= t_recv_ns with one block)
+  // Blocks read, counting from the first one requested (see ModbusLink::read's `enough`).
+  std::size_t blocks_read = 0;
   std::string detail;  // libmodbus error text when not Ok
 };
 
@@ -39,7 +42,11 @@ class ModbusLink {
   // t_send_ns is the first request's, t_recv_ns the last reply's. In order, except a FIFO
   // with record counters: from the last block (its newest records) to the first. The first failure ends
   // the poll (its status and detail, naming the block when there are several).
-  ReadResult read(const DeviceSpec& d, std::vector<std::uint16_t>& regs);
+  // `enough(k)`, when given, is asked after each block k read (by its index in d.blocks):
+  // true ends the poll there. The blocks not read keep what regs held; blocks_read says
+  // how many were (a FIFO read newest first: the last blocks_read blocks of d.blocks).
+  ReadResult read(const DeviceSpec& d, std::vector<std::uint16_t>& regs,
+                  const std::function<bool(std::size_t block)>& enough = {});
   // RTU after a failed request: wait out the latest possible reply, then drop any bytes,
   // so a late reply is never taken as the answer to the next request.
   // Returns early (without flushing) once *stop is set, so a long late_reply_ms cannot

@@ -22,6 +22,7 @@ struct DeviceStatus {
   std::uint64_t polls = 0, samples = 0, timeouts = 0, errors = 0, reconnects = 0;
   std::uint64_t missed_polls = 0;  // deadlines skipped (overrun or disconnected)
   std::uint64_t lost = 0;          // FIFO records lost to an overrun (fifo mode only)
+  std::uint64_t overruns = 0;      // the overruns (gap events) those were lost in
   bool fifo = false;               // latest mode has no "lost": its gaps are events
   std::uint64_t invalid = 0;       // samples with a NaN/out-of-range value
   double jitter_p99_us = 0;        // |interval - period| of consecutive polls
@@ -38,6 +39,10 @@ struct SessionStatus {
   double elapsed_s = 0;
   std::vector<DeviceStatus> devices;
   std::uint64_t journal_blocks = 0;
+  // Acquisition threads (pollers and the journal writer) and how many of them the system
+  // refused SCHED_FIFO (with its reason); also `realtime` events in the recording.
+  int threads = 0, realtime_denied = 0;
+  std::string realtime_reason;
 };
 
 class Session {
