@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/import/density.hpp"
 #include "burrbench/data_schema/import/sample_import.hpp"
 #include "burrbench/data_schema/import/segment.hpp"
 #include "burrbench/data_schema/import/synth.hpp"
@@ -25,7 +26,10 @@ using namespace burrbench::data_schema;
 using namespace burrbench::data_schema::import;
 
 struct ImportArgs {
-  std::string labels, fraction, ct, out, encoding = "float32";
+  std::string labels, fraction, out, encoding = "float32";
+  std::vector<std::string> ct;          // a file, a folder, or (DICOM) a list of files
+  std::string dicom_series, density;    // --dicom-series UID, --density PHANTOM.toml
+  std::optional<double> threshold_mg_cm3;
   std::vector<double> spacing;
   bool resample = false, overwrite = false;
   double voxel_mm = 0;
@@ -38,11 +42,13 @@ void check_out_not_input(const std::string& out, const std::vector<std::string>&
   burrbench::apps::refuse_output_over_inputs(out, "--out", inputs);
 }
 
-ImageVolume load(const std::string& path, const ImportArgs& a, Interpolation interp, const ImportLimits& lim,
+ImageVolume load(const std::vector<std::string>& paths, const ImportArgs& a, Interpolation interp, const ImportLimits& lim,
                  const char* what) {
-  std::optional<glm::dvec3> spacing;
-  if (!a.spacing.empty()) spacing = glm::dvec3(a.spacing[0], a.spacing[1], a.spacing[2]);
-  ImageVolume v = read_volume(path, spacing, lim);
+  ReadOptions opt;
+  if (!a.spacing.empty()) opt.spacing_mm = glm::dvec3(a.spacing[0], a.spacing[1], a.spacing[2]);
+  opt.dicom_series = a.dicom_series;
+  ImageVolume v = read_volume(std::vector<fs::path>(paths.begin(), paths.end()), opt, lim);
+  const std::string path = paths.size() == 1 ? paths[0] : fmt::format("{} files from {}", paths.size(), paths[0]);
   if (a.resample || a.voxel_mm > 0) {
     const double vox = a.voxel_mm > 0 ? a.voxel_mm : std::min({v.spacing_mm.x, v.spacing_mm.y, v.spacing_mm.z});
     if (!is_cubic(v) || std::abs(vox - v.spacing_mm.x) > 1e-9 * vox) {
@@ -60,8 +66,16 @@ ImageVolume load(const std::string& path, const ImportArgs& a, Interpolation int
 void run_import(const ImportArgs& a) {
   if (a.labels.empty() == a.ct.empty()) throw InputError("<command line>", "--labels / --ct", "exactly one of --labels or --ct");
   if (!a.fraction.empty() && a.labels.empty()) throw InputError("<command line>", "--fraction", "--labels with it (a CT gives its own fraction)");
+  if (!a.labels.empty() && (!a.density.empty() || a.threshold_mg_cm3))
+    throw InputError("<command line>", a.density.empty() ? "--threshold-mg-cm3" : "--density", "--ct with it (a density calibration maps a CT's greys)");
+  if (a.threshold_mg_cm3 && a.density.empty()) throw InputError("<command line>", "--threshold-mg-cm3", "--density PHANTOM.toml with it");
+  if (a.threshold_mg_cm3 && a.threshold) throw InputError("<command line>", "--threshold-mg-cm3", "either --threshold or --threshold-mg-cm3, not both");
+  if (!a.density.empty() && (a.empty_grey || a.bone_grey))
+    throw InputError("<command line>", a.empty_grey ? "--empty-grey" : "--bone-grey", "no grey calibration with --density (the phantom gives χ = 0 and 1)");
   if (!(a.budget_mb > 0 && a.budget_mb <= double(1 << 30))) throw InputError("<command line>", "--budget-mb", "a budget in (0, 2^30] MiB");
-  check_out_not_input(a.out, {a.labels, a.fraction, a.ct});
+  std::vector<std::string> inputs{a.labels, a.fraction, a.density};
+  inputs.insert(inputs.end(), a.ct.begin(), a.ct.end());
+  check_out_not_input(a.out, inputs);
   burrbench::apps::refuse_existing(a.out, "--out", a.overwrite);
   const ImportLimits lim{static_cast<std::size_t>(a.budget_mb * double(1 << 20))};
   Provenance prov;  // the input files hashed once read, before the long work on them
@@ -69,9 +83,9 @@ void run_import(const ImportArgs& a) {
   nlohmann::json settings;
   std::optional<TerminalProgress> progress;  // a lab CT takes minutes to segment
   if (!a.labels.empty()) {
-    const ImageVolume labels = load(a.labels, a, Interpolation::kNearest, lim, "labels");
+    const ImageVolume labels = load({a.labels}, a, Interpolation::kNearest, lim, "labels");
     std::optional<ImageVolume> fraction;
-    if (!a.fraction.empty()) fraction = load(a.fraction, a, Interpolation::kTrilinear, lim, "fraction");
+    if (!a.fraction.empty()) fraction = load({a.fraction}, a, Interpolation::kTrilinear, lim, "fraction");
     std::vector<fs::path> inputs = labels.files;
     if (fraction) inputs.insert(inputs.end(), fraction->files.begin(), fraction->files.end());
     prov = make_provenance(inputs);
@@ -79,16 +93,35 @@ void run_import(const ImportArgs& a) {
     settings = nlohmann::json::parse(s.segmentation_json);
   } else {
     const ImageVolume ct = load(a.ct, a, Interpolation::kTrilinear, lim, "CT");
-    prov = make_provenance(ct.files);
+    std::vector<fs::path> read = ct.files;
     SegmentationSettings seg = a.seg;
     seg.threshold = a.threshold;
     seg.empty_grey = a.empty_grey;
     seg.bone_grey = a.bone_grey;
+    std::optional<DensityCalibration> density;
+    if (!a.density.empty()) {
+      density = calibrate_density(read_density_phantom(a.density), ct, a.ct[0]);
+      read.push_back(a.density);
+      seg.empty_grey = density->empty_grey();
+      seg.bone_grey = density->bone_grey();
+      if (a.threshold_mg_cm3) seg.threshold = density->grey(*a.threshold_mg_cm3);
+    }
+    prov = make_provenance(read);
     // Progress once the CT is read and checked, so that a refused input stays one line.
     progress.emplace("import");
-    Segmentation r = segment_ct(ct, seg, a.ct, &*progress);
+    Segmentation r = segment_ct(ct, seg, a.ct[0], &*progress);
     s = std::move(r.sample);
     settings = r.settings_used;
+    if (density) {
+      // The segmentation's greys in mg HA/cm³ too, and the calibration that gives them.
+      settings["density_calibration"] = density->record;
+      settings["empty_grey_source"] = settings["bone_grey_source"] = "density calibration";
+      if (a.threshold_mg_cm3) settings["threshold_method"] = "given in mg HA/cm3";
+      settings["threshold_mg_HA_cm3"] = density->density(settings["threshold"].get<double>());
+      settings["empty_mg_HA_cm3"] = density->density(settings["empty_grey"].get<double>());
+      settings["bone_mg_HA_cm3"] = density->density(settings["bone_grey"].get<double>());
+    }
+    settings["ct_source"] = ct.source_info;
   }
   settings["resampled"] = a.resample || a.voxel_mm > 0;
   if (!a.spacing.empty()) settings["spacing_mm_given"] = a.spacing;
@@ -117,7 +150,13 @@ void setup(CLI::App& root) {
   auto* imp = sample->add_subcommand("import", "Import a label (+ bone fraction) volume, or segment a grey CT, into a sample file");
   imp->add_option("--labels", a->labels, "label volume (.nrrd/.nhdr/.mha/.mhd or a folder of TIFF/PNG slices)");
   imp->add_option("--fraction", a->fraction, "bone fraction volume (float in [0,1] or uint8 counter n/255)");
-  imp->add_option("--ct", a->ct, "grey CT volume to segment (HU or micro-CT grey values)");
+  imp->add_option("--ct", a->ct, "grey CT volume to segment (HU or micro-CT grey values): a file, a folder (slices or DICOM), "
+                                 "or several DICOM files")->expected(1, -1);
+  imp->add_option("--dicom-series", a->dicom_series, "DICOM: the SeriesInstanceUID to import when the files hold several");
+  imp->add_option("--density", a->density, "CT: density calibration (burrbench.density TOML: phantom rods or slope/intercept); "
+                                           "χ = mg HA/cm³ / tissue density");
+  auto thr_mg = std::make_shared<double>();
+  auto* o_thr_mg = imp->add_option("--threshold-mg-cm3", *thr_mg, "CT with --density: bone where density ≥ this (mg HA/cm³)");
   imp->add_option("--out", a->out, "output sample file (.h5)")->required();
   imp->add_flag("--overwrite", a->overwrite, "replace an existing --out file (refused otherwise)");
   imp->add_option("--spacing-mm", a->spacing, "voxel spacing sx,sy,sz (required for slice stacks; overrides the file's)")
@@ -137,11 +176,61 @@ void setup(CLI::App& root) {
   imp->add_option("--bone-close", a->seg.bone_close_vox, "CT: closing radius (voxels) on the bone mask")->capture_default_str();
   imp->add_option("--compact-close", a->seg.compact_close_vox, "CT: closing radius (voxels) on the bone mask before the compact opening")->capture_default_str();
   imp->add_option("--compact-open-mm", a->seg.compact_open_mm, "CT: compact bone holds a box of this half side (opening)")->capture_default_str();
-  imp->callback([a, thr, eg, bg, o_thr, o_eg, o_bg] {
+  imp->callback([a, thr, eg, bg, o_thr, o_eg, o_bg, thr_mg, o_thr_mg] {
+    if (o_thr_mg->count()) a->threshold_mg_cm3 = *thr_mg;
     if (o_thr->count()) a->threshold = *thr;
     if (o_eg->count()) a->empty_grey = *eg;
     if (o_bg->count()) a->bone_grey = *bg;
     run_import(*a);
+  });
+
+  // --- export-ct ---
+  // The grey volume as imported (DICOM rescaled, folded into the sample's frame; with
+  // --density in mg HA/cm³), for 3D Slicer or a check against another reader.
+  auto ea = std::make_shared<ImportArgs>();
+  auto* ect = sample->add_subcommand("export-ct", "Write a CT (DICOM series, SkyScan folder, ISQ, NRRD, ...) as imported to a "
+                                                  "float NRRD: grey values, or mg HA/cm³ with --density");
+  ect->add_option("--ct", ea->ct, "CT volume: a file, a folder (slices or DICOM), or several DICOM files")->required()->expected(1, -1);
+  ect->add_option("--dicom-series", ea->dicom_series, "DICOM: the SeriesInstanceUID to export when the files hold several");
+  ect->add_option("--spacing-mm", ea->spacing, "voxel spacing sx,sy,sz (required for slice stacks; overrides the file's)")
+      ->delimiter(',')->expected(3);
+  ect->add_option("--density", ea->density, "density calibration (burrbench.density TOML): write mg HA/cm³");
+  ect->add_option("--out", ea->out, "output NRRD (.nrrd)")->required();
+  ect->add_flag("--overwrite", ea->overwrite, "replace an existing --out file (refused otherwise)");
+  ect->add_option("--budget-mb", ea->budget_mb, "memory budget for the decoded volume, MiB")->capture_default_str();
+  ect->callback([ea] {
+    const ImportArgs& a = *ea;
+    if (!(a.budget_mb > 0 && a.budget_mb <= double(1 << 30))) throw InputError("<command line>", "--budget-mb", "a budget in (0, 2^30] MiB");
+    std::vector<std::string> inputs{a.density};
+    inputs.insert(inputs.end(), a.ct.begin(), a.ct.end());
+    check_out_not_input(a.out, inputs);
+    burrbench::apps::refuse_existing(a.out, "--out", a.overwrite);
+    const ImportLimits lim{static_cast<std::size_t>(a.budget_mb * double(1 << 20))};
+    ImageVolume v = load(a.ct, a, Interpolation::kTrilinear, lim, "CT");
+    std::vector<fs::path> read = v.files;
+    nlohmann::json info = v.source_info;
+    if (!a.density.empty()) {
+      const DensityCalibration d = calibrate_density(read_density_phantom(a.density), v, a.ct[0]);
+      for (float& x : v.values) x = static_cast<float>(d.density(x));
+      info["density_calibration"] = d.record;
+      info["values"] = "mg HA/cm3";
+      read.push_back(a.density);
+    } else {
+      info["values"] = "grey values as imported";
+    }
+    const Provenance prov = make_provenance(read);
+    nlohmann::json inputs_json = nlohmann::json::array();
+    for (const auto& f : prov.inputs) inputs_json.push_back({{"path", f.path}, {"sha256", f.sha256}});
+    check_unchanged(prov.inputs, "export-ct");
+    write_nrrd(a.out, v, VoxelType::kFloat32,
+               {{"burrbench_software_version", prov.software_version},
+                {"burrbench_command_line", prov.command_line},
+                {"burrbench_created_utc", prov.created_utc},
+                {"burrbench_inputs", inputs_json.dump()},
+                {"burrbench_source", info.dump()}});
+    std::cout << fmt::format("wrote {}: {}x{}x{} voxels of {} x {} x {} mm, origin ({}, {}, {}) mm; {}\n", a.out, v.dims[0],
+                             v.dims[1], v.dims[2], v.spacing_mm.x, v.spacing_mm.y, v.spacing_mm.z, v.origin_mm.x,
+                             v.origin_mm.y, v.origin_mm.z, info.dump());
   });
 
   // --- synth ---

@@ -14,7 +14,8 @@
 
 namespace burrbench::data_schema::import {
 
-void write_nrrd(const std::filesystem::path& path, const ImageVolume& v, VoxelType type) {
+void write_nrrd(const std::filesystem::path& path, const ImageVolume& v, VoxelType type,
+                const std::vector<std::pair<std::string, std::string>>& key_values) {
   BURRBENCH_CHECK(v.values.size() == v.voxel_count(), "values match dims");
   const std::size_t bs = byte_size(type);
   std::string raw(v.values.size() * bs, '\0');
@@ -52,6 +53,17 @@ void write_nrrd(const std::filesystem::path& path, const ImageVolume& v, VoxelTy
       "space origin: ({:.17g},{:.17g},{:.17g})\n\n",
       tname, v.dims[0], v.dims[1], v.dims[2], v.spacing_mm.x, v.spacing_mm.y, v.spacing_mm.z, v.origin_mm.x,
       v.origin_mm.y, v.origin_mm.z);
+  std::string kv;
+  for (const auto& [k, val] : key_values) {
+    std::string e;
+    for (char c : val) {
+      if (c == '\\') e += "\\\\";
+      else if (c == '\n') e += "\\n";
+      else e += c;
+    }
+    kv += k + ":=" + e + "\n";
+  }
+  h.insert(h.size() - 1, kv);  // before the blank line that ends the header
   AtomicFile out(path);
   out << h << std::string_view(gz.data(), gz.size());
   out.commit();

@@ -43,6 +43,24 @@ std::vector<float> decode_samples(std::string_view raw, std::size_t count, Voxel
 void apply_axis_aligned(ImageVolume& v, const std::array<glm::dvec3, 3>& directions,
                         glm::dvec3 origin, const std::string& file, const std::string& field);
 
+// Silences file descriptor 2 for its lifetime. Codec libraries (libpng through OpenCV,
+// GDCM's JPEG/JPEG 2000 decoders) print warnings on stderr that change no pixel: they
+// would add lines to our one-line messages. Real failures still come back as values or
+// exceptions, which the callers turn into InputError.
+class QuietStderr {
+ public:
+  QuietStderr();
+  ~QuietStderr();
+  QuietStderr(const QuietStderr&) = delete;
+  QuietStderr& operator=(const QuietStderr&) = delete;
+
+ private:
+  int saved_ = -1;
+};
+
+// Natural order of file names: "s2.tif" < "s10.tif" (digit runs compare as numbers).
+bool natural_less(const std::string& a, const std::string& b);
+
 std::string trim(std::string_view s);
 std::string lower(std::string_view s);
 // Strict number parsing: whole token, finite. nullopt otherwise.

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
 
 #include "burrbench/data_schema/sample_volume.hpp"
 
@@ -39,6 +40,8 @@ struct ImageVolume {
   VoxelType source_type = VoxelType::kFloat32;
   std::vector<float> values;                 // every supported type is exact in float32
   std::vector<std::filesystem::path> files;  // every file read (header, data file, slices)
+  nlohmann::json source_info = nlohmann::json::object();  // what the reader learnt (DICOM series,
+                                             // rescale, SkyScan/ISQ keys): into provenance
   std::size_t voxel_count() const { return dims[0] * dims[1] * dims[2]; }
   std::size_t index(std::size_t x, std::size_t y, std::size_t z) const {
     return x + dims[0] * (y + dims[1] * z);
@@ -65,8 +68,57 @@ ImageVolume parse_metaimage(std::string_view bytes, const std::string& file_for_
 ImageVolume read_slice_stack(const std::filesystem::path& folder, glm::dvec3 spacing_mm,
                              glm::dvec3 origin_mm = {0, 0, 0}, const ImportLimits& = {});
 
-// By extension: .nrrd/.nhdr → NRRD, .mha/.mhd → MetaImage, a folder → slice stack (then
-// `spacing_mm` is required). `spacing_mm`, when given, overrides the file's spacing.
+// A DICOM series through GDCM (docs/importers.md, "DICOM"). `inputs`: one folder (its
+// regular files, not recursing; DICOMDIR and dot files skipped) or a list of files. The
+// series is chosen by SeriesInstanceUID (`series_uid`; needed when the files hold more
+// than one, and the refusal lists them); slices are ordered by their position along the
+// slice normal, whatever the file names or InstanceNumbers; spacing comes from
+// PixelSpacing and the positions, which must be evenly spaced (every gap within
+// `gap_tolerance` of the mean gap) and on one line along the normal (no gantry tilt:
+// every slice within `lateral_tolerance` of the smallest pixel size); RescaleSlope and
+// RescaleIntercept of each slice are applied. Every transfer syntax GDCM decodes is read
+// (raw little/big endian, RLE, JPEG baseline/extended/lossless, JPEG-LS, JPEG 2000).
+// Geometry in the patient frame (LPS) as the file states it, folded like any volume.
+struct DicomOptions {
+  std::string series_uid;                 // empty: the files must hold one series
+  std::optional<glm::dvec3> spacing_mm;   // overrides the file's (also: a single slice's z)
+  double gap_tolerance = 0.01;            // of the mean gap between slices
+  double lateral_tolerance = 0.05;        // of the smallest in-plane pixel size
+};
+ImageVolume read_dicom(const std::vector<std::filesystem::path>& inputs, const DicomOptions& = {},
+                       const ImportLimits& = {});
+// True for a file that starts with the DICOM preamble ("DICM" at byte 128) or is named
+// *.dcm / *.dicom / *.ima.
+bool looks_like_dicom(const std::filesystem::path& file);
+
+// A Bruker SkyScan (NRecon) reconstruction folder: one .log with a [Reconstruction]
+// section and the slices PREFIX<section>.bmp/.tif/.png (8 or 16 bit). Voxel size from
+// [Reconstruction] "Pixel Size (um)" (× "Section to Section Step" along z), checked against
+// [Acquisition] "Image Pixel Size (um)" × "Undersampling factor"; every section between the
+// first and last present; the grey→attenuation range ("Minimum/Maximum for CS to Image
+// Conversion") recorded in source_info. Origin 0, z along the section number.
+ImageVolume read_skyscan(const std::filesystem::path& folder, const ImportLimits& = {});
+bool is_skyscan_folder(const std::filesystem::path& folder);
+
+// A Scanco ISQ file (header "CTDATA-HEADER_V1", 512 bytes, little-endian int32 fields, as
+// ITK's ScancoImageIO reads it; 16-bit signed data from (data_offset + 1)·512 bytes).
+// Voxel size = dim_um / dim_p per axis; origin 0; mu_scaling recorded (value/mu_scaling =
+// linear attenuation in 1/cm).
+ImageVolume read_isq(const std::filesystem::path& path, const ImportLimits& = {});
+bool is_isq(const std::filesystem::path& path);  // starts with "CTDATA-HEADER_V1"
+
+// What the readers below may need beyond the path.
+struct ReadOptions {
+  std::optional<glm::dvec3> spacing_mm;  // overrides the file's spacing (required for a slice stack)
+  std::string dicom_series;              // DICOM: the SeriesInstanceUID to read
+};
+
+// By extension: .nrrd/.nhdr → NRRD, .mha/.mhd → MetaImage, .dcm (or a file with the DICOM
+// preamble) → DICOM; a folder → DICOM when it holds DICOM files, else a TIFF/PNG slice
+// stack (then `spacing_mm` is required). Several paths → a DICOM series from those files.
+// `spacing_mm`, when given, overrides the file's spacing.
+ImageVolume read_volume(const std::vector<std::filesystem::path>& paths, const ReadOptions& opt,
+                        const ImportLimits& = {});
 ImageVolume read_volume(const std::filesystem::path& path,
                         std::optional<glm::dvec3> spacing_mm = std::nullopt,
                         const ImportLimits& = {});
@@ -97,6 +149,8 @@ SampleVolume crop_voxels(const SampleVolume& in, const std::array<std::size_t, 3
 
 // Writes a NRRD (attached, gzip) that 3D Slicer opens: "space: left-posterior-superior"
 // is NOT claimed; the volume frame is written as "3D-right-handed".
-void write_nrrd(const std::filesystem::path& path, const ImageVolume& v, VoxelType type);
+// `key_values` become NRRD "key:=value" lines (newlines in values are escaped as \n).
+void write_nrrd(const std::filesystem::path& path, const ImageVolume& v, VoxelType type,
+                const std::vector<std::pair<std::string, std::string>>& key_values = {});
 
 }  // namespace burrbench::data_schema::import
