@@ -30,10 +30,18 @@
 #     (default 10), with its [fit] section and with none: constants within the issue's
 #     tolerances, confident misses (identifiable and outside them; goal 0), not
 #     identifiable, and the profile intervals' coverage.
+#  9. the realistic session of issue 55 (tests/calibration/session_fixture.hpp: fiducials
+#     with 5 µm noise in a rig frame turned 37°, a six-axis sensor 34 mm below, force,
+#     moments and spindle load with their own lags, varying speed, both classes) over
+#     SESSION_REPS seeds (default 10), calibrated with the defaults by the make-test case
+#     RealisticSession.*: profile coverage of the six constants, the global optimum reached
+#     (cost within 0.1 % of the fit with the true constants held), confident misses, wall
+#     per seed (goal ≤ 3 min); and the plunge-only variant: seeds whose three trabecular
+#     intervals hold the truth.
 # The test manifests ask for 4 starts; every run here passes --starts 16, the default.
 # Environment: COVERAGE_TIME_SCALE (default 0.5); SKIP_TIMING=1 runs only the coverages;
-# COVERAGE=reference|registration|mismatch|channels|heldout runs one of the five (default
-# all; none: the timings alone); MISMATCH_REPS; HELDOUT_REPS; NO_BUILD (below).
+# COVERAGE=reference|registration|mismatch|channels|heldout|session runs one of the six
+# (default all; none: the timings alone); SESSION_REPS; MISMATCH_REPS; HELDOUT_REPS; NO_BUILD (below).
 # Usage: calibration.sh BUILD_DIR [REPS]
 set -euo pipefail
 build=$(cd "${1:-build}" && pwd)
@@ -42,9 +50,9 @@ B="$build/apps/burrbench"
 G="$build/bench/bench_calibration_reference"
 PY=/usr/bin/python3
 here=$(cd "$(dirname "$0")" && pwd)
-# NO_BUILD=1: BUILD_DIR holds apps/burrbench and bench/bench_calibration_reference only
+# NO_BUILD=1: BUILD_DIR holds apps/burrbench, bench/bench_calibration_reference and (for COVERAGE=session) tests/test_calibration only
 # (a copy, so that the build tree can change while a long run goes on).
-[[ -n ${NO_BUILD:-} ]] || cmake --build "$build" --target burrbench bench_calibration_reference -j 2 > /dev/null
+[[ -n ${NO_BUILD:-} ]] || cmake --build "$build" --target burrbench bench_calibration_reference test_calibration -j 2 > /dev/null
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
@@ -198,6 +206,37 @@ print(f"  trabecular C1-alpha correlation: {corr(a)} -> {corr(b)}")
 PY
 }
 
+# The realistic session (9.): runs the make-test case per seed and variant and prints
+# "held total global seeds misses wall_max wall_sum trab_seeds plunge_seeds".
+session() {
+  local T="$build/tests/test_calibration" n=${SESSION_REPS:-10} seed log
+  local held=0 total=0 global=0 misses=0 wmax=0 wsum=0 trab=0 h t g m w
+  for seed in $(seq 1 "$n"); do
+    log="$work/session$seed.log"
+    BURRBENCH="$B" BURRBENCH_SOURCE_DIR="$here/.." BURRBENCH_BUILD_DIR="$build" BURRBENCH_SESSION_SEED=$seed "$T" --gtest_filter='RealisticSession.DefaultCalibration*' > "$log" 2>&1 || true
+    read -r h t g m w <<<"$($PY - "$log" <<'PY'
+import re, sys
+s = open(sys.argv[1]).read()
+rows = re.findall(r"^  (compact|trabecular) +(\w+) +\S+ +held .*? (holds|MISSES)", s, re.M)
+c = re.search(r"optimum's cost (\S+), at the truth with the nuisances fitted (\S+)", s)
+w = re.search(r"default calibration: ([0-9.]+) s wall", s)
+g = int(bool(c) and float(c.group(1)) < 1.001 * float(c.group(2)))
+print(sum(r[2] == "holds" for r in rows), len(rows), g, s.count("CONFIDENT MISS"), w.group(1) if w else "nan")
+PY
+)"
+    echo "  session seed $seed: $h/$t intervals hold, global optimum $g, confident misses $m, $w s wall" >&2
+    held=$((held + h)); total=$((total + t)); global=$((global + g)); misses=$((misses + m))
+    wmax=$($PY -c "print(max($wmax, $w))"); wsum=$($PY -c "print($wsum + $w)")
+    log="$work/session_plunge$seed.log"
+    BURRBENCH="$B" BURRBENCH_SOURCE_DIR="$here/.." BURRBENCH_BUILD_DIR="$build" BURRBENCH_SESSION_SEED=$seed BURRBENCH_SESSION_PLUNGE_ONLY=1 "$T" \
+      --gtest_filter='RealisticSession.DefaultCalibration*' > "$log" 2>&1 || true
+    t=$(grep -cE "^  trabecular +\w+ .* holds" "$log" || true)
+    echo "  session seed $seed, plunges only: $t/3 trabecular intervals hold" >&2
+    (( t == 3 )) && trab=$((trab + 1))
+  done
+  echo "$held $total $global $n $misses $wmax $wsum $trab"
+}
+
 hits=0 chits=0 total=0 idf=0 dsaid=- rhits=0 rchits=0 rtotal=0 ridf=0 whits=0 wchits=0 wtotal=0 widf=0 mhits=0 mlim=0 mwrong=0 mtotal=0 mwd=0 mwc=0 chan=- hwithin=0 hwrong=0 hheld=0 htotal=0 hunid=0
 run_part() { [[ ${COVERAGE:-all} == all || ${COVERAGE:-all} == "$1" ]]; }
 run_part reference && read -r hits chits total idf dsaid <<<"$(coverage "")"
@@ -205,6 +244,8 @@ run_part registration && read -r rhits rchits rtotal ridf _ <<<"$(coverage regis
 run_part mismatch && read -r mhits mlim mwrong mtotal mwd mwc <<<"$(mismatch)"
 run_part channels && chan=$(channels) && read -r whits wchits wtotal widf _ <<<"$(coverage wrench)"
 run_part heldout && read -r hwithin hwrong hheld htotal hunid <<<"$(heldout)"
+sheld=0 stotal=0 sglobal=0 sseeds=0 smiss=0 swmax=- swsum=0 strab=0
+run_part session && read -r sheld stotal sglobal sseeds smiss swmax swsum strab <<<"$(session)"
 
 # "p % (hits/total)", or "-" for a coverage that was not run.
 cover() { if (( $2 == 0 )); then echo -; else $PY -c "print(f'{100*$1/$2:.1f} % ($1/$2)')"; fi; }
@@ -243,5 +284,10 @@ printf '%-62s %-22s %-10s %s\n' "  constants reported identifiable" "$widf/$wtot
 printf '%-62s %-22s %-10s %s\n' "held-out polish, [fit] / defaults, ${HELDOUT_REPS:-10} seeds: within tolerance" "$hwithin/$htotal" - -
 printf '%-62s %-22s %-10s %s\n' "  confidently wrong / not identifiable" "$hwrong / $hunid" "0 / -" "$( (( htotal == 0 )) && echo - || ok "$hwrong == 0")"
 printf '%-62s %-22s %-10s %s\n' "  profile intervals holding the truth" "$(cover $hheld $htotal)" ">= 90 %" "$(covered $hheld $htotal)"
+printf '%-62s %-22s %-10s %s\n' "realistic session (issue 55): profile coverage, $sseeds seeds" "$(cover $sheld $stotal)" ">= 90 %" "$(covered $sheld $stotal)"
+printf '%-62s %-22s %-10s %s\n' "  global optimum reached (cost within 0.1 % of truth held)" "$sglobal/$sseeds" ">= 9/10" "$( (( sseeds == 0 )) && echo - || ok "$sglobal >= 0.9*$sseeds")"
+printf '%-62s %-22s %-10s %s\n' "  confident misses (identifiable, interval or tolerance off)" "$smiss of $stotal" - -
+printf '%-62s %-22s %-10s %s\n' "  default calibration wall per seed: max / mean" "$swmax s / $($PY -c "print(f'{$swsum/max($sseeds,1):.1f}')") s" "<= 180 s" "$( (( sseeds == 0 )) && echo - || ok "$swmax <= 180")"
+printf '%-62s %-22s %-10s %s\n' "  plunges only: seeds whose trabecular intervals all hold" "$strab/$sseeds" ">= 9/10" "$( (( sseeds == 0 )) && echo - || ok "$strab >= 0.9*$sseeds")"
 printf '%s\n' "force alone -> force, moments and spindle load (profile interval width hi/lo, error against the truth):"
 printf '%s\n' "$chan"

@@ -69,27 +69,36 @@ Offsets offsets_at(const RecordingNuisance& nz, const double* x) {
 
 // A predicted series at t_j − lag, linear between the samples (held at the ends), and its
 // slope there (per s). The drive's own lag shifts the predicted load, which is smooth,
-// rather than the measured one, whose slope is its noise.
+// rather than the measured one, whose slope is its noise. On a sample (a lag of 0, where
+// every fit starts) the slope is the central difference: a one-sided one, or none, would
+// leave the lag's gradient zero at its start and the lag where it started.
 struct Shifted {
-  std::size_t i = 0;  // t_s[i] ≤ t < t_s[i + 1]
-  double u = 0;       // the weight of t_s[i + 1]
-  double dt = 0;      // t_s[i + 1] − t_s[i] (0 at the ends)
+  std::size_t i = 0;        // t_s[i] ≤ t < t_s[i + 1]
+  double u = 0;             // the weight of t_s[i + 1]
+  double dt = 0;            // t_s[i + 1] − t_s[i] (0 at the ends)
+  std::size_t s0 = 0, s1 = 0;  // the slope's samples
+  double sdt = 0;           // t_s[s1] − t_s[s0] (0: no slope)
   template <class V>
   double value(const V& v) const { return dt > 0 ? (1 - u) * v[i] + u * v[i + 1] : v[i]; }
   template <class V>
-  double slope(const V& v) const { return dt > 0 ? (v[i + 1] - v[i]) / dt : 0.0; }
+  double slope(const V& v) const { return sdt > 0 ? (v[s1] - v[s0]) / sdt : 0.0; }
 };
 Shifted shifted(const std::vector<double>& t_s, std::size_t j, double lag_ms) {
   Shifted s;
   s.i = j;
-  if (lag_ms == 0 || t_s.size() < 2) return s;
+  const std::size_t n = t_s.size();
+  if (n < 2) return s;
   const double t = t_s[j] - 1e-3 * lag_ms;
   if (t <= t_s.front()) { s.i = 0; return s; }
-  if (t >= t_s.back()) { s.i = t_s.size() - 1; return s; }
+  if (t >= t_s.back()) { s.i = n - 1; return s; }
   const auto it = std::upper_bound(t_s.begin(), t_s.end(), t);
   s.i = std::size_t(it - t_s.begin()) - 1;
   s.dt = t_s[s.i + 1] - t_s[s.i];
   s.u = (t - t_s[s.i]) / s.dt;
+  s.s0 = s.i;
+  s.s1 = s.i + 1;
+  if (s.u == 0 && s.i > 0) s.s0 = s.i - 1;  // on a sample: central
+  s.sdt = t_s[s.s1] - t_s[s.s0];
   return s;
 }
 

@@ -143,6 +143,14 @@ double noise_floor_cost(const Run& run);
 // above the noise. Empty: nothing speaks against it.
 std::vector<std::string> optimum_doubts(const Run& run, const SearchTally& t, const std::string& cheaper_left);
 
+// A pose correction whose Mahalanobis² against its fiducial prior exceeds this (χ²₆(0.999))
+// is a finding: the data disagree with the fiducials (docs/calibration.md "Registration").
+inline constexpr double kPosePriorLimit = 22.458;
+// fit.json settings.registration (every recording's registration, the pose correction
+// applied, its TRE and prior check); appends its summary lines to `text` and its findings
+// to run.warnings.
+nlohmann::json registration_report(Run& run, std::string& text);
+
 void select_recordings(Run& run);   // recordings, classes, layout, pool, weights, σ
 CoarseLevel& coarse_level(Run& run);  // built on first use (after choose_steps)
 // A replay-backed model of one recording with the run's derivatives, steps and channels.

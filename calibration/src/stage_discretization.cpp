@@ -76,6 +76,9 @@ void discretization_check(Run& run) {
   so.threads = run.opt.threads;
   so.progress = run.opt.progress;
   so.hold = run.unc.held;
+  // Unconfirmed constants are held in params.toml, not in this refit: the grid may be why.
+  for (std::size_t i = 0; i < so.hold.size() && i < run.verdict.size(); ++i)
+    if (run.verdict[i] == "unconfirmed") so.hold[i] = false;
   // The coarse cost is textured at the voxel scale, so near its optimum many steps are
   // rejected; each costs only a plain coarse replay (objective.cpp, the line search's
   // interpolation), so the refit runs to convergence: a rule that stopped it after a few
@@ -92,35 +95,41 @@ void discretization_check(Run& run) {
     return;
   }
   // Is the grid what limits the constants? Discretization error at l shows as a misfit
-  // at l above the noise that grows at 2l. A fit at l that follows the data to the noise
-  // shows no discretization error there (the refit at 2l then measures the coarse model,
-  // not this one: data made on the fit's own grid); a misfit the same at both (an optimum
-  // that does not fit, a model error of another kind) moves constants between the grids
-  // along a flat valley of that misfit and says nothing about the voxel. So: the fit at l
-  // misfits (rms(residual/σ) above kMisfitAtFine, past the few per cent a σ estimated
-  // from the no-contact samples is off), and the coarse cost rises significantly (p <
-  // 0.001 for one parameter, in the profile threshold's unit) and by a tenth of that
-  // excess misfit at least (docs/calibration.md "Discretization").
+  // at l above the noise that changes at 2l: it grows where the bone is finer than both
+  // grids, and falls where the data resemble the coarse grid more than the fine one (data
+  // made on a grid of 2l). A fit at l that follows the data to the noise shows no
+  // discretization error there (the refit at 2l then measures the coarse model, not this
+  // one: data made on the fit's own grid); a misfit the same at both (an optimum that does
+  // not fit, a model error of another kind) moves constants between the grids along a flat
+  // valley of that misfit and says nothing about the voxel. So: the fit at l misfits
+  // (rms(residual/σ) above kMisfitAtFine, past the few per cent a σ estimated from the
+  // no-contact samples is off), and the coarse cost differs significantly (p < 0.001 for
+  // one parameter, in the profile threshold's unit) and by a tenth of that excess misfit
+  // at least (docs/calibration.md "Discretization check").
   constexpr double kMisfitAtFine = 1.1;
   const double dof = double(run.ev.residuals_used) - double(L.size());
   const double rise = fit.final_cost - run.fit.final_cost;
   const double excess = std::max(0.0, run.fit.final_cost - 0.5 * dof);
   const double rms_fine = run.ev.residuals_used ? std::sqrt(2 * run.fit.final_cost / double(run.ev.residuals_used)) : NAN;
   const double significant = 0.5 * 10.828 * run.residual_scale;  // χ²₁(0.999)/2
-  const bool grid_explains = rms_fine > kMisfitAtFine && rise > significant && rise > 0.1 * excess;
+  const bool grid_explains =
+      rms_fine > kMisfitAtFine && std::abs(rise) > significant && std::abs(rise) > 0.1 * excess;
   run.coarse_cost_rise = rise;
   run.coarse_grid_explains = grid_explains;
   std::vector<std::string> not_grid;
   for (auto& fp : run.out.parameters) {
     const PhysicsParam* p = physics_of(L, fp);
-    if (!p || p->index < 0 || fp.fixed || !fp.identifiable) continue;
+    // An optimum in doubt only for its misfit may owe that misfit to the grid: the check
+    // runs for its constants too and says so (they stay unconfirmed).
+    if (!p || p->index < 0 || fp.fixed || (!fp.identifiable && fp.verdict != "unconfirmed")) continue;
     const std::size_t i = std::size_t(p->index);
     const double err = std::abs(fit.x[i] - run.x[i]);
     fp.coarse_estimate = std::exp(fit.x[i]);
     fp.discretization_error_log = err;
     const auto [lo, hi] = check_interval(fp);
     if (!(lo > 0) || !(hi > 0)) continue;
-    const double half = std::max(std::log(hi / fp.estimate), std::log(fp.estimate / lo));
+    const double est = std::isfinite(fp.estimate) ? fp.estimate : fp.held;  // an unconfirmed one is held
+    const double half = std::max(std::log(hi / est), std::log(est / lo));
     fp.ci95_with_discretization_low = lo * std::exp(-err);
     fp.ci95_with_discretization_high = hi * std::exp(err);
     fp.limited_by_discretization = err > 0.5 * half && grid_explains;

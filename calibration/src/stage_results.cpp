@@ -235,6 +235,8 @@ CalibrationOutput results(Run& run) {
                     {"threshold", "chi2_1(0.95)/2 x residual variance x noise-model inflation"},
                     {"restarts_from_profile", run.restarts}};
   st["optimum_doubts"] = run.doubts;
+  std::string reg_text;
+  st["registration"] = registration_report(run, reg_text);  // may warn
   st["warnings"] = run.warnings;
   st["discretization_check"] = {
       {"computed", std::isfinite(run.coarse_voxel_mm)},
@@ -242,8 +244,9 @@ CalibrationOutput results(Run& run) {
       {"method", "refit from the optimum on the sample with voxels merged by 2; error of ln(theta) = "
                  "|ln theta_2l - ln theta_l| (Richardson, first order); limited when above half the 95 % "
                  "interval's half-width in ln(theta), the fit at l misfits (rms(residual/sigma) > 1.1) and the "
-                 "refit's cost at 2l rises significantly above it (p < 0.001, and by a tenth of the misfit in excess "
-                 "of the noise at l); interval widened by it on both sides"},
+                 "refit's cost at 2l differs significantly from it, up or down (p < 0.001, and by a tenth of the "
+                 "misfit in excess of the noise at l); interval widened by it on both sides; unconfirmed constants "
+                 "are refitted and checked too"},
       {"cost_rise_at_coarse", std::isfinite(run.coarse_cost_rise) ? nlohmann::json(run.coarse_cost_rise) : nlohmann::json(nullptr)},
       {"grid_explains_the_move", run.coarse_grid_explains},
       {"refit_termination", run.coarse_termination.empty() ? nlohmann::json(nullptr) : nlohmann::json(run.coarse_termination)},
@@ -254,60 +257,6 @@ CalibrationOutput results(Run& run) {
       {"used", run.opt.coarse_to_fine},
       {"coarse_voxel_mm", run.opt.coarse_to_fine && run.coarse ? nlohmann::json(run.coarse->voxel_mm) : nlohmann::json(nullptr)},
       {"coarse_cost", std::isfinite(run.coarse_cost) ? nlohmann::json(run.coarse_cost) : nlohmann::json(nullptr)}};
-  nlohmann::json reg = nlohmann::json::object();
-  std::string reg_text;
-  for (std::size_t q = 0; q < run.recs.size(); ++q) {
-    const auto* r = run.recs[q];
-    const auto& g = r->registration;
-    auto n = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-    reg[r->id] = {{"method", g.method}, {"fiducials", g.fiducials}, {"rms_mm", n(g.rms_mm)},
-                  {"max_mm", n(g.max_mm)}, {"worst_fiducial", g.worst}, {"fle_mm", n(g.fle_mm)},
-                  {"fle_given", g.fle_given}, {"tre_path_rms_mm", n(g.tre_path_rms_mm)},
-                  {"tre_path_max_mm", n(g.tre_path_max_mm)}};
-    const auto& nz = L.recordings()[q];
-    if (nz.pose < 0) continue;
-    // TRE after the fit: the pose correction's posterior covariance mapped to the burr
-    // centre along the path, √trace(J Σ Jᵀ), J = [e_k × (p − c) | I].
-    const auto& m = L.mountings()[std::size_t(nz.mounting)];
-    std::array<int, 6> at{};
-    bool all = true;
-    for (int k = 0; k < 6; ++k) {
-      at[std::size_t(k)] = -1;
-      for (std::size_t a = 0; a < out.covariance.names.size(); ++a)
-        if (out.covariance.names[a] == L.name(std::size_t(m.offset + k))) at[std::size_t(k)] = int(a);
-      all &= at[std::size_t(k)] >= 0;
-    }
-    double ss = 0, mx = 0;
-    const auto tr = r->trajectory(nz.lag >= 0 ? run.x[std::size_t(nz.lag)] * 1e-3 : nz.lag_fixed_ms * 1e-3);
-    if (all)
-      for (const auto& p : tr.centre_vol_mm) {
-        glm::dvec3 col[6];
-        for (int k = 0; k < 6; ++k) {
-          glm::dvec3 e(0);
-          e[k % 3] = 1;
-          col[k] = k < 3 ? glm::cross(e, p - m.centre_vol_mm) : e;
-        }
-        double v = 0;
-        for (int a = 0; a < 6; ++a)
-          for (int b = 0; b < 6; ++b)
-            v += glm::dot(col[a], col[b]) * out.covariance.at(std::size_t(at[std::size_t(a)]), std::size_t(at[std::size_t(b)]));
-        ss += std::max(0.0, v);
-        mx = std::max(mx, std::sqrt(std::max(0.0, v)));
-      }
-    const double rms = all && !tr.centre_vol_mm.empty() ? std::sqrt(ss / double(tr.centre_vol_mm.size())) : NAN;
-    auto val = [&](int k) { return run.x[std::size_t(m.offset + k)]; };
-    reg[r->id]["pose_correction"] = {{"mounting", m.name},
-                                     {"rotation_rad", {val(0), val(1), val(2)}},
-                                     {"translation_mm", {val(3), val(4), val(5)}},
-                                     {"centre_vol_mm", {m.centre_vol_mm.x, m.centre_vol_mm.y, m.centre_vol_mm.z}},
-                                     {"tre_after_fit_rms_mm", n(rms)},
-                                     {"tre_after_fit_max_mm", all ? n(mx) : nlohmann::json(nullptr)}};
-    reg_text += fmt::format("  {}: pose correction of {}: rotation ({:.3g}, {:.3g}, {:.3g}) mrad, translation "
-                            "({:.3g}, {:.3g}, {:.3g}) um; TRE after the fit along the path RMS {:.3g} um\n",
-                            r->id, m.name, 1e3 * val(0), 1e3 * val(1), 1e3 * val(2), 1e3 * val(3), 1e3 * val(4),
-                            1e3 * val(5), 1e3 * rms);
-  }
-  st["registration"] = reg;
   st["depth_offset_bound_mm"] = 0.5 * run.exp.manifest.burr.radius_mm;
   st["threads"] = run.opt.threads;
   // The files as they were read (hashed then), not as they are now.

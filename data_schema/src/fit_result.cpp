@@ -63,6 +63,23 @@ const FitParameter* FitResult::parameter(std::uint8_t class_id, const std::strin
 
 std::string unit_suffix(std::string_view unit) { return unit == "1" ? std::string() : " " + std::string(unit); }
 
+namespace {
+
+std::string describe_discretization(const FitParameter& p, const std::string& head, double coarse_voxel_mm) {
+  if (!p.limited_by_discretization) return {};
+  auto num = [](double x) { return std::isnan(x) ? std::string("—") : fmt::format("{:.6g}", x); };
+  const std::string at = std::isfinite(coarse_voxel_mm) ? fmt::format("voxel {:.4g} mm", coarse_voxel_mm)
+                                                        : std::string("twice the voxel");
+  return std::isfinite(p.ci95_with_discretization_low)
+             ? fmt::format("{}   LIMITED by discretization error: {} at {}; with that error [{}, {}]\n", head,
+                           num(p.coarse_estimate), at, num(p.ci95_with_discretization_low),
+                           num(p.ci95_with_discretization_high))
+             : fmt::format("{}   LIMITED by discretization error: the refit at {} ran into its bound; verify on a "
+                           "finer sample\n", head, at);
+}
+
+}  // namespace
+
 std::string describe_fit_parameter(const FitParameter& p, double coarse_voxel_mm) {
   auto num = [](double x) { return std::isnan(x) ? std::string("—") : fmt::format("{:.6g}", x); };
   auto interval = [&](double lo, double hi) { return fmt::format("[{}, {}]", num(lo), num(hi)); };
@@ -81,7 +98,7 @@ std::string describe_fit_parameter(const FitParameter& p, double coarse_voxel_mm
                                                                         : "NOT identifiable";
     std::string s = fmt::format("{}   {} (held {}{}): {}\n", head, v, num(p.held), u, p.reason);
     if (profiled) s += fmt::format("{}   {}\n", head, profile(p.profile_ci95_low, p.profile_ci95_high));
-    return s;
+    return s + describe_discretization(p, head, coarse_voxel_mm);
   }
   std::string s = fmt::format("{} = {}{}", head, num(p.estimate), u);
   if (profiled) s += " " + profile(p.profile_ci95_low, p.profile_ci95_high) + ";";
@@ -89,16 +106,7 @@ std::string describe_fit_parameter(const FitParameter& p, double coarse_voxel_mm
   if (std::isfinite(p.bootstrap_ci95_low)) s += "; bootstrap " + interval(p.bootstrap_ci95_low, p.bootstrap_ci95_high);
   s += "\n";
   if (p.verdict == "imprecise") s += fmt::format("{}   IMPRECISE: {}\n", head, p.reason);
-  if (p.limited_by_discretization) {
-    const std::string at = std::isfinite(coarse_voxel_mm) ? fmt::format("voxel {:.4g} mm", coarse_voxel_mm)
-                                                          : std::string("twice the voxel");
-    s += std::isfinite(p.ci95_with_discretization_low)
-             ? fmt::format("{}   LIMITED by discretization error: {} at {}; with that error {}\n", head,
-                           num(p.coarse_estimate), at, interval(p.ci95_with_discretization_low, p.ci95_with_discretization_high))
-             : fmt::format("{}   LIMITED by discretization error: the refit at {} ran into its bound; verify on a "
-                           "finer sample\n", head, at);
-  }
-  return s;
+  return s + describe_discretization(p, head, coarse_voxel_mm);
 }
 
 void validate(const FitResult& f, const std::string& file) {
