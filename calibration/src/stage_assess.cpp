@@ -181,9 +181,14 @@ void assess(Run& run) {
         run.warnings.push_back(fmt::format("a profile point is still cheaper than the optimum "
                                            "(cost {:.6g} < {:.6g}) after {} restarts",
                                            cheaper->lower_cost, run.fit.final_cost, run.restarts));
-        cheaper_left = fmt::format("a profile point of {} is cheaper than the optimum (cost {:.6g} < {:.6g}) after {} "
-                                   "restarts", L.name(cheaper->entry), cheaper->lower_cost, run.fit.final_cost,
-                                   run.restarts);
+        // A point cheaper by less than the profile threshold lies in the optimum's own basin
+        // (the search counts such ends as reaching it): the voxel texture of the cost, not
+        // another optimum. Only a point cheaper by more puts the optimum in doubt.
+        if (run.fit.final_cost - cheaper->lower_cost > run.threshold)
+          cheaper_left = fmt::format("a profile point of {} is cheaper than the optimum by more than the profile "
+                                     "threshold (cost {:.6g} < {:.6g} − {:.3g}) after {} restarts",
+                                     L.name(cheaper->entry), cheaper->lower_cost, run.fit.final_cost, run.threshold,
+                                     run.restarts);
       }
       break;
     }
