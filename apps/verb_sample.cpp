@@ -42,13 +42,29 @@ void check_out_not_input(const std::string& out, const std::vector<std::string>&
   burrbench::apps::refuse_output_over_inputs(out, "--out", inputs);
 }
 
+// Issue 59, D6b: the files a volume's reader found and opened (a header's detached data
+// file, a stack's slices, a DICOM folder's files, a SkyScan log) are inputs as much as the
+// paths on the command line, so --out never replaces one, not even with --overwrite.
+// Checked as soon as the volume is read, before any resampling, segmentation or write.
+void refuse_output_over_files_read(const std::string& out, const ImageVolume& v, const char* option,
+                                   const std::string& given) {
+  if (out.empty()) return;
+  std::vector<fs::path> read = v.files;
+  read.insert(read.end(), v.set_aside.begin(), v.set_aside.end());
+  for (const auto& f : read)
+    if (same_file(out, f))
+      throw InputError(out, "--out", "a file that is not one of the inputs (inputs are never replaced, not even with --overwrite)",
+                       fmt::format("{}, which {} {} reads", f.string(), option, given));
+}
+
 ImageVolume load(const std::vector<std::string>& paths, const ImportArgs& a, Interpolation interp, const ImportLimits& lim,
-                 const char* what) {
+                 const char* what, const char* option) {
   ReadOptions opt;
   if (!a.spacing.empty()) opt.spacing_mm = glm::dvec3(a.spacing[0], a.spacing[1], a.spacing[2]);
   opt.dicom_series = a.dicom_series;
   ImageVolume v = read_volume(std::vector<fs::path>(paths.begin(), paths.end()), opt, lim);
   const std::string path = paths.size() == 1 ? paths[0] : fmt::format("{} files from {}", paths.size(), paths[0]);
+  refuse_output_over_files_read(a.out, v, option, path);
   if (a.resample || a.voxel_mm > 0) {
     const double vox = a.voxel_mm > 0 ? a.voxel_mm : std::min({v.spacing_mm.x, v.spacing_mm.y, v.spacing_mm.z});
     if (!is_cubic(v) || std::abs(vox - v.spacing_mm.x) > 1e-9 * vox) {
@@ -83,16 +99,16 @@ void run_import(const ImportArgs& a) {
   nlohmann::json settings;
   std::optional<TerminalProgress> progress;  // a lab CT takes minutes to segment
   if (!a.labels.empty()) {
-    const ImageVolume labels = load({a.labels}, a, Interpolation::kNearest, lim, "labels");
+    const ImageVolume labels = load({a.labels}, a, Interpolation::kNearest, lim, "labels", "--labels");
     std::optional<ImageVolume> fraction;
-    if (!a.fraction.empty()) fraction = load({a.fraction}, a, Interpolation::kTrilinear, lim, "fraction");
+    if (!a.fraction.empty()) fraction = load({a.fraction}, a, Interpolation::kTrilinear, lim, "fraction", "--fraction");
     std::vector<fs::path> inputs = labels.files;
     if (fraction) inputs.insert(inputs.end(), fraction->files.begin(), fraction->files.end());
     prov = make_provenance(inputs);
     s = sample_from_labels(labels, fraction, a.labels, a.fraction);
     settings = nlohmann::json::parse(s.segmentation_json);
   } else {
-    const ImageVolume ct = load(a.ct, a, Interpolation::kTrilinear, lim, "CT");
+    const ImageVolume ct = load(a.ct, a, Interpolation::kTrilinear, lim, "CT", "--ct");
     std::vector<fs::path> read = ct.files;
     SegmentationSettings seg = a.seg;
     seg.threshold = a.threshold;
@@ -206,7 +222,7 @@ void setup(CLI::App& root) {
     check_out_not_input(a.out, inputs);
     burrbench::apps::refuse_existing(a.out, "--out", a.overwrite);
     const ImportLimits lim{static_cast<std::size_t>(a.budget_mb * double(1 << 20))};
-    ImageVolume v = load(a.ct, a, Interpolation::kTrilinear, lim, "CT");
+    ImageVolume v = load(a.ct, a, Interpolation::kTrilinear, lim, "CT", "--ct");
     std::vector<fs::path> read = v.files;
     nlohmann::json info = v.source_info;
     if (!a.density.empty()) {

@@ -333,3 +333,19 @@ def test_files_cut_short_or_not_dicom(tmp_path):
     s = make_series(tmp_path / "s", n=3)
     s[1][0].write_bytes(s[1][0].read_bytes()[:-4000])
     refused_export(tmp_path, [tmp_path / "s"], s[1][0], label="one damaged slice")
+
+
+def test_overwrite_never_replaces_a_file_of_the_series_set_aside(tmp_path):
+    # Issue 59, D6b: a DICOM folder's other series is opened (to learn its UID) and set
+    # aside; its files are inputs all the same, which --out --overwrite never replaces.
+    make_series(tmp_path / "mix", n=3, uid="1.2.3.4.100", seed=1)
+    make_series(tmp_path / "other", n=2, uid="1.2.3.4.200", seed=2)
+    for p in (tmp_path / "other").iterdir():
+        shutil.move(str(p), tmp_path / "mix" / ("b" + p.name))
+    for name in sorted(os.listdir(tmp_path / "mix")):
+        target = tmp_path / "mix" / name
+        before = target.read_bytes()
+        r = run("sample", "export-ct", "--ct", tmp_path / "mix", "--dicom-series", "1.2.3.4.100", "--out", target,
+                "--overwrite")
+        assert_refused(r.returncode, r.stderr, target, "not one of the inputs", "--ct", label=f"DICOM {name}")
+        assert target.read_bytes() == before

@@ -301,3 +301,71 @@ def test_a_ct_replaced_while_it_is_segmented_leaves_no_sample(tmp_path):
                                 "when read)"), lines[-1]
     assert lines[-1].endswith(f"got changed (now {sha(C)[:12]}…)"), lines[-1]
     assert not out.exists() and sorted(f.name for f in tmp_path.iterdir()) == ["CT.nrrd"]
+
+
+# --- issue 59, D6b: a file found while reading is an input, never replaced ---------------
+
+def _detached_nrrd(tmp_path):
+    labels, _ = phantom((3, 4, 5), seed=7)
+    write_nrrd(tmp_path / "det.nhdr", labels, spacing=(0.2,) * 3, detached=True)
+    return [tmp_path / "det.nhdr"], tmp_path / "det.raw", []
+
+
+def _detached_metaimage(tmp_path):
+    labels, _ = phantom((3, 4, 5), seed=8)
+    write_metaimage(tmp_path / "det.mhd", labels, spacing=(0.2,) * 3, detached=True)
+    return [tmp_path / "det.mhd"], tmp_path / "det.raw", []
+
+
+def _slice_stack(tmp_path):
+    labels, _ = phantom((4, 3, 5), seed=9)
+    d = tmp_path / "stack"
+    d.mkdir()
+    for z in range(4):
+        write_png(d / f"s{z}.png", labels[z])
+    return [d], d / "s2.png", ["--spacing-mm", "0.2,0.2,0.2"]
+
+
+@pytest.mark.parametrize("make", [_detached_nrrd, _detached_metaimage, _slice_stack], ids=["nhdr data file",
+                                                                                        "mhd ElementDataFile",
+                                                                                        "stack slice"])
+@pytest.mark.parametrize("option", ["--labels", "--fraction", "--ct"])
+def test_overwrite_never_replaces_a_file_the_reader_found(tmp_path, make, option):
+    # `sample import --labels det.nhdr --out det.raw --overwrite` replaced the header's data
+    # file with the sample (exit 0); so did a .mhd's ElementDataFile and a stack's slice.
+    given, found, extra = make(tmp_path)
+    snapshot = {p: sha(p) for p in tmp_path.rglob("*") if p.is_file()}
+    if option == "--fraction":  # the labels from elsewhere; the fraction volume holds the data file
+        labels, _ = phantom((3, 4, 5) if given[0].is_file() else (4, 3, 5), seed=7)
+        write_nrrd(tmp_path / "L.nrrd", labels, spacing=(0.2,) * 3)
+        snapshot[tmp_path / "L.nrrd"] = sha(tmp_path / "L.nrrd")
+        args = ["--labels", tmp_path / "L.nrrd", "--fraction", *given]
+    else:
+        args = [option, *given]
+    r = run("sample", "import", *args, *extra, "--out", found, "--overwrite")
+    assert_refused(r.returncode, r.stderr, found, "--out", "not one of the inputs", "not even with --overwrite",
+                   str(given[0]), label=f"{option} {found.name}")
+    assert {p: sha(p) for p in snapshot} == snapshot, "no input changed"
+    assert sorted(p for p in tmp_path.rglob("*") if p.is_file()) == sorted(snapshot), "nothing written"
+    # Without --overwrite it is refused as an existing file (the earlier check), before reading.
+    r = run("sample", "import", *args, *extra, "--out", found)
+    assert r.returncode == 2 and "--overwrite" in r.stderr
+    # The same file through another spelling and through a hard link is the same input.
+    other = tmp_path / "other"
+    other.mkdir()
+    os.link(found, other / "link")
+    for out in (other / ".." / found.relative_to(tmp_path), other / "link"):
+        r = run("sample", "import", *args, *extra, "--out", out, "--overwrite")
+        assert_refused(r.returncode, r.stderr, out, "not one of the inputs", label=f"{option} via {out.name}")
+    assert {p: sha(p) for p in snapshot} == snapshot
+
+
+def test_export_ct_never_replaces_the_data_file_it_read(tmp_path):
+    given, found, _ = _detached_nrrd(tmp_path)
+    before = sha(found)
+    r = run("sample", "export-ct", "--ct", *given, "--out", found, "--overwrite")
+    assert_refused(r.returncode, r.stderr, found, "not one of the inputs", str(given[0]), label="export-ct data file")
+    assert sha(found) == before
+    # An output beside it, not read, is written as before.
+    r = run("sample", "export-ct", "--ct", *given, "--out", tmp_path / "ct.nrrd")
+    assert r.returncode == 0, r.stderr

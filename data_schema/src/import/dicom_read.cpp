@@ -335,8 +335,11 @@ ImageVolume read_dicom(const std::vector<fs::path>& inputs, const DicomOptions& 
     throw InputError(where, "SeriesInstanceUID (0020,000E)", "the series " + uid + " given by --dicom-series among: " + list());
   }
   std::vector<Slice> slices;
-  for (auto& s : all)
+  std::vector<fs::path> set_aside;  // the other series' files, opened to learn their UIDs
+  for (auto& s : all) {
     if (s.series_uid == uid) slices.push_back(std::move(s));
+    else set_aside.push_back(s.file);
+  }
   const Slice& first = slices.front();
   const std::string f0 = first.file.string();
 
@@ -455,6 +458,7 @@ ImageVolume read_dicom(const std::vector<fs::path>& inputs, const DicomOptions& 
     read_pixels(slices[z], v.values.data() + z * per_slice);
     v.files.push_back(slices[z].file);
   }
+  v.set_aside = std::move(set_aside);
   const glm::dvec3 origin = first.position ? *slices.front().position : glm::dvec3(0, 0, 0);
   apply_axis_aligned(v, {r * spacing.x, c * spacing.y, n * spacing.z}, origin, f0, "ImageOrientationPatient (0020,0037)");
 

@@ -40,6 +40,9 @@ struct ImageVolume {
   VoxelType source_type = VoxelType::kFloat32;
   std::vector<float> values;                 // every supported type is exact in float32
   std::vector<std::filesystem::path> files;  // every file read (header, data file, slices)
+  // Files opened while reading but not part of the volume (a DICOM folder's other series):
+  // not in the provenance, yet inputs all the same, which no output may replace.
+  std::vector<std::filesystem::path> set_aside;
   nlohmann::json source_info = nlohmann::json::object();  // what the reader learnt (DICOM series,
                                              // rescale, SkyScan/ISQ keys): into provenance
   std::size_t voxel_count() const { return dims[0] * dims[1] * dims[2]; }
