@@ -40,6 +40,13 @@ bool valid_id(const std::string& id) {
 
 std::string number(double v) { return fmt::format("{}", v); }
 
+// The import command's option for a study key: threshold_mg_cm3 → --threshold-mg-cm3.
+std::string flag(std::string key) {
+  for (char& c : key)
+    if (c == '_') c = '-';
+  return "--" + key;
+}
+
 // The experiment's samples and recordings as its TOML names them (ids, paths relative
 // to it), read without their files: those the study imports do not exist yet.
 struct ExperimentFiles {
@@ -132,16 +139,22 @@ Import sample_import(const ds::TomlView& v, const ExperimentFiles& ef, const fs:
       if (!v.has("density")) v.fail("threshold_mg_cm3", "density (a phantom calibration) with it");
       imp.args.insert(imp.args.end(), {"--threshold-mg-cm3", number(*t)});
     }
+    if (v.has("threshold_mg_cm3") && v.has("threshold"))
+      v.fail("threshold", "either threshold or threshold_mg_cm3, not both");
+    if (v.has("density"))
+      for (const char* k : {"empty_grey", "bone_grey"})
+        if (v.has(k)) v.fail(k, "no grey calibration with density (the phantom gives χ = 0 and 1)");
     for (const char* k : {"threshold", "empty_grey", "bone_grey"})
-      if (auto x = v.opt_num(k)) imp.args.insert(imp.args.end(), {fmt::format("--{}", k), number(*x)});
-    for (const char* k : {"bvtv_radius_mm", "envelope_radius_mm", "compact_open_mm"})
-      if (v.has(k)) imp.args.insert(imp.args.end(), {fmt::format("--{}", k), number(v.positive(k))});
+      if (auto x = v.opt_num(k)) imp.args.insert(imp.args.end(), {flag(k), number(*x)});
+    if (v.has("bvtv_radius_mm")) imp.args.insert(imp.args.end(), {flag("bvtv_radius_mm"), number(v.positive("bvtv_radius_mm"))});
+    for (const char* k : {"envelope_radius_mm", "compact_open_mm"})
+      if (v.has(k)) imp.args.insert(imp.args.end(), {flag(k), number(v.non_negative(k))});
     if (auto b = v.opt_num("compact_bvtv")) {
       if (!(*b > 0 && *b <= 1)) v.fail("compact_bvtv", "a bone volume fraction in (0, 1]", number(*b));
       imp.args.insert(imp.args.end(), {"--compact-bvtv", number(*b)});
     }
     for (const char* k : {"bone_open", "bone_close", "compact_close"})
-      if (v.has(k)) imp.args.insert(imp.args.end(), {fmt::format("--{}", k), std::to_string(v.integer(k, 0, 100))});
+      if (v.has(k)) imp.args.insert(imp.args.end(), {flag(k), std::to_string(v.integer(k, 0, 50))});
   }
   if (labels)
     for (const char* k : {"dicom_series", "density", "threshold_mg_cm3", "threshold", "empty_grey", "bone_grey",

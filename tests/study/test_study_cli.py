@@ -108,6 +108,57 @@ def test_raw_specimens_are_imported_before_they_are_calibrated(made):
     assert "import" not in " ".join(f.name for f in (r / "logs").glob("P03.*"))
 
 
+def test_a_grey_ct_is_imported_with_the_study_s_segmentation_options(made, tmp_path):
+    # The study's keys become `sample import` options: its plan's command, run as the
+    # import job runs it, segments a grey CT (here the bone fraction written as NRRD) with
+    # every option the study gave, and the sample records them.
+    study_toml = tmp_path / "ct.toml"
+    study_toml.write_text(f"""format = "burrbench.study"
+format_version = "1.1"
+name = "a CT to segment"
+[[specimen]]
+id = "P01"
+experiment = "{made}/P01/experiment.toml"
+  [specimen.sample]
+  ct = "{made}/P01/ct_fraction.nrrd"
+  voxel_mm = 0.1
+  threshold = 0.5
+  empty_grey = 0.0
+  bone_grey = 1.0
+  bvtv_radius_mm = 0.3
+  compact_bvtv = 0.85
+  envelope_radius_mm = 0.4
+  compact_open_mm = 0.2
+  bone_open = 0
+  bone_close = 1
+  compact_close = 1
+  fraction_encoding = "counter8"
+  budget_mb = 512
+""" + "".join(f"""  [[specimen.recording]]
+  id = "{rec}"
+  raw_csv = "{made}/P01/{rec}.csv"
+  column_map = "{made}/labview_map.toml"
+""" for rec in RECORDINGS))
+    p = study("run", study_toml, "--out", tmp_path / "results", "--dry-run")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "rule import_sample:" in p.stdout + p.stderr
+    plan = json.loads((tmp_path / "results" / ".burrbench" / "plan.json").read_text())
+    args = plan["specimens"]["P01"]["imports"]["sample"]["S1"]["args"]
+    r = subprocess.run([BURRBENCH, "sample", "import", *args, "--out", tmp_path / "S1.h5"], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0, (args, r.stderr)
+    with h5py.File(tmp_path / "S1.h5", "r") as f:
+        seg = json.loads(f["segmentation_json"][()])
+        assert f["fraction"].attrs["encoding"].decode() == "counter255"
+    assert seg["threshold"] == 0.5 and seg["threshold_method"] == "given"
+    assert (seg["empty_grey"], seg["bone_grey"]) == (0.0, 1.0) and seg["empty_grey_source"] == "given"
+    assert (seg["bvtv_radius_mm"], seg["compact_bvtv"], seg["envelope_radius_mm"], seg["compact_open_mm"]) == (
+        0.3, 0.85, 0.4, 0.2)
+    assert (seg["bone_open_vox"], seg["bone_close_vox"], seg["compact_close_vox"]) == (0, 1, 1)
+    assert seg["memory_budget_bytes"] == 512 << 20 and seg["resampled"] is True
+    assert seg["voxels"]["compact"] > 0 and seg["voxels"]["trabecular"] > 0
+
+
 def test_the_release_criteria_pass_on_the_true_constants(made, tmp_path):
     # Issue 60: with 0.1 mm polishing strokes as the held-out recording, one specimen of the
     # former example study failed its own gate with its true constants (a noise ceiling,
