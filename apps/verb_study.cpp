@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdlib>
@@ -87,11 +88,32 @@ void write_if_changed(const fs::path& file, const std::string& text) {
   if (before != text) data_schema::write_file_atomic(file, text);
 }
 
+// The SHA-256 of every file a job reads, one line each: a folder (a slice stack, a DICOM
+// series, a SkyScan reconstruction) by each regular file in it, as the importers read it.
+std::string hashes(const std::vector<fs::path>& inputs) {
+  std::string text;
+  for (const auto& i : inputs) {
+    std::vector<fs::path> files{i};
+    if (fs::is_directory(i)) {
+      files.clear();
+      for (const auto& e : fs::directory_iterator(i))
+        if (e.is_regular_file()) files.push_back(e.path());
+      std::sort(files.begin(), files.end());
+    }
+    for (const auto& f : files) text += sha256_file(f) + "  " + f.string() + "\n";
+  }
+  return text;
+}
+
 // The resolved study as Snakemake's config: absolute paths, the calibrate options and per
 // specimen a fingerprint file — the SHA-256 of its manifest, sample and recordings —
 // that its calibration depends on instead of the files themselves. The fingerprint is
 // rewritten only when a hash changes, so jobs are content-addressed: touching or copying
 // a recording unchanged redoes nothing, changing one byte redoes that specimen.
+// A specimen with imports: each import (one sample or recording from raw files) gets a
+// fingerprint of its own (its command and the SHA-256 of the raw files it reads), its
+// output goes to specimens/ID/import/, and the specimen is calibrated from its manifest
+// with the imported paths put in (.burrbench/experiments/ID.toml).
 fs::path write_plan(const study::StudyManifest& s, const fs::path& out) {
   const fs::path dir = out / ".burrbench";
   fs::create_directories(dir / "inputs");
@@ -102,11 +124,30 @@ fs::path write_plan(const study::StudyManifest& s, const fs::path& out) {
   plan["calibrate_args"] = s.fit.calibrate_args();
   plan["specimens"] = json::object();
   for (const auto& sp : s.specimens) {
-    std::string fingerprint;
-    for (const auto& i : sp.inputs) fingerprint += sha256_file(i) + "  " + i.string() + "\n";
+    std::string fingerprint = hashes(sp.inputs);
+    fs::path experiment = sp.experiment;
+    json imports = {{"sample", json::object()}, {"recording", json::object()}}, imported = json::array();
+    if (!sp.imports.empty()) {
+      const fs::path import_dir = out / "specimens" / sp.id / "import";
+      const std::string text = study::resolved_experiment(sp, import_dir);
+      experiment = dir / "experiments" / (sp.id + ".toml");
+      fs::create_directories(experiment.parent_path());
+      write_if_changed(experiment, text);
+      fingerprint += sha256_bytes(text.data(), text.size()) + "  " + experiment.string() + "\n";
+      fs::create_directories(dir / "inputs" / sp.id);
+      for (const auto& imp : sp.imports) {
+        std::string command = fmt::format("burrbench {} import", imp.verb());
+        for (const auto& a : imp.args) command += " " + a;
+        const fs::path fp = dir / "inputs" / sp.id / fmt::format("{}.{}.sha256", imp.verb(), imp.id);
+        write_if_changed(fp, command + "\n" + hashes(imp.inputs));
+        imports[imp.verb()][imp.id] = {{"args", imp.args}, {"fingerprint", fp.string()}};
+        imported.push_back(fs::relative(study::imported_file(import_dir, imp), out).string());
+      }
+    }
     const fs::path fp = dir / "inputs" / (sp.id + ".sha256");
     write_if_changed(fp, fingerprint);
-    plan["specimens"][sp.id] = {{"experiment", sp.experiment.string()}, {"fingerprint", fp.string()}};
+    plan["specimens"][sp.id] = {{"experiment", experiment.string()}, {"fingerprint", fp.string()},
+                                {"imports", imports}, {"imported", imported}};
   }
   write_if_changed(dir / "plan.json", plan.dump(1) + "\n");
   return dir / "plan.json";
