@@ -402,9 +402,22 @@ RemovedBone read_removed(const h5::Reader& r, const std::string& id) {
 
 }  // namespace
 
+namespace {
+Prediction read_prediction_from(const h5::Reader& r);
+}  // namespace
+
 Prediction read_prediction(const std::filesystem::path& path) {
   const ReadingFile reading(path.string());  // names it if memory runs out
-  h5::Reader r(path);
+  return read_prediction_from(h5::Reader(path));
+}
+
+Prediction read_prediction_image(std::string_view image, const std::string& name) {
+  const ReadingFile reading(name);
+  return read_prediction_from(h5::Reader(image, name));
+}
+
+namespace {
+Prediction read_prediction_from(const h5::Reader& r) {
   const std::string file = r.file();
   h5::check_header(r, kPredictionFormat, kPredictionVersionMajor);
   r.expect_only("/", {"provenance", "recordings", "samples"});
@@ -429,5 +442,6 @@ Prediction read_prediction(const std::filesystem::path& path) {
   validate(p, file);
   return p;
 }
+}  // namespace
 
 }  // namespace burrbench::data_schema

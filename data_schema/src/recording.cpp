@@ -270,9 +270,22 @@ Stream read_stream(const h5::Reader& r, const std::string& name) {
 
 }  // namespace
 
+namespace {
+Recording read_recording_from(const h5::Reader& r);
+}  // namespace
+
 Recording read_recording(const std::filesystem::path& path) {
   const ReadingFile reading(path.string());  // names it if memory runs out
-  h5::Reader r(path);
+  return read_recording_from(h5::Reader(path));
+}
+
+Recording read_recording_image(std::string_view image, const std::string& name) {
+  const ReadingFile reading(name);
+  return read_recording_from(h5::Reader(image, name));
+}
+
+namespace {
+Recording read_recording_from(const h5::Reader& r) {
   const std::string file = r.file();
   const std::string version = h5::check_header(r, kRecordingFormat, kRecordingVersionMajor);
   r.expect_only("/", {"provenance", "meta", "streams", "events"});
@@ -359,5 +372,6 @@ Recording read_recording(const std::filesystem::path& path) {
   validate(rec, file);
   return rec;
 }
+}  // namespace
 
 }  // namespace burrbench::data_schema

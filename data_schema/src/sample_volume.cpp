@@ -164,9 +164,22 @@ SampleHeader read_sample_header(const std::filesystem::path& path) {
   return read_header(r);
 }
 
+namespace {
+SampleVolume read_sample_from(const h5::Reader& r);
+}  // namespace
+
 SampleVolume read_sample(const std::filesystem::path& path) {
   const ReadingFile reading(path.string());  // names it if memory runs out
-  h5::Reader r(path);
+  return read_sample_from(h5::Reader(path));
+}
+
+SampleVolume read_sample_image(std::string_view image, const std::string& name) {
+  const ReadingFile reading(name);
+  return read_sample_from(h5::Reader(image, name));
+}
+
+namespace {
+SampleVolume read_sample_from(const h5::Reader& r) {
   const SampleHeader h = read_header(r);  // dims within budget before any allocation
   SampleVolume v;
   v.dims = h.dims;
@@ -187,5 +200,6 @@ SampleVolume read_sample(const std::filesystem::path& path) {
   validate(v, r.file());
   return v;
 }
+}  // namespace
 
 }  // namespace burrbench::data_schema

@@ -52,6 +52,10 @@ ModbusLink::~ModbusLink() {
   if (ctx_) modbus_free(ctx_);
 }
 
+std::string ModbusLink::line(const DeviceSpec& d) {
+  return d.transport == Transport::Rtu ? "rtu " + d.serial : "tcp device " + d.name;
+}
+
 std::string ModbusLink::describe() const {
   return settings_.transport == Transport::Tcp
              ? fmt::format("tcp {}:{}", settings_.host, settings_.port)
@@ -196,6 +200,17 @@ int ModbusLink::read_tcp_checked(const DeviceSpec& d, const BlockSpec& b, std::u
   }
   for (int i = 0; i < b.count; ++i) regs[i] = u16(9 + 2 * i);
   return b.count;
+}
+
+bool ModbusLink::recover_after(const DeviceSpec& d, const ReadResult& r, const std::atomic<bool>* stop) {
+  if (r.status == ReadStatus::Ok || r.status == ReadStatus::Exception) return false;  // the reply answered the request
+  if (settings_.transport == Transport::Rtu) {
+    drain_late_reply(d, r.t_send_ns, stop);
+    return false;
+  }
+  if (!connected_) return false;  // already closed (disconnected): reconnected at the next deadline
+  close();
+  return true;
 }
 
 void ModbusLink::drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns, const std::atomic<bool>* stop) {

@@ -182,14 +182,17 @@ void check_disjoint(const TomlView& r, const ChannelSpec& c, std::map<int, std::
     }
 }
 
-DeviceSpec parse_device(const TomlView& r) {
-  r.allow({"name", "transport", "host", "port", "serial", "baud", "parity", "data_bits", "stop_bits",
-           "slave", "rate_hz", "timeout_ms", "late_reply_ms", "reconnect_backoff_ms", "reconnect_max_ms", "mode", "function", "start", "count", "blocks", "counter", "fifo",
-           "calibration", "channels", "status"});
-  DeviceSpec d;
+// parse_device's steps, in the order the checks are made (the first defect is the one
+// reported): the name, the line (TCP host or RS-485 serial settings, unit), the timing
+// (poll rate, timeouts, late replies, reconnects), the requests of one poll (blocks), the
+// mode and its counter, the FIFO, the channels, the status word, the calibration.
+void parse_name(const TomlView& r, DeviceSpec& d) {
   d.name = r.str("name");
   if (d.name.empty() || d.name.find_first_of("/. ") != std::string::npos)
     r.fail("name", "a non-empty name without '/', '.' or spaces", "\"" + d.name + "\"");
+}
+
+void parse_line(const TomlView& r, DeviceSpec& d) {
   const auto transport = r.str("transport");
   if (transport == "tcp") {
     d.transport = Transport::Tcp;
@@ -213,6 +216,9 @@ DeviceSpec parse_device(const TomlView& r) {
   } else {
     r.fail("transport", "\"tcp\" or \"rtu\"", "\"" + transport + "\"");
   }
+}
+
+void parse_timing(const TomlView& r, DeviceSpec& d) {
   d.rate_hz = r.num("rate_hz");
   if (!(d.rate_hz >= 0.001 && d.rate_hz <= 100000)) r.fail("rate_hz", "a rate in [0.001, 100000] Hz", fmt::format("{}", d.rate_hz));
   d.timeout_ms = r.num_or("timeout_ms", 100.0);
@@ -232,6 +238,9 @@ DeviceSpec parse_device(const TomlView& r) {
   if (!(d.reconnect_max_ms >= d.reconnect_backoff_ms && d.reconnect_max_ms <= 600000))
     r.fail("reconnect_max_ms", fmt::format("a wait in [reconnect_backoff_ms = {}, 600000] ms", d.reconnect_backoff_ms),
            fmt::format("{}", d.reconnect_max_ms));
+}
+
+void parse_blocks(const TomlView& r, DeviceSpec& d) {
   const auto parse_block = [](const TomlView& b) {
     BlockSpec k;
     const auto function = b.str_or("function", "holding");
@@ -264,6 +273,9 @@ DeviceSpec parse_device(const TomlView& r) {
   }
   d.start = d.blocks.front().start;
   for (const auto& b : d.blocks) d.count += b.count;
+}
+
+void parse_mode_and_counter(const TomlView& r, DeviceSpec& d) {
   const auto mode = r.str_or("mode", "latest");
   if (mode == "latest") d.mode = Mode::Latest;
   else if (mode == "fifo") d.mode = Mode::Fifo;
@@ -274,74 +286,81 @@ DeviceSpec parse_device(const TomlView& r) {
     d.counter = parse_field(cr, true);
     d.counter->address = place(cr, "register", d.counter->address, register_count(d.counter->type), d.blocks);
   }
-  if (d.mode == Mode::Fifo) {
-    if (!r.has("fifo")) r.fail("fifo", "a fifo table for mode = \"fifo\"", "missing");
-    if (d.counter) r.fail("counter", "no separate counter in fifo mode (fifo.counter is used)", "present");
-    const TomlView fr = r.table("fifo");
-    fr.allow({"counter", "first_register", "depth", "record_registers", "device_rate_hz", "record_counter"});
-    FifoSpec f;
-    const TomlView fcr = fr.table("counter");
-    f.counter = parse_field(fcr, true);
-    f.counter.address = place(fcr, "register", f.counter.address, register_count(f.counter.type), d.blocks);
-    f.first_register = static_cast<int>(fr.integer("first_register", 0, 65535));
-    f.depth = static_cast<int>(fr.integer("depth", 1, 32 * kMaxReadRegisters));
-    f.record_registers = static_cast<int>(fr.integer("record_registers", 1, kMaxReadRegisters));
-    f.device_rate_hz = fr.num("device_rate_hz");
-    if (!(f.device_rate_hz > 0 && f.device_rate_hz <= 100000))
-      fr.fail("device_rate_hz", "a rate in (0, 100000] Hz", fmt::format("{}", f.device_rate_hz));
-    f.first_register = place(fr, "first_register", f.first_register, f.depth * f.record_registers, d.blocks);
-    if (fr.has("record_counter")) {
-      const TomlView rcr = fr.table("record_counter");
-      f.record_counter = parse_field(rcr, true);
-      check_inside(rcr, "register", f.record_counter->address, register_count(f.record_counter->type), 0,
-                   f.record_registers);
-      // One request returns one consistent image; a record split between two requests
-      // could join two samples under one counter.
-      int block_end = d.start;
-      std::vector<int> ends;  // buffer offsets where a block ends
-      for (const auto& b : d.blocks) ends.push_back(block_end += b.count);
-      for (int slot = 0; slot < f.depth; ++slot) {
-        const int lo = f.first_register + slot * f.record_registers, hi = lo + f.record_registers;
-        for (const int e : ends)
-          if (lo < e && e < hi)
-            fr.fail("record_registers", "records that each lie inside one block (a record split between two requests "
-                    "may join two samples)", fmt::format("record {} split at a block's end", slot));
-      }
-    } else if (d.blocks.size() > 1) {
-      // Without record counters a window that moves between two requests of one poll
-      // would shift the later blocks' records: taken twice, or as the wrong sample.
-      fr.fail("record_counter", "each record's own counter when a FIFO device is read in several blocks", "missing");
-    }
-    // Polling must outpace the FIFO or records are lost by design.
-    if (d.rate_hz * f.depth < f.device_rate_hz * 1.5)
-      r.fail("rate_hz", fmt::format("≥ 1.5 × device_rate_hz / depth = {} Hz so the FIFO never overruns",
-                                    1.5 * f.device_rate_hz / f.depth), fmt::format("{}", d.rate_hz));
-    d.fifo = f;
-  } else if (r.has("fifo")) {
-    r.fail("fifo", "no fifo table unless mode = \"fifo\"", "present");
-  }
+}
 
+void parse_fifo(const TomlView& r, DeviceSpec& d) {
+  if (!r.has("fifo")) r.fail("fifo", "a fifo table for mode = \"fifo\"", "missing");
+  if (d.counter) r.fail("counter", "no separate counter in fifo mode (fifo.counter is used)", "present");
+  const TomlView fr = r.table("fifo");
+  fr.allow({"counter", "first_register", "depth", "record_registers", "device_rate_hz", "record_counter"});
+  FifoSpec f;
+  const TomlView fcr = fr.table("counter");
+  f.counter = parse_field(fcr, true);
+  f.counter.address = place(fcr, "register", f.counter.address, register_count(f.counter.type), d.blocks);
+  f.first_register = static_cast<int>(fr.integer("first_register", 0, 65535));
+  f.depth = static_cast<int>(fr.integer("depth", 1, 32 * kMaxReadRegisters));
+  f.record_registers = static_cast<int>(fr.integer("record_registers", 1, kMaxReadRegisters));
+  f.device_rate_hz = fr.num("device_rate_hz");
+  if (!(f.device_rate_hz > 0 && f.device_rate_hz <= 100000))
+    fr.fail("device_rate_hz", "a rate in (0, 100000] Hz", fmt::format("{}", f.device_rate_hz));
+  f.first_register = place(fr, "first_register", f.first_register, f.depth * f.record_registers, d.blocks);
+  if (fr.has("record_counter")) {
+    const TomlView rcr = fr.table("record_counter");
+    f.record_counter = parse_field(rcr, true);
+    check_inside(rcr, "register", f.record_counter->address, register_count(f.record_counter->type), 0,
+                 f.record_registers);
+    // One request returns one consistent image; a record split between two requests
+    // could join two samples under one counter.
+    int block_end = d.start;
+    std::vector<int> ends;  // buffer offsets where a block ends
+    for (const auto& b : d.blocks) ends.push_back(block_end += b.count);
+    for (int slot = 0; slot < f.depth; ++slot) {
+      const int lo = f.first_register + slot * f.record_registers, hi = lo + f.record_registers;
+      for (const int e : ends)
+        if (lo < e && e < hi)
+          fr.fail("record_registers", "records that each lie inside one block (a record split between two requests "
+                  "may join two samples)", fmt::format("record {} split at a block's end", slot));
+    }
+  } else if (d.blocks.size() > 1) {
+    // Without record counters a window that moves between two requests of one poll
+    // would shift the later blocks' records: taken twice, or as the wrong sample.
+    fr.fail("record_counter", "each record's own counter when a FIFO device is read in several blocks", "missing");
+  }
+  // Polling must outpace the FIFO or records are lost by design.
+  if (d.rate_hz * f.depth < f.device_rate_hz * 1.5)
+    r.fail("rate_hz", fmt::format("≥ 1.5 × device_rate_hz / depth = {} Hz so the FIFO never overruns",
+                                  1.5 * f.device_rate_hz / f.depth), fmt::format("{}", d.rate_hz));
+  d.fifo = f;
+}
+
+// Where a field's registers lie: latest mode, addresses placed in the poll's buffer; FIFO
+// mode, offsets inside one record.
+int locate(const DeviceSpec& d, const TomlView& t, const std::string& what, int addr, int n) {
+  if (d.mode != Mode::Fifo) return place(t, what, addr, n, d.blocks);
+  check_inside(t, what, addr, n, 0, d.fifo->record_registers);
+  return addr;
+}
+
+// Returns the channels' names.
+std::set<std::string> parse_channels(const TomlView& r, DeviceSpec& d) {
   const auto chans = r.tables("channels");
   if (chans.empty()) r.fail("channels", "at least one channel", "none");
   std::set<std::string> names;
   std::map<int, std::string> owner;  // register → the channel that reads it
-  // Latest mode: addresses are placed in the poll's buffer; FIFO mode: offsets in a record.
-  const bool fifo = d.mode == Mode::Fifo;
-  const auto locate = [&](const TomlView& t, const std::string& what, int addr, int n) {
-    if (!fifo) return place(t, what, addr, n, d.blocks);
-    check_inside(t, what, addr, n, 0, d.fifo->record_registers);
-    return addr;
-  };
   for (const auto& cr : chans) {
     auto c = parse_channel(cr);
     if (!names.insert(c.name).second) cr.fail("name", "a name unique within the device", "\"" + c.name + "\"");
     check_canonical(cr, c);
     check_disjoint(cr, c, owner);  // on the map's own addresses
     for (std::size_t k = 0; k < c.registers.size(); ++k)
-      c.registers[k] = locate(cr, fmt::format("registers[{}]", k), c.registers[k], register_count(c.type));
-    if (c.negate_if_register) c.negate_if_register = locate(cr, "negate_if_register", *c.negate_if_register, 1);
+      c.registers[k] = locate(d, cr, fmt::format("registers[{}]", k), c.registers[k], register_count(c.type));
+    if (c.negate_if_register) c.negate_if_register = locate(d, cr, "negate_if_register", *c.negate_if_register, 1);
     d.channels.push_back(std::move(c));
   }
+  return names;
+}
+
+void parse_status(const TomlView& r, DeviceSpec& d) {
   if (r.has("status")) {
     const TomlView sr = r.table("status");
     sr.allow({"register", "type", "word_order", "invalid_mask"});
@@ -353,9 +372,12 @@ DeviceSpec parse_device(const TomlView& r) {
     const auto bits = register_count(st.field.type) * 16;
     st.invalid_mask = static_cast<std::uint32_t>(
         sr.integer("invalid_mask", 1, bits == 16 ? 0xFFFF : 0xFFFFFFFFLL));
-    st.field.address = locate(sr, "register", st.field.address, register_count(st.field.type));
+    st.field.address = locate(d, sr, "register", st.field.address, register_count(st.field.type));
     d.status = st;
   }
+}
+
+void parse_calibration(const TomlView& r, DeviceSpec& d, const std::set<std::string>& names) {
   if (r.has("calibration")) {
     const TomlView cr = r.table("calibration");
     cr.allow({"input", "matrix"});
@@ -371,6 +393,23 @@ DeviceSpec parse_device(const TomlView& r) {
     std::copy(rows.begin(), rows.end(), cal.matrix.begin());
     d.calibration = cal;
   }
+}
+
+DeviceSpec parse_device(const TomlView& r) {
+  r.allow({"name", "transport", "host", "port", "serial", "baud", "parity", "data_bits", "stop_bits",
+           "slave", "rate_hz", "timeout_ms", "late_reply_ms", "reconnect_backoff_ms", "reconnect_max_ms", "mode", "function", "start", "count", "blocks", "counter", "fifo",
+           "calibration", "channels", "status"});
+  DeviceSpec d;
+  parse_name(r, d);
+  parse_line(r, d);
+  parse_timing(r, d);
+  parse_blocks(r, d);
+  parse_mode_and_counter(r, d);
+  if (d.mode == Mode::Fifo) parse_fifo(r, d);
+  else if (r.has("fifo")) r.fail("fifo", "no fifo table unless mode = \"fifo\"", "present");
+  const std::set<std::string> names = parse_channels(r, d);
+  parse_status(r, d);
+  parse_calibration(r, d, names);
   return d;
 }
 

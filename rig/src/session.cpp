@@ -77,96 +77,88 @@ struct DeviceState {
   JitterHist hist;
 };
 
-struct Session::Impl {
-  RigMap map;
-  std::unique_ptr<JournalWriter> journal;
-  std::vector<std::unique_ptr<DeviceState>> devices;
-  std::vector<std::thread> pollers;
-  std::thread writer;
-  std::atomic<bool> stopping{false};
-  std::atomic<bool> stopped_writer{false};
-  std::int64_t start_ns = 0;
+namespace {
 
-  std::mutex qm;
-  std::condition_variable qcv;
-  std::vector<JournalSample> qs;
-  std::vector<JournalEvent> qe;
-  mutable std::mutex fm;
-  std::optional<std::string> fatal;
-  std::atomic<int> threads{0}, realtime_denied{0};
-  std::string realtime_reason;  // guarded by fm
-
-  // Asks for SCHED_FIFO at `priority` for the calling thread; says so when refused.
-  void ask_realtime(int priority, int device, const char* who) {
+// SCHED_FIFO for the acquisition threads, and how many of them the system refused it.
+struct ThreadCensus {
+  std::atomic<int> threads{0}, denied{0};
+  mutable std::mutex m;
+  std::string reason;  // guarded by m
+  // Asks for SCHED_FIFO at `priority` for the calling thread; the reason when refused.
+  std::optional<std::string> ask(int priority) {
     sched_param sp{};
     sp.sched_priority = priority;
     ++threads;
-    if (const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp); rc != 0) {
-      ++realtime_denied;
-      {
-        std::lock_guard lk(fm);
-        realtime_reason = std::strerror(rc);
-      }
-      event(device, "realtime", fmt::format("{}: SCHED_FIFO not available ({}); normal priority", who, std::strerror(rc)));
-    }
+    const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+    if (rc == 0) return std::nullopt;
+    ++denied;
+    std::lock_guard lk(m);
+    reason = std::strerror(rc);
+    return fmt::format("SCHED_FIFO not available ({}); normal priority", reason);
   }
+};
 
+// The journal writer: one thread that takes what the pollers queue (samples, events), and
+// every 50 ms appends it to the journal and fsyncs. A write or fsync error is fatal and
+// never retried: it stops the pollers (through `stopping`) and is kept for Session::fatal.
+class JournalThread {
+ public:
+  JournalThread(const std::filesystem::path& journal, const std::string& header_json, ThreadCensus& census,
+                std::atomic<bool>& stopping)
+      : journal_(std::make_unique<JournalWriter>(journal, header_json)), census_(census), stopping_(stopping) {}
+  ~JournalThread() { finish(); }
+  JournalThread(const JournalThread&) = delete;
+  JournalThread& operator=(const JournalThread&) = delete;
+
+  void start() { thread_ = std::thread([this] { loop(); }); }
   void push(JournalSample&& s) {
-    std::lock_guard lk(qm);
-    qs.push_back(std::move(s));
+    std::lock_guard lk(qm_);
+    qs_.push_back(std::move(s));
   }
   void event(int device, std::string kind, std::string detail, std::int64_t t_ns = 0) {
-    std::lock_guard lk(qm);
-    qe.push_back({t_ns ? t_ns : monotonic_ns(), device, std::move(kind), std::move(detail)});
+    std::lock_guard lk(qm_);
+    qe_.push_back({t_ns ? t_ns : monotonic_ns(), device, std::move(kind), std::move(detail)});
   }
-
-  // Runs end at a good poll, a fault of another kind, the stop, or after 1 s (so a
-  // journal cut short by a crash still holds runs older than a second).
-  static constexpr std::int64_t kMaxRunNs = 1'000'000'000;
-  void fault(DeviceState& st, const std::string& kind, const std::string& detail, std::int64_t t_ns) {
-    auto& run = st.run;
-    if (run.count && (run.kind != kind || t_ns - run.first_ns >= kMaxRunNs)) end_run(st);
-    if (!run.count) {
-      run.kind = kind;
-      run.detail = detail;
-      run.first_ns = t_ns;
+  // Writes what is queued, then (unless a write failed) the end marker. Once.
+  void finish() {
+    if (finishing_.exchange(true)) return;
+    qcv_.notify_all();
+    if (thread_.joinable()) thread_.join();
+    if (fatal()) return;
+    try {
+      journal_->finish();
+    } catch (const std::exception& e) {
+      std::lock_guard lk(fm_);
+      fatal_ = e.what();
     }
-    run.last_ns = t_ns;
-    ++run.count;
   }
-  void end_run(DeviceState& st) {
-    auto& run = st.run;
-    if (!run.count) return;
-    if (run.count == 1)
-      event(st.index, run.kind, run.detail, run.first_ns);
-    else
-      event(st.index, run.kind,
-            fmt::format("{} in a row over {:.1f} ms (last at t = {} ns); the first: {}", run.count,
-                        static_cast<double>(run.last_ns - run.first_ns) * 1e-6, run.last_ns, run.detail),
-            run.first_ns);
-    run.count = 0;
+  std::optional<std::string> fatal() const {
+    std::lock_guard lk(fm_);
+    return fatal_;
   }
+  std::uint64_t blocks_written() const { return journal_->blocks_written(); }
 
-  void write_loop() {
-    ask_realtime(10, -1, "journal writer");  // below the pollers, above the busy host (optional, as below)
+ private:
+  void loop() {
+    if (auto why = census_.ask(10)) event(-1, "realtime", fmt::format("journal writer: {}", *why));  // below the pollers, above the busy host (optional, as below)
     std::vector<JournalSample> s;
     std::vector<JournalEvent> e;
     for (;;) {
-      const bool last = stopped_writer.load();
+      const bool last = finishing_.load();
       {
-        std::unique_lock lk(qm);
-        qcv.wait_for(lk, std::chrono::milliseconds(50), [&] { return stopped_writer.load(); });
-        s.swap(qs);
-        e.swap(qe);
+        std::unique_lock lk(qm_);
+        qcv_.wait_for(lk, std::chrono::milliseconds(50), [&] { return finishing_.load(); });
+        s.swap(qs_);
+        e.swap(qe_);
       }
       try {
-        for (auto& x : e) journal->append(x);
-        for (auto& x : s) journal->append(x);
-        journal->sync();
+        for (auto& x : e) journal_->append(x);
+        for (auto& x : s) journal_->append(x);
+        journal_->sync();
       } catch (const std::exception& ex) {
-        std::lock_guard lk(fm);
-        fatal = ex.what();
-        stopping = true;  // stop loudly: the caller sees fatal()
+        std::lock_guard lk(fm_);
+        fatal_ = ex.what();
+        stopping_ = true;  // stop loudly: the caller sees fatal()
         return;
       }
       s.clear();
@@ -175,6 +167,29 @@ struct Session::Impl {
     }
   }
 
+  std::unique_ptr<JournalWriter> journal_;
+  ThreadCensus& census_;
+  std::atomic<bool>& stopping_;
+  std::atomic<bool> finishing_{false};
+  std::thread thread_;
+  std::mutex qm_;
+  std::condition_variable qcv_;
+  std::vector<JournalSample> qs_;
+  std::vector<JournalEvent> qe_;
+  mutable std::mutex fm_;
+  std::optional<std::string> fatal_;
+};
+
+// One poller thread: a TCP device, or every device on one RS-485 bus (one request at a
+// time, in deadline order). It owns its link, reads on absolute deadlines, turns replies
+// into journal samples (latest values, or FIFO records by counter) and faults into events,
+// and recovers through the link (ModbusLink::recover_after) without knowing its transport.
+class Poller {
+ public:
+  Poller(std::vector<DeviceState*> group, JournalThread& journal, ThreadCensus& census, const std::atomic<bool>& stopping)
+      : group_(std::move(group)), journal_(journal), census_(census), stopping(stopping) {}
+
+ private:
   void on_good(DeviceState& st, const ReadResult& r, const std::vector<std::uint16_t>& regs) {
     const auto& d = *st.spec;
     end_run(st);
@@ -421,16 +436,11 @@ struct Session::Impl {
     }
     if (r.status != ReadStatus::Disconnected || link.connected())
       fault(st, to_string(r.status), r.detail, r.t_send_ns);
-    const auto& d = *st.spec;
-    if (d.transport == Transport::Rtu) {
-      // An exception reply answered this request: nothing late can follow it.
-      if (r.status != ReadStatus::Exception) link.drain_late_reply(d, r.t_send_ns, &stopping);
-    } else if (r.status != ReadStatus::Exception && link.connected()) {
-      link.close();  // timeout or bad data: the stream may be out of step — start afresh
+    if (link.recover_after(*st.spec, r, &stopping)) {
       // The first retry is immediate, not at the next deadline: a dropped connection to a
       // live device costs one round trip, not a poll period.
       st.reconnect_at_ns = monotonic_ns();
-      st.backoff_ns = backoff_first_ns(d);
+      st.backoff_ns = backoff_first_ns(*st.spec);
       try_reconnect(st, link);
     }
   }
@@ -456,12 +466,14 @@ struct Session::Impl {
     return static_cast<std::int64_t>(d.reconnect_backoff_ms * 1e6);
   }
 
-  // One thread: a TCP device, or every device on one RS-485 bus (one request at a time).
-  void poll_loop(std::vector<DeviceState*> group) {
+ public:
+  // The thread's body: until `stopping`, poll the group's devices at their deadlines.
+  void run() {
+    auto& group = group_;
     // Real-time priority keeps the period tight on a busy host; the thread sleeps between
     // deadlines and blocks on I/O, so it cannot starve the machine. Optional: without
     // the privilege we poll at normal priority and say so.
-    ask_realtime(20, group.front()->index, "poller");
+    if (auto why = census_.ask(20)) event(group_.front()->index, "realtime", fmt::format("poller: {}", *why));
     ModbusLink link(*group.front()->spec);
     std::string err;
     if (!link.connect(&err)) event(group.front()->index, "fault", err);
@@ -501,13 +513,67 @@ struct Session::Impl {
     for (auto* st : group) end_run(*st);
     link.close();
   }
+
+  static std::int64_t first_backoff_ns(const DeviceSpec& d) { return backoff_first_ns(d); }
+
+ private:
+  void push(JournalSample&& s) { journal_.push(std::move(s)); }
+  void event(int device, std::string kind, std::string detail, std::int64_t t_ns = 0) {
+    journal_.event(device, std::move(kind), std::move(detail), t_ns);
+  }
+
+  // Runs end at a good poll, a fault of another kind, the stop, or after 1 s (so a
+  // journal cut short by a crash still holds runs older than a second).
+  static constexpr std::int64_t kMaxRunNs = 1'000'000'000;
+  void fault(DeviceState& st, const std::string& kind, const std::string& detail, std::int64_t t_ns) {
+    auto& run = st.run;
+    if (run.count && (run.kind != kind || t_ns - run.first_ns >= kMaxRunNs)) end_run(st);
+    if (!run.count) {
+      run.kind = kind;
+      run.detail = detail;
+      run.first_ns = t_ns;
+    }
+    run.last_ns = t_ns;
+    ++run.count;
+  }
+  void end_run(DeviceState& st) {
+    auto& run = st.run;
+    if (!run.count) return;
+    if (run.count == 1)
+      event(st.index, run.kind, run.detail, run.first_ns);
+    else
+      event(st.index, run.kind,
+            fmt::format("{} in a row over {:.1f} ms (last at t = {} ns); the first: {}", run.count,
+                        static_cast<double>(run.last_ns - run.first_ns) * 1e-6, run.last_ns, run.detail),
+            run.first_ns);
+    run.count = 0;
+  }
+
+  std::vector<DeviceState*> group_;
+  JournalThread& journal_;
+  ThreadCensus& census_;
+  const std::atomic<bool>& stopping;
+};
+
+}  // namespace
+
+struct Session::Impl {
+  RigMap map;
+  std::vector<std::unique_ptr<DeviceState>> devices;
+  std::atomic<bool> stopping{false};
+  ThreadCensus census;
+  std::unique_ptr<JournalThread> journal;
+  std::vector<std::unique_ptr<Poller>> pollers;
+  std::vector<std::thread> threads;
+  std::int64_t start_ns = 0;
+  bool stopped = false;
 };
 
 Session::Session(RigMap map, const std::filesystem::path& journal, const std::string& header_json)
     : impl_(std::make_unique<Impl>()) {
   auto& I = *impl_;
   I.map = std::move(map);
-  I.journal = std::make_unique<JournalWriter>(journal, header_json);
+  I.journal = std::make_unique<JournalThread>(journal, header_json, I.census, I.stopping);
   I.start_ns = monotonic_ns();
   for (std::size_t i = 0; i < I.map.devices.size(); ++i) {
     auto st = std::make_unique<DeviceState>();
@@ -515,21 +581,28 @@ Session::Session(RigMap map, const std::filesystem::path& journal, const std::st
     st->index = static_cast<std::uint16_t>(i);
     st->period_ns = static_cast<std::int64_t>(std::llround(1e9 / st->spec->rate_hz));
     st->next_ns = I.start_ns + 20'000'000;
-    st->backoff_ns = Impl::backoff_first_ns(*st->spec);
+    st->backoff_ns = Poller::first_backoff_ns(*st->spec);
     st->status.name = st->spec->name;
     st->status.rate_hz = st->spec->rate_hz;
     st->status.first_channel = st->spec->channels.front().name;
     st->status.fifo = st->spec->mode == Mode::Fifo;
     I.devices.push_back(std::move(st));
   }
-  I.event(-1, "start", fmt::format("{} device(s)", I.devices.size()));
-  I.writer = std::thread([&I] { I.write_loop(); });
-  std::map<std::string, std::vector<DeviceState*>> buses;
+  I.journal->event(-1, "start", fmt::format("{} device(s)", I.devices.size()));
+  I.journal->start();
+  // One poller per line (ModbusLink::line): a TCP device's own connection, or an RS-485
+  // bus shared by its devices; in the order the map first names them.
+  std::vector<std::pair<std::string, std::vector<DeviceState*>>> lines;
   for (auto& st : I.devices) {
-    if (st->spec->transport == Transport::Rtu) buses[st->spec->serial].push_back(st.get());
-    else I.pollers.emplace_back([&I, p = st.get()] { I.poll_loop({p}); });
+    const std::string line = ModbusLink::line(*st->spec);
+    auto it = std::find_if(lines.begin(), lines.end(), [&](const auto& l) { return l.first == line; });
+    if (it == lines.end()) lines.push_back({line, {st.get()}});
+    else it->second.push_back(st.get());
   }
-  for (auto& [path, group] : buses) I.pollers.emplace_back([&I, g = group] { I.poll_loop(g); });
+  for (auto& [line, group] : lines) {
+    I.pollers.push_back(std::make_unique<Poller>(group, *I.journal, I.census, I.stopping));
+    I.threads.emplace_back([p = I.pollers.back().get()] { p->run(); });
+  }
 }
 
 Session::~Session() { stop(); }
@@ -546,36 +619,24 @@ SessionStatus Session::status() const {
     s.devices.push_back(std::move(d));
   }
   s.journal_blocks = impl_->journal->blocks_written();
-  s.threads = impl_->threads.load();
-  s.realtime_denied = impl_->realtime_denied.load();
-  std::lock_guard lk(impl_->fm);
-  s.realtime_reason = impl_->realtime_reason;
+  s.threads = impl_->census.threads.load();
+  s.realtime_denied = impl_->census.denied.load();
+  std::lock_guard lk(impl_->census.m);
+  s.realtime_reason = impl_->census.reason;
   return s;
 }
 
-std::optional<std::string> Session::fatal() const {
-  std::lock_guard lk(impl_->fm);
-  return impl_->fatal;
-}
+std::optional<std::string> Session::fatal() const { return impl_->journal->fatal(); }
 
 void Session::stop() {
   auto& I = *impl_;
-  if (I.stopped_writer.load()) return;
+  if (I.stopped) return;
+  I.stopped = true;
   I.stopping = true;
-  for (auto& t : I.pollers) t.join();
-  I.pollers.clear();
-  I.event(-1, "stop", "");
-  I.stopped_writer = true;
-  I.qcv.notify_all();
-  I.writer.join();
-  if (!fatal()) {
-    try {
-      I.journal->finish();
-    } catch (const std::exception& e) {
-      std::lock_guard lk(I.fm);
-      I.fatal = e.what();
-    }
-  }
+  for (auto& t : I.threads) t.join();
+  I.threads.clear();
+  I.journal->event(-1, "stop", "");
+  I.journal->finish();
 }
 
 }  // namespace burrbench::rig

@@ -154,10 +154,8 @@ Tare measure_tare(const RigMap& map, std::size_t samples) {
     if (r.status != ReadStatus::Ok) {
       if (++failures > 10 + samples / 10)
         throw std::runtime_error(fmt::format("{}: tare aborted after {} failed reads: {}", dev->name, failures, r.detail));
-      if (dev->transport == Transport::Rtu) {
-        if (r.status != ReadStatus::Exception) link.drain_late_reply(*dev, r.t_send_ns);
-      }
-      else if (!link.connect(&err)) throw std::runtime_error(err);
+      link.recover_after(*dev, r);
+      if (!link.connected() && !link.connect(&err)) throw std::runtime_error(err);
       continue;
     }
     std::vector<double> w;

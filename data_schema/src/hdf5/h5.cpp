@@ -1,8 +1,18 @@
 #include "hdf5/h5.hpp"
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <functional>
+#include <mutex>
+#include <set>
+#include <tuple>
 #include <cstring>
 #include <stdexcept>
 #include <system_error>
@@ -234,6 +244,135 @@ bool read_string_values(hid_t type, std::size_t n, std::vector<std::string>& out
 
 }  // namespace
 
+// ---------------------------------------------------------------- structure probe
+
+namespace {
+
+// libhdf5 1.10 (Debian's) crashes on some corrupt files instead of failing: a group whose
+// dense link storage is damaged makes H5Literate free a pointer it never allocated (SIGSEGV;
+// found by bench/fuzz/fuzz_prediction_h5, issue 59). No input may crash us, so before a
+// file is read in-process a forked child opens it and walks its whole structure the way
+// the readers do: every object reached from the root, each group's links in creation and
+// in name order, each object's attributes (values read), each dataset's type and shape
+// (values read up to kProbeDataBytes). A child that does not exit normally — killed by a
+// signal, aborted by the C library's heap checks (its message goes to /dev/null, not to the
+// user's terminal), still walking after kProbeSeconds (a loop in a corrupt B-tree) — marks
+// the file corrupt. A clean failure in the child is the in-process reader's to report, with
+// its own message.
+constexpr unsigned kProbeSeconds = 60;
+constexpr hsize_t kProbeDataBytes = hsize_t{16} << 20;
+
+void probe_read(hid_t obj, hid_t space, hid_t ftype, bool attribute) {
+  const hssize_t n = H5Sget_simple_extent_npoints(space);
+  const Handle mtype(H5Tget_native_type(ftype, H5T_DIR_DEFAULT), H5Tclose);
+  if (n < 0 || !mtype.valid()) return;
+  const std::size_t size = H5Tget_size(mtype.get());
+  if (size == 0 || static_cast<hsize_t>(n) > kProbeDataBytes / size) return;
+  std::vector<char> buf(static_cast<std::size_t>(n) * size + 16);
+  if (attribute) H5Aread(obj, mtype.get(), buf.data());
+  else H5Dread(obj, mtype.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data());
+}
+
+herr_t probe_attribute(hid_t loc, const char* name, const H5A_info_t*, void*) {
+  const Handle a(H5Aopen(loc, name, H5P_DEFAULT), H5Aclose);
+  if (!a.valid()) return 0;
+  const Handle t(H5Aget_type(a.get()), H5Tclose), sp(H5Aget_space(a.get()), H5Sclose);
+  if (t.valid() && sp.valid()) probe_read(a.get(), sp.get(), t.get(), true);
+  return 0;
+}
+
+void probe_attributes(hid_t obj) {
+  for (const H5_index_t by : {H5_INDEX_CRT_ORDER, H5_INDEX_NAME}) {
+    hsize_t at = 0;
+    H5Aiterate2(obj, by, H5_ITER_INC, &at, probe_attribute, nullptr);
+  }
+}
+
+// A group's links in both orders (as Reader::members lists them), then every object they
+// lead to, once each (by address: hard links may form cycles), at most 64 groups deep.
+void probe_group(hid_t g, int depth, std::set<haddr_t>& seen) {
+  std::vector<std::string> names;
+  const auto collect = [](hid_t, const char* name, const H5L_info_t*, void* data) -> herr_t {
+    static_cast<std::vector<std::string>*>(data)->emplace_back(name);
+    return 0;
+  };
+  for (const H5_index_t by : {H5_INDEX_CRT_ORDER, H5_INDEX_NAME}) {
+    hsize_t at = 0;
+    H5Literate(g, by, H5_ITER_INC, &at, collect, &names);
+  }
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  probe_attributes(g);
+  for (const auto& name : names) {
+    H5O_info_t info{};
+    if (H5Oget_info_by_name2(g, name.c_str(), &info, H5O_INFO_BASIC, H5P_DEFAULT) < 0) continue;
+    if (!seen.insert(info.addr).second) continue;
+    const Handle o(H5Oopen(g, name.c_str(), H5P_DEFAULT), H5Oclose);
+    if (!o.valid()) continue;
+    if (info.type == H5O_TYPE_GROUP) {
+      if (depth < 64) probe_group(o.get(), depth + 1, seen);
+      continue;
+    }
+    probe_attributes(o.get());
+    if (info.type == H5O_TYPE_DATASET) {
+      const Handle t(H5Dget_type(o.get()), H5Tclose), sp(H5Dget_space(o.get()), H5Sclose);
+      if (t.valid() && sp.valid()) probe_read(o.get(), sp.get(), t.get(), false);
+    }
+  }
+}
+
+// True when a child that opens the file with `open` (H5Fopen with the reader's access
+// properties) and walks it survives; also when no child can be made (read in-process).
+bool structure_survives(const std::function<hid_t()>& open) {
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) return true;
+  if (pid == 0) {
+    if (const int null = ::open("/dev/null", O_WRONLY); null >= 0) {
+      ::dup2(null, STDOUT_FILENO);
+      ::dup2(null, STDERR_FILENO);
+    }
+    for (const int sig : {SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT, SIGALRM}) ::signal(sig, SIG_DFL);
+    ::alarm(kProbeSeconds);
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    const hid_t f = open();
+    if (f >= 0) {
+      std::set<haddr_t> seen;
+      const Handle root(H5Gopen2(f, "/", H5P_DEFAULT), H5Gclose);
+      if (root.valid()) probe_group(root.get(), 0, seen);
+    }
+    ::_exit(0);  // no H5Fclose, no atexit handlers: nothing of the parent's is flushed twice
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return true;
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
+// A file probed once per process is not probed again while it stays the same file with the
+// same size and modification time (a command opens its inputs several times; each probe is
+// a fork, ~20 ms on a VM).
+bool file_survives(const std::string& file) {
+  struct stat st {};
+  if (::stat(file.c_str(), &st) != 0)
+    return structure_survives([&] { return H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT); });
+  using Key = std::tuple<dev_t, ino_t, off_t, std::int64_t>;
+  const Key key{st.st_dev, st.st_ino, st.st_size,
+                static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1'000'000'000 + st.st_mtim.tv_nsec};
+  static std::mutex m;
+  static std::set<Key> survived;
+  {
+    std::lock_guard lk(m);
+    if (survived.count(key)) return true;
+  }
+  if (!structure_survives([&] { return H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT); })) return false;
+  std::lock_guard lk(m);
+  survived.insert(key);
+  return true;
+}
+
+}  // namespace
+
 // ---------------------------------------------------------------- Reader
 
 Reader::Reader(const std::filesystem::path& path) : file_(path.string()) {
@@ -242,7 +381,27 @@ Reader::Reader(const std::filesystem::path& path) : file_(path.string()) {
     throw InputError(file_, "<file>", "an existing regular file");
   if (H5Fis_hdf5(file_.c_str()) <= 0)
     throw InputError(file_, "<file>", "an HDF5 file", "no HDF5 signature");
+  if (!file_survives(file_))
+    throw InputError(file_, "<file>", "an HDF5 file libhdf5 can walk", "a corrupt file (the HDF5 library crashed reading its structure)");
   f_ = Handle(H5Fopen(file_.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!f_.valid())
+    throw InputError(file_, "<file>", "a readable HDF5 file", "HDF5 cannot open it (truncated or corrupt?)");
+}
+
+Reader::Reader(std::string_view image, const std::string& name) : file_(name) {
+  // H5Fis_hdf5 on an image: the signature at 0, 512, 1024, … (a user block before it).
+  constexpr std::string_view kSignature{"\x89HDF\r\n\x1a\n", 8};
+  bool signed_image = false;
+  for (std::size_t at = 0; !signed_image && at + kSignature.size() <= image.size(); at = at ? 2 * at : 512)
+    signed_image = image.substr(at, kSignature.size()) == kSignature;
+  if (!signed_image) throw InputError(file_, "<file>", "an HDF5 file", "no HDF5 signature");
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  if (!fapl.valid() || H5Pset_fapl_core(fapl.get(), 1 << 16, 0) < 0 ||
+      H5Pset_file_image(fapl.get(), const_cast<char*>(image.data()), image.size()) < 0)
+    throw InputError(file_, "<file>", "an HDF5 file image HDF5 accepts", "H5Pset_file_image failed");
+  if (!structure_survives([&] { return H5Fopen(file_.c_str(), H5F_ACC_RDONLY, fapl.get()); }))
+    throw InputError(file_, "<file>", "an HDF5 file libhdf5 can walk", "a corrupt file (the HDF5 library crashed reading its structure)");
+  f_ = Handle(H5Fopen(file_.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose);
   if (!f_.valid())
     throw InputError(file_, "<file>", "a readable HDF5 file", "HDF5 cannot open it (truncated or corrupt?)");
 }

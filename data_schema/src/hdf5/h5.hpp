@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace burrbench::data_schema::h5 {
@@ -59,6 +60,9 @@ const char* elem_name(Elem e);
 class Reader {
  public:
   explicit Reader(const std::filesystem::path& path);
+  // The same reader over an HDF5 file image in memory (the core driver over a copy of
+  // `image`; nothing touches the disk); `name` stands for the file in messages.
+  Reader(std::string_view image, const std::string& name);
   const std::string& file() const { return file_; }
 
   bool exists(const std::string& obj_path) const;

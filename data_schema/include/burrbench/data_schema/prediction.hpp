@@ -8,6 +8,7 @@
 #include <limits>
 #include <glm/glm.hpp>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -116,5 +117,7 @@ std::vector<std::pair<std::string, std::string>> prediction_units();
 // Validates format name, major version, layout, units and values; all datasets together
 // ≤ 4 GiB, checked from the headers before reading.
 Prediction read_prediction(const std::filesystem::path& path);
+// The same from an HDF5 file image in memory; `name` stands for the file in messages.
+Prediction read_prediction_image(std::string_view image, const std::string& name);
 
 }  // namespace burrbench::data_schema

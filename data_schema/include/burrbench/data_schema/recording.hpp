@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -107,5 +108,7 @@ struct Recording {
 void validate(const Recording& rec, const std::string& file_for_messages);
 void write_recording(const std::filesystem::path& path, const Recording& rec);
 Recording read_recording(const std::filesystem::path& path);  // validates
+// The same from an HDF5 file image in memory; `name` stands for the file in messages.
+Recording read_recording_image(std::string_view image, const std::string& name);
 
 }  // namespace burrbench::data_schema

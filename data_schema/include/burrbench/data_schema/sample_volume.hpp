@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -71,5 +72,7 @@ void validate(const SampleVolume& v, const std::string& file_for_messages);
 void write_sample(const std::filesystem::path& path, const SampleVolume& v,
                   FractionEncoding enc = FractionEncoding::kFloat32);
 SampleVolume read_sample(const std::filesystem::path& path);  // validates
+// The same from an HDF5 file image in memory; `name` stands for the file in messages.
+SampleVolume read_sample_image(std::string_view image, const std::string& name);
 
 }  // namespace burrbench::data_schema

@@ -47,11 +47,19 @@ class ModbusLink {
   // how many were (a FIFO read newest first: the last blocks_read blocks of d.blocks).
   ReadResult read(const DeviceSpec& d, std::vector<std::uint16_t>& regs,
                   const std::function<bool(std::size_t block)>& enough = {});
-  // RTU after a failed request: wait out the latest possible reply, then drop any bytes,
-  // so a late reply is never taken as the answer to the next request.
-  // Returns early (without flushing) once *stop is set, so a long late_reply_ms cannot
-  // hold up the end of an acquisition.
-  void drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns, const std::atomic<bool>* stop = nullptr);
+  // What the transport needs after a failed read `r` of d, before the next request; the
+  // callers (poller, tare) never ask which transport this is.
+  //  - RTU has no transaction id: unless an exception reply answered the request, wait out
+  //    the latest possible reply, then drop any bytes, so a late reply is never taken as
+  //    the answer to the next request (cut short, without flushing, once *stop is set).
+  //  - TCP after a timeout or bad data: the stream may be out of step, so the connection
+  //    is closed. An exception reply keeps it.
+  // True when this closed the connection: the caller reconnects (at once, then backing off).
+  bool recover_after(const DeviceSpec& d, const ReadResult& r, const std::atomic<bool>* stop = nullptr);
+  // The line d's requests travel on: devices on one line share one connection, polled by
+  // one thread one request at a time — an RS-485 bus (its serial device), while a TCP
+  // device has a connection of its own.
+  static std::string line(const DeviceSpec& d);
   // Shortest possible request+reply time on the wire (RTU), 0 for TCP.
   double wire_time_s(const DeviceSpec& d) const;
   std::string describe() const;
@@ -60,6 +68,8 @@ class ModbusLink {
   // TCP read sent raw, its reply checked here (see modbus_link.cpp); returns rc as
   // modbus_read_registers would, with errno set the same way.
   int read_tcp_checked(const DeviceSpec& d, const BlockSpec& b, std::uint16_t* regs, std::string* mismatch);
+  // RTU: the wait and flush of recover_after.
+  void drain_late_reply(const DeviceSpec& d, std::int64_t t_send_ns, const std::atomic<bool>* stop);
   // One request of a poll.
   ReadResult read_block(const DeviceSpec& d, const BlockSpec& b, std::uint16_t* regs);
   DeviceSpec settings_;
