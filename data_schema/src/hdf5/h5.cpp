@@ -1,6 +1,7 @@
 #include "hdf5/h5.hpp"
 
 #include <fcntl.h>
+#include <malloc.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -259,8 +260,17 @@ namespace {
 // user's terminal), still walking after kProbeSeconds (a loop in a corrupt B-tree) — marks
 // the file corrupt. A clean failure in the child is the in-process reader's to report, with
 // its own message.
+// The crash libhdf5 1.10.8 has on a damaged link heap frees entries of a link table it
+// malloc'd and never filled (H5G__link_release_table after a failed decode): whether that
+// aborts depends on what the heap held before, so a child walking a different heap than the
+// reader's could survive a file the reader then dies on (seen: a longer file path turned a
+// refusal into `free(): invalid pointer` in the Python module). The child therefore fills
+// every allocation with a byte pattern (M_PERTURB): an uninitialised pointer is then never
+// null and never aligned, and freeing it aborts the child every time.
 constexpr unsigned kProbeSeconds = 60;
 constexpr hsize_t kProbeDataBytes = hsize_t{16} << 20;
+// Allocations read as the complement, 0xa5 bytes: 0xa5a5… is odd, so never a pointer malloc gave.
+constexpr int kProbePerturbByte = 0x5a;
 
 void probe_read(hid_t obj, hid_t space, hid_t ftype, bool attribute) {
   const hssize_t n = H5Sget_simple_extent_npoints(space);
@@ -333,6 +343,7 @@ bool structure_survives(const std::function<hid_t()>& open) {
       ::dup2(null, STDERR_FILENO);
     }
     for (const int sig : {SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT, SIGALRM}) ::signal(sig, SIG_DFL);
+    ::mallopt(M_PERTURB, kProbePerturbByte);
     ::alarm(kProbeSeconds);
     H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
     const hid_t f = open();
