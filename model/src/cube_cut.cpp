@@ -1,13 +1,17 @@
 #include "burrbench/model/cube_cut.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace burrbench::model {
 
 namespace {
 
-// Components below this are taken as 0: the corner sums divide by the product of the
-// components, and by one of them again for the moments.
+// Components below this are raised to it: the corner sums divide by the product of the
+// components, and by one of them again for the moments. Raising (not zeroing) keeps ΔV, A
+// and μₙ continuous in n̂ (they are even in each component), so derivatives taken across
+// the threshold by differences see no jump; the cut's n̂-derivatives in a raised component
+// are 0, as the function's.
 constexpr double kFlat = 1e-3;
 
 // Integrals over the unit cube's part {a·u ≤ t}, u ∈ [0, 1]³, a ≥ 0 (zero components
@@ -82,14 +86,16 @@ Unit unit_part(const double a[3], double t, bool derivs) {
 }  // namespace
 
 CubeCut cube_cut(const glm::dvec3& n, double h, double l, bool derivs) {
-  double a[3], sg[3], S = 0;
+  double a[3], sg[3], free[3], S = 0;
   for (int i = 0; i < 3; ++i) {
     sg[i] = n[i] < 0 ? -1.0 : 1.0;
-    a[i] = std::abs(n[i]) < kFlat ? 0.0 : std::abs(n[i]);
+    a[i] = std::max(std::abs(n[i]), kFlat);
+    free[i] = std::abs(n[i]) < kFlat ? 0.0 : 1.0;
     S += a[i];
   }
   const double t = h / l + 0.5 * S;
   CubeCut c;
+  c.free_axes = glm::dvec3(free[0], free[1], free[2]);
   if (!(t > 0)) return c;
   Unit u;
   if (t <= 0.5 * S) {
@@ -119,6 +125,10 @@ CubeCut cube_cut(const glm::dvec3& n, double h, double l, bool derivs) {
       c.section_mm3[i] = sg[i] * l3 * (u.m[i] - 0.5 * u.A);
       c.section_dh_mm2[i] = sg[i] * l2 * (u.mh[i] - 0.5 * u.At);
     }
+    for (int i = 0; i < 3; ++i) {
+      c.section_mm3[i] *= free[i];  // ∂ΔV/∂n_i = −section_i, 0 in a raised component
+      c.section_dh_mm2[i] *= free[i];
+    }
   }
   return c;
 }
@@ -132,7 +142,7 @@ CubeCutGradient cube_cut_gradient(const CubeCut& c, const glm::dvec3& v, double 
   CubeCutGradient g;
   g.volume = -c.area_mm2 * n - tangential(c.section_mm3);
   g.area = -c.area_dh_mm * n - tangential(c.section_dh_mm2);
-  const glm::dvec3 dmu = -h * c.area_mm2 * n + tangential(c.moment_mm4 - h * c.section_mm3);
+  const glm::dvec3 dmu = -h * c.area_mm2 * n + tangential(c.free_axes * c.moment_mm4 - h * c.section_mm3);
   g.radial_moment = d * g.volume + c.volume_mm3 * n + dmu;
   return g;
 }

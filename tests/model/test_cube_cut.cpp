@@ -68,8 +68,11 @@ TEST(CubeCut, EveryIntegralMatchesSupersampledCube) {
       const bm::CubeCut c = bm::cube_cut(n, h, l, true);
       const Brute b = brute(n, h, l);
       SCOPED_TRACE(testing::Message() << "n = (" << n.x << ", " << n.y << ", " << n.z << "), h = " << h);
-      // Midpoint sampling errs by O(cell) on the cut's boundary: a few 10⁻³ of the whole.
-      const double l3 = l * l * l, l4 = l3 * l, l2 = l * l;
+      // Midpoint sampling errs by O(cell) on the cut's boundary: a few 10⁻³ of the whole, up
+      // to half a cell's layer (l/128) when the plane is parallel to a face.
+      const int small = (std::abs(n.x) < 0.05) + (std::abs(n.y) < 0.05) + (std::abs(n.z) < 0.05);
+      const double k = small >= 2 ? 8.0 : 1.0;
+      const double l3 = k * l * l * l, l4 = l3 * l, l2 = k * l * l;
       EXPECT_NEAR(c.volume_mm3, b.volume, 4e-3 * l3);
       EXPECT_NEAR(c.normal_moment_mm4, b.normal_moment, 2e-3 * l4);
       for (int i = 0; i < 3; ++i) EXPECT_NEAR(c.moment_mm4[i], b.moment[i], 2e-3 * l4);
@@ -97,9 +100,10 @@ TEST(CubeCut, EmptyAndWholeCube) {
   EXPECT_NEAR(glm::length(all.moment_mm4), 0.0, 1e-15);
   // Half the cube through its centre, normal along z: ∫ z dV = −l⁴/8.
   const bm::CubeCut half = bm::cube_cut(glm::dvec3(0, 0, 1), 0.0, l, true);
-  EXPECT_NEAR(half.volume_mm3, 0.5 * l * l * l, 1e-15);
-  EXPECT_NEAR(half.area_mm2, l * l, 1e-15);
-  EXPECT_NEAR(half.normal_moment_mm4, -l * l * l * l / 8, 1e-16);
+  // (The zero components are raised to 1e-3: the section tilts by 1e-3, O(10⁻⁶) changes.)
+  EXPECT_NEAR(half.volume_mm3, 0.5 * l * l * l, 1e-12 * l * l * l);
+  EXPECT_NEAR(half.area_mm2, l * l, 1e-6 * l * l);
+  EXPECT_NEAR(half.normal_moment_mm4, -l * l * l * l / 8, 1e-6 * l * l * l * l);
 }
 
 TEST(CubeCut, DerivativesMatchCentralDifferences) {

@@ -19,11 +19,14 @@ struct CubeCut {
   glm::dvec3 moment_mm4{0};     // ∫ u dV over the part
   glm::dvec3 section_mm3{0};    // ∫ u dA over the section
   glm::dvec3 section_dh_mm2{0}; // ∂/∂h of section_mm3
+  // 1 per axis whose normal component is taken as is, 0 where it was raised to 1e-3 (the
+  // cut does not change with it there; section_* are 0 on those axes).
+  glm::dvec3 free_axes{1.0};
 };
 
 // n̂ a unit vector, l > 0. h ≤ −(l/2)‖n̂‖₁: empty; h ≥ (l/2)‖n̂‖₁: the whole cube. Normal
-// components below 1e-3 are taken as 0 (the part is then a prism along that axis; the
-// error is O(10⁻⁶ l³) in volume, O(10⁻³ l) in the centroid).
+// components below 1e-3 in size are raised to 1e-3 (the error is O(10⁻⁶ l³) in volume,
+// O(10⁻³ l) in the centroid; ΔV, A and μₙ stay continuous in n̂).
 CubeCut cube_cut(const glm::dvec3& normal, double h_mm, double voxel_mm, bool derivatives);
 
 // Gradients in v = c − p of a burr of radius R (h = R − |v|, n̂ = v/|v|), from a cut with
