@@ -12,6 +12,7 @@
 #include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/model/experiment.hpp"
 #include "output_paths.hpp"
+#include "quadrature_option.hpp"
 #include "step_option.hpp"
 #include "verb_registry.hpp"
 
@@ -25,10 +26,12 @@ struct Args {
   double step_us = 0;
   bool no_erosion = false, overwrite = false;
   int threads = 2;
+  std::string quadrature = "lens";
 };
 
 void run(const Args& a) {
   apps::check_step_us(a.step_us);
+  const model::Quadrature quadrature = apps::quadrature_option(a.quadrature);
   const auto t0 = std::chrono::steady_clock::now();
   const model::Experiment e = model::load_experiment(a.experiment);
   std::vector<InputFile> params_file;  // hashed as it is read, as e's files
@@ -53,6 +56,7 @@ void run(const Args& a) {
   model::PredictOptions opt;  // a plain replay: the manifest's lag, nothing added
   opt.replay.step_s = a.step_us * 1e-6;
   opt.replay.erosion = !a.no_erosion;
+  opt.replay.quadrature = quadrature;
   opt.exclude_buried = e.manifest.fit.buried == data_schema::BuriedPolicy::kExclude;
   opt.threads = a.threads;
 
@@ -108,6 +112,7 @@ void setup(CLI::App& root) {
   cmd->add_option("--step-us", a->step_us, "replay step (µs; 0 = half the sample period; at most the sample period)")
       ->capture_default_str();
   cmd->add_flag("--no-erosion", a->no_erosion, "forces only, the volume is not eroded");
+  apps::add_quadrature_option(cmd, a->quadrature);
   cmd->add_option("--threads", a->threads, "recordings replayed at once")->capture_default_str()->check(CLI::Range(1, model::kMaxThreads));
   cmd->callback([a] { run(*a); });
 }

@@ -12,6 +12,7 @@
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/model/verification.hpp"
 #include "output_paths.hpp"
+#include "quadrature_option.hpp"
 #include "step_option.hpp"
 #include "verb_registry.hpp"
 
@@ -25,10 +26,13 @@ struct Args {
   bool overwrite = false;
   int threads = 2;
   bool whole_sample = false;
+  std::string quadrature = "lens";
+  bool no_erosion = false;
 };
 
 void run(const Args& a) {
   apps::check_step_us(a.step_us);
+  const model::Quadrature quadrature = apps::quadrature_option(a.quadrature);
   if (!(a.sigma_N >= 0))
     throw InputError("command line", "--sigma-N", "a noise level ≥ 0 N (0 = the manifest's or estimated)");
   const model::Experiment e = model::load_experiment(a.experiment);
@@ -47,11 +51,14 @@ void run(const Args& a) {
   if (a.sigma_N > 0) opt.sigma_N = a.sigma_N;
   opt.threads = a.threads;
   opt.crop = !a.whole_sample;
+  opt.quadrature = quadrature;
+  opt.erosion = !a.no_erosion;
   TerminalProgress progress("verify");
   const auto study = apps::with_step_option(
       a.step_us, [&] { return model::verify_convergence(e, mp, opt, &progress); });
 
-  std::cout << "solution verification: change against (l, dt); RMS per axis over the used samples\n";
+  std::cout << fmt::format("solution verification ({} quadrature): change against (l, dt); RMS per axis over the used samples\n",
+                           model::quadrature_name(study.quadrature));
   for (const auto& r : study.reach) {
     const auto count = [](const std::array<std::size_t, 3>& d) { return double(d[0]) * double(d[1]) * double(d[2]); };
     std::cout << fmt::format("sample {}: replayed {}×{}×{} of its {}×{}×{} voxels ({:.3g} %), those within reach of the burr\n",
@@ -101,6 +108,8 @@ void setup(CLI::App& root) {
   cmd->add_flag("--whole-sample", a->whole_sample,
                 "replay every voxel of each sample, not only those within reach of the burr (the same figures to "
                 "rounding, at up to 8× the memory of the whole sample for l/2)");
+  apps::add_quadrature_option(cmd, a->quadrature);
+  cmd->add_flag("--no-erosion", a->no_erosion, "forces only: the contact force's convergence without erosion");
   cmd->add_option("--threads", a->threads, "replays run at once (each recording at each level; at most one at l/2)")
       ->capture_default_str()
       ->check(CLI::Range(1, model::kMaxThreads));

@@ -27,4 +27,6 @@ print(f"{'figure':<55} {'measured':>12} {'target':>12}  ok?")
 for name, v, unit, tgt, op in rows:
     ok = v <= tgt if op == "<=" else v >= tgt
     print(f"{name:<55} {v:>10.3g} {unit:<2}{op:>3}{tgt:>7g} {unit:<2} {'ok' if ok else 'MISSED'}")
+cube = us("BM_cube_microct_R1_l005_depth_R4")
+print(f"{'cube quadrature, micro-CT depth R/4 step (no target)':<55} {cube:>10.3g} us = {cube / us('BM_microct_R1_l005_depth_R4'):.2f}x the lens")
 PY

@@ -40,7 +40,8 @@ bm::ModelParams params() {
 // lowest point `depth` below it (depth > 2R: the whole burr is buried, its centre
 // depth − R below the surface). The undo log is rolled
 // back every 4096 steps so the surface stays intact over any number of iterations.
-void run_steps(benchmark::State& st, double R, double l, double depth) {
+void run_steps(benchmark::State& st, double R, double l, double depth,
+               bm::Quadrature q = bm::Quadrature::kLens) {
   // Room for the burr buried a full diameter below the surface, inside the volume.
   const std::size_t n = std::size_t(std::ceil(6 * R / l)) + 8;
   const double zs = (double(n) / 2 - 0.5) * l;
@@ -54,7 +55,7 @@ void run_steps(benchmark::State& st, double R, double l, double depth) {
   for (auto _ : st) {
     const double s = 0.37 * l * std::sin(0.013 * double(i));  // slide within ±0.37 l
     const glm::dvec3 p(c + s, c + 0.5 * s, zs + R - depth);
-    const bm::ContactResult r = bm::step(v, p, {0, 2000.0, 500.0}, R, prm, 1e-3, removed, &energy);
+    const bm::ContactResult r = bm::step(v, p, {0, 2000.0, 500.0}, R, prm, 1e-3, removed, &energy, q);
     fsum += r.force_N.z;
     if (++i % 4096 == 0) {
       v.rollback();
@@ -69,6 +70,11 @@ void run_steps(benchmark::State& st, double R, double l, double depth) {
 void BM_paper_R075_l03_depth_R4(benchmark::State& st) { run_steps(st, 0.75, 0.3, 0.75 / 4); }
 void BM_microct_R1_l005_depth_R4(benchmark::State& st) { run_steps(st, 1.0, 0.05, 0.25); }
 void BM_microct_R1_l005_buried(benchmark::State& st) { run_steps(st, 1.0, 0.05, 2.0 + 0.25); }
+// The cube quadrature (closed-form cut of every voxel the burr's surface crosses) on the
+// same steps: its cost against the lens's table lookups (bench/model.sh prints the ratio).
+void BM_cube_microct_R1_l005_depth_R4(benchmark::State& st) {
+  run_steps(st, 1.0, 0.05, 0.25, bm::Quadrature::kCube);
+}
 
 // Replay of 15 s at 1 kHz, R/l = 10 (R = 0.5 mm, l = 0.05 mm): plunge to R/2 while sweeping
 // ±2.5 mm along x at 0.5 Hz (up to 7.9 mm/s) and slowly along y, eroding.
@@ -102,5 +108,6 @@ void BM_replay_15s_1kHz_R_over_l_10(benchmark::State& st) {
 BENCHMARK(BM_paper_R075_l03_depth_R4)->MinTime(1.0);
 BENCHMARK(BM_microct_R1_l005_depth_R4)->MinTime(1.0);
 BENCHMARK(BM_microct_R1_l005_buried)->MinTime(1.0);
+BENCHMARK(BM_cube_microct_R1_l005_depth_R4)->MinTime(1.0);
 BENCHMARK(BM_replay_15s_1kHz_R_over_l_10)->Iterations(3)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

@@ -14,6 +14,7 @@ void name_overlaps(const Run& run, CalibrationOutput& res) {
   po.fit = &res.fit;
   po.threads = run.opt.threads;
   po.replay.cancel = run.opt.cancel;
+  po.replay.quadrature = run.opt.quadrature;
   res.overlaps = model::predict_experiment(run.exp, model::ModelParams::from(res.params), po).overlaps;
   for (const model::RemovedOverlap& o : res.overlaps) {
     res.fit.settings["warnings"].push_back(o.text());

@@ -179,6 +179,7 @@ CalibrationOutput results(Run& run) {
   st["buried"] = ds::to_string(run.settings.buried);
   st["buried_weight"] = run.settings.buried == ds::BuriedPolicy::kDownweight ? run.settings.buried_weight : 0.0;
   st["sigma_source"] = run.sigma_source;
+  st["quadrature"] = model::quadrature_name(run.opt.quadrature);
   {
     const Channels& ch = L.channels();
     nlohmann::json c = {{"force", true}, {"torque", ch.torque}, {"spindle", ch.spindle}};

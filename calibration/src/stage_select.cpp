@@ -266,6 +266,7 @@ void select_recordings(Run& run) {
 std::unique_ptr<ReplayRecordingModel> make_model(const Run& run, const model::AlignedRecording& r, ReplayPool& pool) {
   model::ReplayOptions ro;
   ro.cancel = run.opt.cancel;
+  ro.quadrature = run.opt.quadrature;
   auto m = std::make_unique<ReplayRecordingModel>(r, pool, ro);
   m->set_derivatives(run.opt.derivatives);
   m->set_steps(run.steps);

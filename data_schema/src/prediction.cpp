@@ -8,7 +8,7 @@
 //   used_validate, spindle_offset_Nmm, band95_N, @role, @force_bias_N, @force_bias_source,
 //   @torque_bias_Nmm, @torque_bias_source, @spindle_offset_source, @lag_ms,
 //   @depth_offset_mm, @friction_energy_mJ; /samples/<id>/{removed_depth_mm,
-//   removed_class} [ny, nx] with @voxel_mm, @removed_volume_mm3.
+//   removed_class} [ny, nx] with @voxel_mm, @removed_volume_mm3; 2.4: @quadrature.
 #include "burrbench/data_schema/prediction.hpp"
 
 #include <fmt/format.h>
@@ -161,6 +161,8 @@ void validate_recording(const PR& r, const std::string& file) {
         throw InputError(file, fmt::format("{}/{}[{}]", b, f.name, k), "0 or 1", std::to_string((r.*f.member)[k]));
   if (!r.role.empty() && r.role != "calibrate" && r.role != "validate")
     throw InputError(file, b + "/@role", "calibrate or validate", r.role);
+  if (r.quadrature != "lens" && r.quadrature != "cube")
+    throw InputError(file, b + "/@quadrature", "lens or cube", r.quadrature);
   for (const auto& [name, m] : kSources)
     if (r.*m != "fit" && r.*m != "tare" && r.*m != "none")
       throw InputError(file, b + "/@" + name, "fit, tare or none", r.*m);
@@ -267,6 +269,7 @@ void write_prediction(const std::filesystem::path& path, const Prediction& p) {
     for (const auto& f : kRoleFlags)
       if (!(r.*f.member).empty()) flags(f);
     if (!r.role.empty()) w.attr(b, "role", r.role);
+    w.attr(b, "quadrature", r.quadrature);
     for (const auto& [name, m] : kSources) w.attr(b, name, r.*m);
     for (const auto& [name, m] : kOffsets) w.attr(b, name, std::vector<double>{(r.*m).x, (r.*m).y, (r.*m).z});
     if (std::isfinite(r.lag_ms)) w.attr(b, "lag_ms", r.lag_ms);
@@ -357,6 +360,7 @@ PR read_recording(const h5::Reader& r, const std::string& id) {
     if (r.exists(b + "/" + f.name))
       out.*f.member = read_column<std::uint8_t>(r, b + "/" + f.name, h5::Elem::kUInt8, n, 1, f.unit);
   out.role = r.attr_string_opt(b, "role").value_or("");
+  out.quadrature = r.attr_string_opt(b, "quadrature").value_or("lens");
   for (const auto& [name, m] : kSources) out.*m = r.attr_string_opt(b, name).value_or("none");
   for (const auto& [name, m] : kOffsets)
     if (r.has_attr(b, name)) {

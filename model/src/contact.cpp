@@ -9,6 +9,7 @@
 #endif
 
 #include "burrbench/data_schema/error.hpp"
+#include "burrbench/model/cube_cut.hpp"
 #include "kernel_scratch.hpp"
 
 namespace burrbench::model {
@@ -144,19 +145,79 @@ inline detail::LensVoxel* lens_span(const Row& r, long x0, long x1, const LensTa
                    : lens_segment<false>(r, x0, x1, tab, reach2, inner2, S, out);
 }
 
+// The quadratures' first passes differ only in a row segment's voxels between the inside
+// and the reach (Quad::span) and in those radii; gather is the same for both.
+struct LensQuad {
+  const LensTable& tab;
+  double reach2() const { return tab.d2_outer(); }
+  double inner() const { return tab.radius() > tab.eta() ? tab.radius() - tab.eta() : -1.0; }
+  double inner2() const { return tab.d2_inner(); }
+  double inside_volume() const { return tab.inside_volume(); }
+  void grow(std::size_t) const {}
+  detail::LensVoxel* span(const Row& r, long x0, long x1, Sums& S, detail::LensVoxel* out,
+                          const detail::LensVoxel*) const {
+    return lens_span(r, x0, x1, tab, tab.d2_outer(), tab.d2_inner(), S, out);
+  }
+};
+
+// Cube quadrature: a voxel whose cube the burr's tangent plane may cut (|R − d| < l√3/2)
+// is cut in closed form (cube_cut.hpp); ΔV and the radial first moment m = ΔV·d + μₙ
+// enter the moments (M₁ gets χ m v/d), the cut's area its CutArea.
+struct CubeQuad {
+  double R, l;
+  std::vector<detail::CutArea>& cut;
+  double half_diag() const { return 0.5 * std::sqrt(3.0) * l; }
+  double reach2() const { return (R + half_diag()) * (R + half_diag()); }
+  double inner() const { return R > half_diag() ? R - half_diag() : -1.0; }
+  double inner2() const { return inner() > 0 ? inner() * inner() : -1.0; }
+  double inside_volume() const { return l * l * l; }
+  void grow(std::size_t n) const { cut.resize(n); }
+  detail::LensVoxel* span(const Row& r, long x0, long x1, Sums& S, detail::LensVoxel* out,
+                          const detail::LensVoxel* first) const {
+    const double reach2_ = reach2(), inner2_ = inner2();
+    for (long x = x0; x <= x1; ++x) {
+      const float cf = r.chi[x];
+      if (cf <= 0.0f) continue;
+      const double dx = r.gx + r.l * double(x), d2 = dx * dx + r.s2;
+      if (d2 >= reach2_) continue;
+      const std::uint8_t k = r.uniform ? r.uniform : r.lab[x];
+      if (d2 <= inner2_) {  // as lens_segment: rounding put an inside voxel here
+        if (S.inside_extra) S.inside_extra->push_back(std::uint32_t(r.base + std::size_t(x)));
+        S.in_mass[k] += cf;
+        S.ix += cf * dx; S.iy += cf * r.dy; S.iz += cf * r.dz;
+        continue;
+      }
+      const double d = std::sqrt(d2), inv_d = 1.0 / d;
+      const glm::dvec3 v(dx, r.dy, r.dz);
+      const CubeCut c = cube_cut(v * inv_d, R - d, l, false);
+      if (!(c.volume_mm3 > 0)) continue;
+      const double w = c.volume_mm3 * double(cf);
+      S.lens_mass[k] += w;
+      const double wm = double(cf) * (c.volume_mm3 * d + c.normal_moment_mm4) * inv_d;  // χ m / d
+      S.mx += wm * dx; S.my += wm * r.dy; S.mz += wm * r.dz;
+      cut[std::size_t(out - first)] = {c.area_mm2, inv_d};
+      detail::LensVoxel& o = *out++;
+      o.vx = dx; o.vy = r.dy; o.vz = r.dz; o.d2 = d2; o.rd = R * inv_d;
+      o.index = std::uint32_t(r.base + std::size_t(x));
+      o.label = k;
+      o.chi = cf;
+    }
+    return out;
+  }
+};
+
 // First pass: moments of all voxels within reach, collecting lens voxels in scratch.
-void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) {
+template <class Quad>
+void gather(const Volume& vol, const Quad& q, glm::dvec3 p, Moments& mo) {
   const auto& dims = vol.dims();
   const double l = vol.voxel_mm(), inv_l = 1.0 / l;
   // Voxels are placed by their index in the sample's grid (a cut volume holds rows y ≥ y_off,
   // layers z ≥ z_off of it), so a cut volume gives bit-identical sums (volume.hpp).
   const glm::dvec3 o = vol.grid_origin_mm();
   const long y_off = long(vol.box().lo[1]), z_off = long(vol.box().lo[2]);
-  const double reach2 = tab.d2_outer(), reach = std::sqrt(reach2);
-  const double R = tab.radius(), eta = tab.eta();
-  const double inner = R > eta ? R - eta : -1.0;  // fully-inside radius (R > η only)
-  const double inner2 = tab.d2_inner();
-  const double v_in = tab.inside_volume();
+  const double reach2 = q.reach2(), reach = std::sqrt(reach2);
+  const double inner = q.inner();  // fully-inside radius (−1: none)
+  const double v_in = q.inside_volume();
   const float* chi = vol.chi_data();
   const std::uint8_t* lab = vol.label_data();
   const std::size_t nx = dims[0], ny = dims[1];
@@ -214,6 +275,7 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
       const std::size_t used = std::size_t(out - first), need = std::size_t(xb - xa + 1);
       if (used + need > lens.size()) {
         lens.resize(std::max(2 * lens.size(), used + need + 1024));
+        q.grow(lens.size());
         first = lens.data();
         out = first + used;
       }
@@ -227,7 +289,7 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
       }
       const std::size_t base = row * nx;
       const Row r{chi + base, lab + base, base, o.x - p.x, l, dy, dz, s2, vol.row_label(row)};
-      out = lens_span(r, xa, ia - 1, tab, reach2, inner2, S, out);
+      out = q.span(r, xa, ia - 1, S, out, first);
       if (ia <= ib) {
         if (sc.keep_inside) sc.inside_spans.push_back({std::uint32_t(row), std::int32_t(ia), std::int32_t(ib)});
         if (r.uniform != 0) {
@@ -247,7 +309,7 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
           }
         }
       }
-      out = lens_span(r, ib + 1, xb, tab, reach2, inner2, S, out);
+      out = q.span(r, ib + 1, xb, S, out, first);
     }
   }
   for (int k = 1; k < kMaxClasses; ++k) {
@@ -259,21 +321,43 @@ void gather(const Volume& vol, const LensTable& tab, glm::dvec3 p, Moments& mo) 
   mo.lens_count = std::size_t(out - first);
 }
 
-ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double R,
-                      const ModelParams& prm, Volume* erode_vol, double dt,
-                      std::array<double, kMaxClasses>* removed,
-                      std::array<double, kMaxClasses>* energy) {
-  if (!(R > 0) || !std::isfinite(R))
-    throw InputError("model", "radius_mm", "finite burr radius > 0 mm", std::to_string(R));
+// Δσ (the contact area element) and 1/d of the j-th voxel of the first pass: the lens's
+// from its table at d² (same node and weight as the first pass's lookup), the cube's as
+// the first pass stored them.
+struct LensArea {
+  const double* T;
+  double t_lo, t_ih;
+  int t_last;
+  explicit LensArea(const LensTable& tab)
+      : T(tab.data()), t_lo(tab.d2_inner()), t_ih(tab.inv_step()), t_last(tab.intervals() - 1) {}
+  detail::CutArea operator()(std::size_t, double d2) const {
+    const double u = (d2 - t_lo) * t_ih;
+    const int ti = std::min(std::max(int(u), 0), t_last);
+    const double f = u - ti;
+    const double* ta = T + 4 * ti;
+    return {ta[1] + f * (ta[5] - ta[1]), ta[3] + f * (ta[7] - ta[3])};
+  }
+};
+struct CubeArea {
+  const std::vector<detail::CutArea>& cut;  // grown by the first pass
+  detail::CutArea operator()(std::size_t j, double) const { return cut[j]; }
+};
+
+template <class Quad, class Area>
+ContactResult contact_with(const Volume& vol, const Quad& quad, const Area& area_of, glm::dvec3 p,
+                           glm::dvec3 omega, double R, const ModelParams& prm, Volume* erode_vol,
+                           double dt, std::array<double, kMaxClasses>* removed,
+                           std::array<double, kMaxClasses>* energy) {
   ContactResult out;
   if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(omega.x + omega.y + omega.z))
     throw InputError("model", "burr state", "finite centre and angular velocity");
-  const LensTable& tab = table_for(vol, R);
   Moments mo;
-  gather(vol, tab, p, mo);
+  gather(vol, quad, p, mo);
   detail::KernelState& st = vol.scratch().state;
   st = detail::KernelState{};
   st.p = p;
+  st.radius = R;
+  st.voxel = vol.voxel_mm();
   st.mass = mo.mass;
   st.m1 = mo.m1;
   st.inside_chi = mo.inside_chi;
@@ -321,9 +405,6 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   // centre measured in the contact plane (MODEL.md step 4).
   const glm::dvec3 w = omega / wn;
   const double p0 = 3 * fe / (2 * kPi * a2), inv_a2 = 1.0 / a2;
-  const double* const T = tab.data();
-  const double t_lo = tab.d2_inner(), t_ih = tab.inv_step();
-  const int t_last = tab.intervals() - 1;
   const double l3 = vol.voxel_mm() * vol.voxel_mm() * vol.voxel_mm();
   double G[kMaxClasses][3] = {};
   // Friction couple per class over μ: Σ s (r/d) [(v·ω̂) v − d² ω̂] = TA − TB ω̂.
@@ -356,12 +437,8 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
     const double t2 = d2 - vn * vn;  // squared distance of c from the normal axis
     const double xi2 = rd * rd * t2;
     if (xi2 >= a2) continue;  // off the contact disc
-    // Δσ and 1/d at d² (same node and weight as the first pass's lookup)
-    const double u = (d2 - t_lo) * t_ih;
-    const int ti = std::min(std::max(int(u), 0), t_last);
-    const double f = u - ti;
-    const double* ta = T + 4 * ti;
-    const double area = ta[1] + f * (ta[5] - ta[1]), inv_d = ta[3] + f * (ta[7] - ta[3]);
+    const detail::CutArea ai = area_of(j, d2);
+    const double area = ai.area, inv_d = ai.inv_d;
     const double P = p0 * std::sqrt(1.0 - xi2 * inv_a2);
     const double chi = v.chi;
     const double s = chi * area * P * inv_d;
@@ -407,22 +484,41 @@ ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double 
   return out;
 }
 
+ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double R,
+                      const ModelParams& prm, Volume* erode_vol, double dt,
+                      std::array<double, kMaxClasses>* removed,
+                      std::array<double, kMaxClasses>* energy, Quadrature q) {
+  if (!(R > 0) || !std::isfinite(R))
+    throw InputError("model", "radius_mm", "finite burr radius > 0 mm", std::to_string(R));
+  if (q == Quadrature::kCube) {
+    detail::Scratch& sc = vol.scratch();
+    const CubeQuad quad{R, vol.voxel_mm(), sc.cut};
+    sc.cut.resize(sc.lens.size());
+    ContactResult c = contact_with(vol, quad, CubeArea{sc.cut}, p, omega, R, prm, erode_vol, dt,
+                                   removed, energy);
+    sc.state.cube = true;
+    return c;
+  }
+  const LensTable& tab = table_for(vol, R);
+  return contact_with(vol, LensQuad{tab}, LensArea(tab), p, omega, R, prm, erode_vol, dt, removed, energy);
+}
+
 }  // namespace
 
 ContactResult evaluate(const Volume& vol, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
-                       double radius_mm, const ModelParams& params) {
+                       double radius_mm, const ModelParams& params, Quadrature q) {
   return contact(vol, centre_vol_mm, omega_vol_rad_s, radius_mm, params, nullptr, 0, nullptr,
-                 nullptr);
+                 nullptr, q);
 }
 
 ContactResult step(Volume& vol, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
                    double radius_mm, const ModelParams& params, double dt_s,
                    std::array<double, kMaxClasses>& removed_mm3,
-                   std::array<double, kMaxClasses>* energy_mJ) {
+                   std::array<double, kMaxClasses>* energy_mJ, Quadrature q) {
   if (!(dt_s >= 0) || !std::isfinite(dt_s))
     throw InputError("model", "dt_s", "finite time step >= 0 s", std::to_string(dt_s));
   return contact(vol, centre_vol_mm, omega_vol_rad_s, radius_mm, params, &vol, dt_s,
-                 &removed_mm3, energy_mJ);
+                 &removed_mm3, energy_mJ, q);
 }
 
 }  // namespace burrbench::model

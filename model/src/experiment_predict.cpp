@@ -339,6 +339,7 @@ ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& 
         out.recordings[i] = predict(r, vol, params, options, progress.get(), true);
       }
       if (const auto* ref = e.manifest.recording(r.id)) out.recordings[i].role = data_schema::to_string(ref->role);
+      out.recordings[i].quadrature = quadrature_name(options.replay.quadrature);
     } catch (const InputError& err) {
       throw err.in("recording " + r.id);
     }

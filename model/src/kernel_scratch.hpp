@@ -24,10 +24,18 @@ struct LensVoxel {
 };
 static_assert(sizeof(LensVoxel) == 56);
 
+// The cube quadrature's per-voxel surface data, beside its LensVoxel (same index): the
+// cut's area A and 1/d (the lens takes both from its table).
+struct CutArea {
+  double area, inv_d;
+};
+
 // What the last contact evaluation derived from the moments, for the tangent pass of the
 // forward sensitivities (sensitivity.cpp), which differentiates the same quantities.
 struct KernelState {
   bool force = false;     // a contact normal and an elastic force exist
+  bool cube = false;      // the cube quadrature made it (its voxels are in Scratch::lens and cut)
+  double radius = 0, voxel = 0;
   bool friction = false;  // the friction pass ran (a² > 0, |F_e| > 0, |ω| > 0)
   glm::dvec3 p{0}, m1{0}, n{0}, w{0};  // centre, M₁, n̂, ω̂
   double M = 0, m1n = 0, b = 0, g = 0, c1_eff = 0, fe = 0, a2 = 0, p0 = 0, wn = 0;
@@ -45,7 +53,8 @@ struct InsideSpan {
 struct Scratch {
   bool has_table = false;
   LensTable table;
-  std::vector<LensVoxel> lens;
+  std::vector<LensVoxel> lens;  // lens voxels, or the cube quadrature's cut voxels (rd = R/d)
+  std::vector<CutArea> cut;     // cube quadrature: per entry of `lens`
   KernelState state;
   // While a tangent pass runs (TangentState), the first pass also lists the fully-inside
   // voxels it summed without geometry: their spans, and the few that rounding moved from a

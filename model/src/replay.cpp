@@ -157,7 +157,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
         const double f = double(j) / double(m);
         const bool reported = report != kNoReport && i == 0 && j == 0;
         ContactResult c = step(vol, a.centre + f * dpk, a.omega + f * dw, radius_mm, params, dt,
-                               res.removed_mm3, &res.friction_energy_mJ);
+                               res.removed_mm3, &res.friction_energy_mJ, opt.quadrature);
         if (sens) {
           path_at(a.index, b.index, f);
           tan->differentiate(vol, c, dp.data(), true, reported ? dF.data() : nullptr,
@@ -187,7 +187,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
       if (opt.cancel && k % 64 == 0) opt.cancel->check();
       if (k + 1 == n || !opt.erosion) {
         res.samples[k].contact =
-            evaluate(vol, tr.centre_vol_mm[k], tr.omega_vol_rad_s[k], radius_mm, params);
+            evaluate(vol, tr.centre_vol_mm[k], tr.omega_vol_rad_s[k], radius_mm, params, opt.quadrature);
         if (sens) {
           path_at(k, k, 0);
           tan->differentiate(vol, res.samples[k].contact, dp.data(), false, dF.data(),

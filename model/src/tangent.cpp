@@ -62,6 +62,74 @@ double* TangentState::tangent_or_new(std::uint32_t v) {
   return &dchi_[std::size_t(slot_[v]) * P_];
 }
 
+// Inside voxels with a tangent (eroded earlier, now inside) add v_in·∂χ to the moments.
+void TangentState::inside_tangents(const Volume& vol, double v_in) {
+  const KernelState& st = vol.scratch().state;
+  const std::size_t P = P_;
+  const double l = vol.voxel_mm();
+  auto& dmass = dmass_;
+  auto& dm1 = dm1_;
+  const std::vector<std::size_t>& act = act_;
+  // Inside voxels with a tangent (eroded earlier, now inside) add v_in·∂χ. The first pass
+  // listed the inside voxels (Scratch::keep_inside); only rows with tangents are visited.
+  if (touched_.empty()) return;
+  {
+    const glm::dvec3 o = vol.grid_origin_mm(), p = st.p;  // as the kernel places voxels
+    const double y_off = double(vol.box().lo[1]), z_off = double(vol.box().lo[2]);
+    const Scratch& sc = vol.scratch();
+    auto inside = [&](std::size_t idx, std::size_t x, std::size_t row) {
+      const std::int32_t s = slot_[idx];
+      if (s < 0) return;
+      const std::size_t y = row % ny_, z = row / ny_;
+      const glm::dvec3 vv = o + l * glm::dvec3(double(x), double(y) + y_off, double(z) + z_off) - p;
+      const double* tg = &dchi_[std::size_t(s) * P];
+      const std::uint8_t k = vol.label(idx);
+      for (const std::size_t j : act) {
+        dmass[j][k] += v_in * tg[j];
+        dm1[j] += v_in * tg[j] * vv;
+      }
+    };
+    for (const InsideSpan& sp : sc.inside_spans) {
+      const std::size_t row = sp.row;
+      const std::int32_t xa = std::max(sp.lo, row_lo_[row]), xb = std::min(sp.hi, row_hi_[row]);
+      for (std::int32_t x = xa; x <= xb; ++x) inside(std::size_t(x) + nx_ * row, std::size_t(x), row);
+    }
+    for (const std::uint32_t idx : sc.inside_extra) inside(idx, idx % nx_, idx / nx_);
+  }
+
+}
+
+// ∂n̂, ∂|F_e|, ∂a², ∂p₀ from ∂mass and ∂M₁; ∂F_e into dF when `forces`.
+void TangentState::elastic_tangents(const KernelState& st, double R, bool forces, glm::dvec3* dF) {
+  auto& dmass = dmass_;
+  auto& dm1 = dm1_;
+  const std::vector<std::size_t>& act = act_;
+  // ---- depth, normal, elastic force ----
+  const glm::dvec3 n = st.n;
+  const double M = st.M, b = st.b, g = st.g, cbar = st.c1_eff;
+  const double a2 = st.a2;
+  const bool full = M >= 4.0 / 3.0 * kPi * R * R * R;  // b clamped at 2R
+  auto &dfe = dfe_, &da2 = da2_, &dp0 = dp0_;
+  auto& dn = dn_;
+  for (const std::size_t j : act) {
+    double dM = 0, dc = 0;
+    for (int k = 1; k < kMaxClasses; ++k) {
+      dM += dmass[j][std::size_t(k)];
+      dc += prm_.by_label[std::size_t(k)].c1_N_per_mm2 * dmass[j][std::size_t(k)];
+    }
+    dc = (dc - cbar * dM) / M;
+    if (kind_[j] == kC1) dc += prm_.by_label[label_[j]].c1_N_per_mm2 * st.mass[label_[j]] / M;
+    // π b²(R − b/3) = M  ⇒  dM = π(2Rb − b²) db = π a² db
+    const double db = (!full && a2 > 0) ? dM / (kPi * a2) : 0.0;
+    const double dg = 1.5 * g / b * db;
+    dn[j] = -(dm1[j] - n * glm::dot(n, dm1[j])) / st.m1n;
+    if (forces) dF[j] = (dc * g + cbar * dg) * n + cbar * g * dn[j];
+    dfe[j] = dc * g + cbar * dg;
+    da2[j] = 2 * (R - b) * db;
+    dp0[j] = st.friction ? st.p0 * (dfe[j] / st.fe - da2[j] / a2) : 0.0;
+  }
+}
+
 void TangentState::differentiate(const Volume& vol, const ContactResult& c, const glm::dvec3* dp,
                                  bool eroded, glm::dvec3* dF, glm::dvec3* dT) {
   const std::size_t P = P_;
@@ -98,6 +166,10 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   // ∂p per direction, zero for the constants (they do not move the burr).
   auto& dpj = dpj_;
   for (const std::size_t j : act) dpj[j] = kind_[j] == kPath ? dp[j] : glm::dvec3(0);
+  if (st.cube) {
+    differentiate_cube(vol, c, eroded, dF, dT);
+    return;
+  }
 
   // ---- first moments: ∂mass_k, ∂M₁ ----
   // A path direction changes every lens voxel's d² by −2 v·∂p, so its terms are linear in
@@ -141,57 +213,13 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     for (int k = 1; k < kMaxClasses; ++k) dmass[j][std::size_t(k)] += glm::dot(amass[std::size_t(k)], dp[j]);
     dm1[j] += -2.0 * (B * dp[j]) - (swr + v_in * st.inside_chi) * dp[j];
   }
-  // Inside voxels with a tangent (eroded earlier, now inside) add v_in·∂χ. The first pass
-  // listed the inside voxels (Scratch::keep_inside); only rows with tangents are visited.
-  if (!touched_.empty()) {
-    const glm::dvec3 o = vol.grid_origin_mm(), p = st.p;  // as the kernel places voxels
-    const double y_off = double(vol.box().lo[1]), z_off = double(vol.box().lo[2]);
-    const Scratch& sc = vol.scratch();
-    auto inside = [&](std::size_t idx, std::size_t x, std::size_t row) {
-      const std::int32_t s = slot_[idx];
-      if (s < 0) return;
-      const std::size_t y = row % ny_, z = row / ny_;
-      const glm::dvec3 vv = o + l * glm::dvec3(double(x), double(y) + y_off, double(z) + z_off) - p;
-      const double* tg = &dchi_[std::size_t(s) * P];
-      const std::uint8_t k = vol.label(idx);
-      for (const std::size_t j : act) {
-        dmass[j][k] += v_in * tg[j];
-        dm1[j] += v_in * tg[j] * vv;
-      }
-    };
-    for (const InsideSpan& sp : sc.inside_spans) {
-      const std::size_t row = sp.row;
-      const std::int32_t xa = std::max(sp.lo, row_lo_[row]), xb = std::min(sp.hi, row_hi_[row]);
-      for (std::int32_t x = xa; x <= xb; ++x) inside(std::size_t(x) + nx_ * row, std::size_t(x), row);
-    }
-    for (const std::uint32_t idx : sc.inside_extra) inside(idx, idx % nx_, idx / nx_);
-  }
-
-  // ---- depth, normal, elastic force ----
-  const glm::dvec3 n = st.n;
-  const double M = st.M, b = st.b, g = st.g, cbar = st.c1_eff;
-  const double a2 = st.a2;
-  const bool full = M >= 4.0 / 3.0 * kPi * R * R * R;  // b clamped at 2R
-  auto &dfe = dfe_, &da2 = da2_, &dp0 = dp0_;
-  auto& dn = dn_;
-  for (const std::size_t j : act) {
-    double dM = 0, dc = 0;
-    for (int k = 1; k < kMaxClasses; ++k) {
-      dM += dmass[j][std::size_t(k)];
-      dc += prm_.by_label[std::size_t(k)].c1_N_per_mm2 * dmass[j][std::size_t(k)];
-    }
-    dc = (dc - cbar * dM) / M;
-    if (kind_[j] == kC1) dc += prm_.by_label[label_[j]].c1_N_per_mm2 * st.mass[label_[j]] / M;
-    // π b²(R − b/3) = M  ⇒  dM = π(2Rb − b²) db = π a² db
-    const double db = (!full && a2 > 0) ? dM / (kPi * a2) : 0.0;
-    const double dg = 1.5 * g / b * db;
-    dn[j] = -(dm1[j] - n * glm::dot(n, dm1[j])) / st.m1n;
-    if (forces) dF[j] = (dc * g + cbar * dg) * n + cbar * g * dn[j];
-    dfe[j] = dc * g + cbar * dg;
-    da2[j] = 2 * (R - b) * db;
-    dp0[j] = st.friction ? st.p0 * (dfe[j] / st.fe - da2[j] / a2) : 0.0;
-  }
+  inside_tangents(vol, v_in);
+  elastic_tangents(st, R, forces, dF);
   if (!st.friction) return;
+  const glm::dvec3 n = st.n;
+  const double a2 = st.a2;
+  const auto &da2 = da2_, &dp0 = dp0_;
+  const auto& dn = dn_;
 
   // ---- friction and friction power ----
   // Per disc voxel, ∂s (friction weight) and ∂W (power) are linear in the direction's

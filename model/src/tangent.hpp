@@ -16,6 +16,8 @@
 
 namespace burrbench::model::detail {
 
+struct KernelState;
+
 // Σ c v vᵀ over voxels, symmetric (six sums): the tangent pass sums the geometric part of a
 // path direction's terms once and applies it to each direction's ∂p.
 struct Sym3 {
@@ -57,6 +59,10 @@ class TangentState {
   std::uint32_t reached_classes() const { return reached_; }
 
  private:
+  void inside_tangents(const Volume& vol, double v_in);
+  void elastic_tangents(const KernelState& st, double R, bool forces, glm::dvec3* dF);
+  // The cube quadrature's moments, friction and erosion tangents (tangent_cube.cpp).
+  void differentiate_cube(const Volume& vol, const ContactResult& c, bool eroded, glm::dvec3* dF, glm::dvec3* dT);
   double* tangent(std::uint32_t voxel);          // existing or null
   double* tangent_or_new(std::uint32_t voxel);   // allocates a zero tangent
   const Volume& vol_;

@@ -142,6 +142,7 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
     throw InputError("command line", "--step-us", "a step ≥ 0 (µs; 0 = half the sample period)");
   BURRBENCH_CHECK(options.threads >= 1, "verify_convergence needs at least one thread");
   ConvergenceStudy out;
+  out.quadrature = options.quadrature;
   // The sample at each voxel level, built once (recordings of one sample share it).
   // Each cropped to the part its recordings reach (within_reach).
   std::map<std::string, std::array<ds::SampleVolume, 3>> samples;
@@ -196,6 +197,8 @@ ConvergenceStudy verify_convergence(const Experiment& e, const ModelParams& para
           Volume vol = Volume::from_sample(s);
           PredictOptions po;
           po.replay.step_s = dt[i] * lv.step;
+          po.replay.quadrature = options.quadrature;
+          po.replay.erosion = options.erosion;
           const auto t0 = std::chrono::steady_clock::now();
           pred[j] = predict(r, vol, params, po);
           wall[j] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -294,7 +297,8 @@ nlohmann::json to_json(const ConvergenceStudy& s) {
   }
   nlohmann::json reach = nlohmann::json::array();
   for (const auto& r : s.reach) reach.push_back({{"sample", r.sample_id}, {"dims", r.dims}, {"replayed_dims", r.replayed_dims}});
-  return {{"recordings", recs},
+  return {{"quadrature", quadrature_name(s.quadrature)},
+          {"recordings", recs},
           {"reach", reach},
           {"sigma_N", num(s.sigma_N)},
           {"sigma_source", s.sigma_source},

@@ -45,7 +45,7 @@ def recordings(path):
 def test_validate_without_tare_predicts_what_replay_predicts_bit_for_bit(runs):
     plain, plain_removed, _ = recordings(runs / "replay.h5")
     gate, removed, version = recordings(runs / "raw" / "prediction.h5")
-    assert str(version.decode() if isinstance(version, bytes) else version).startswith("2.3")
+    assert str(version.decode() if isinstance(version, bytes) else version).startswith("2.4")
     assert sorted(plain) == sorted(gate) == ["plunge", "polish", "sweep"]
     for rid in plain:
         for key in ("force_sensor_pred_N", "force_burr_vol_N", "centre_vol_mm", "torque_sensor_pred_Nmm"):

@@ -55,6 +55,7 @@ bb::Prediction make_prediction(const std::filesystem::path& input) {
   p.recordings[1].registration_method = "vol_from_rig";
   // 2.3: what a fit's prediction applied, its band and role flags, and the removed bone.
   fid.role = "calibrate";
+  fid.quadrature = "cube";  // 2.4
   fid.used_calibrate = fid.use;
   fid.used_validate.assign(fid.samples(), 0);
   fid.used_validate[39] = 1;
@@ -235,6 +236,8 @@ TEST(FormatsPrediction, RoundTripIsExact) {
     EXPECT_EQ(rb.lag_ms, ra.lag_ms);
     EXPECT_EQ(rb.depth_offset_mm, ra.depth_offset_mm);
     EXPECT_EQ(std::memcmp(rb.friction_energy_mJ.data(), ra.friction_energy_mJ.data(), sizeof(ra.friction_energy_mJ)), 0);
+    EXPECT_EQ(rb.quadrature, "cube");  // 2.4
+    EXPECT_EQ(b.recordings[1].quadrature, "lens");
     // Older or plain recordings: no role, nothing applied, the lag not recorded.
     EXPECT_EQ(b.recordings[1].role, "");
     EXPECT_EQ(b.recordings[1].force_bias_source, "none");
@@ -278,8 +281,9 @@ TEST(FormatsPrediction, FileUsesFixedLengthStringsAndTheChecksummedFormat) {
   // format, format_version, 3 provenance attributes, 2 provenance string datasets and a
   // unit on each of the 10 datasets of the 3 recordings, 2 registration methods; 2.3: 3
   // offset sources per recording, one role, a unit on the first recording's 5 optional
-  // datasets (spindle prediction and offset, band, 2 role flags) and on the 2 maps.
-  EXPECT_EQ(scan.strings.size(), 2u + 3u + 2u + 3u * 10u + 2u + 3u * 3u + 1u + 5u + 2u);
+  // datasets (spindle prediction and offset, band, 2 role flags) and on the 2 maps; 2.4:
+  // the quadrature of each recording.
+  EXPECT_EQ(scan.strings.size(), 2u + 3u + 2u + 3u * 10u + 2u + 3u * 3u + 1u + 5u + 2u + 3u);
   for (const auto& [name, variable] : scan.strings)
     EXPECT_FALSE(variable) << name << " is a variable-length string";
 }
@@ -310,6 +314,7 @@ TEST(FormatsPrediction, ValidatorNamesFieldAndWritesNothing) {
   check([](bb::Prediction& p) { p.recordings[2].recording_id = "a/b"; }, {"without '/'"});
   // 2.3
   check([](bb::Prediction& p) { p.recordings[0].role = "train"; }, {"/recordings/sweep/@role", "calibrate or validate"});
+  check([](bb::Prediction& p) { p.recordings[0].quadrature = "sphere"; }, {"/recordings/sweep/@quadrature", "lens or cube"});
   check([](bb::Prediction& p) { p.recordings[0].force_bias_source = "guess"; },
         {"/recordings/sweep/@force_bias_source", "fit, tare or none"});
   check([](bb::Prediction& p) { p.recordings[0].used_validate[3] = 2; }, {"/recordings/sweep/used_validate[3]", "0 or 1"});

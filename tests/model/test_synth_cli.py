@@ -434,7 +434,7 @@ def test_replay_prints_and_stores_the_registration(exp, tmp_path):
     line = next(s for s in p.stdout.splitlines() if s.strip().startswith("beads:") and "fiducial" in s)
     assert f"RMS {rms:.6f} mm, largest {kabsch_rms(rig, vol)[1]:.6f} mm" in line and "TRE" in line, line
     with h5py.File(tmp_path / "p.h5", "r") as f:
-        assert f.attrs["format_version"].decode() == "2.3"
+        assert f.attrs["format_version"].decode() == "2.4"
         g = f["recordings/beads"].attrs
         assert g["registration_method"].decode() == "fiducials"
         assert g["registration_rms_mm"] == pytest.approx(rms, rel=1e-9)

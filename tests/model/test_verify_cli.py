@@ -156,3 +156,34 @@ def test_the_part_within_reach_gives_the_whole_samples_figures(synthetic, tmp_pa
     for k in a:
         assert a[k] == pytest.approx(b[k], rel=1e-9, abs=1e-12), k
     assert part["verdict"] == whole["verdict"]
+
+
+def test_quadrature_is_chosen_recorded_and_checked(synthetic):
+    """`--quadrature cube` runs the cube quadrature (docs/model.md): its study names it, its
+    force differs from the lens's (another quadrature of the same integrals) but not by more
+    than the lens's own voxel error, and a replay's prediction.h5 records it per recording."""
+    import h5py
+    d = synthetic
+    p = verify(d, "--quadrature", "cube", "--out", d / "cube.json")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "(cube quadrature)" in p.stdout
+    cube = json.loads((d / "cube.json").read_text())
+    assert cube["quadrature"] == "cube"
+    assert verify(d, "--out", d / "lens.json").returncode == 0
+    lens = json.loads((d / "lens.json").read_text())
+    assert lens["quadrature"] == "lens"
+    for a, b in zip(lens["recordings"], cube["recordings"]):
+        assert a["levels"][0]["peak_N"] != b["levels"][0]["peak_N"]
+        assert abs(a["levels"][0]["peak_N"] - b["levels"][0]["peak_N"]) < a["voxel_error_N"] + b["voxel_error_N"]
+    for q in ("lens", "cube"):
+        out = d / f"replay_{q}.h5"
+        r = subprocess.run([BURRBENCH, "replay", str(d / "experiment.toml"), "--params", str(d / "params_true.toml"),
+                            "--quadrature", q, "--out", str(out)], capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stdout + r.stderr
+        with h5py.File(out, "r") as f:
+            assert f.attrs["format_version"] in (b"2.4", "2.4")
+            for rec in f["recordings"].values():
+                v = rec.attrs["quadrature"]
+                assert (v.decode() if isinstance(v, bytes) else v) == q
+    bad = verify(d, "--quadrature", "sphere")
+    assert_refused(bad.returncode, bad.stderr, "command line", "--quadrature", "lens or cube")

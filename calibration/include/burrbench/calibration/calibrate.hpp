@@ -18,6 +18,8 @@ namespace burrbench::calibration {
 
 struct CalibrateOptions {
   int threads = 2;              // replay workers (each holds its own copy of every sample)
+  // The contact quadrature of every replay (model/quadrature.hpp; fit.json settings.quadrature).
+  model::Quadrature quadrature = model::Quadrature::kLens;
   int max_iterations = 30;      // refinement of the best start
   int starts = 0;               // global search starts; 0: the manifest's fit.multistart
   int solve_starts = 4;         // starts with the lowest pre-fit cost that are solved locally

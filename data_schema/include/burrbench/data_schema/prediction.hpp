@@ -22,8 +22,9 @@ inline constexpr const char* kPredictionFormat = "burrbench.prediction";
 inline constexpr int kPredictionVersionMajor = 2;
 // 2.1: the registration per recording; 2.2: the wrench; 2.3: what the prediction applied
 // (bias, lag, depth offset, tare), the samples each role counts, the band, the energy and
-// the removed bone per sample (issue 14: one hand-off from model to report).
-inline constexpr int kPredictionVersionMinor = 3;
+// the removed bone per sample (issue 14: one hand-off from model to report); 2.4: the
+// contact quadrature of each recording's replay.
+inline constexpr int kPredictionVersionMinor = 4;
 // Class labels 0..7 whose removed volume is recorded (the model's label range).
 inline constexpr std::size_t kPredictionClasses = 8;
 
@@ -66,6 +67,8 @@ struct PredictedRecording {
   // and not a buried sample the manifest excludes. A recording whose segments carry both
   // roles has 1s in both.
   std::string role;
+  // 2.4: the contact kernel's quadrature, "lens" or "cube" (docs/model.md; older files: "lens").
+  std::string quadrature = "lens";
   std::vector<std::uint8_t> used_calibrate, used_validate;
   // What was added to the predicted channels: the fitted nuisance ("fit"), the tare —
   // the measured mean over samples with no predicted contact ("tare") — or nothing

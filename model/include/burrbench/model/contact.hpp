@@ -7,6 +7,7 @@
 #include <glm/glm.hpp>
 
 #include "burrbench/model/model_params.hpp"
+#include "burrbench/model/quadrature.hpp"
 #include "burrbench/model/volume.hpp"
 
 namespace burrbench::model {
@@ -43,7 +44,7 @@ struct ContactResult {
 };
 
 ContactResult evaluate(const Volume&, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
-                       double radius_mm, const ModelParams&);
+                       double radius_mm, const ModelParams&, Quadrature = Quadrature::kLens);
 
 // evaluate, then erode over dt_s with the friction power at this position (forward
 // Euler). Removed volume (mm³) and friction energy (mJ, = Σ W_i·dt, before clamping χ at 0)
@@ -51,6 +52,7 @@ ContactResult evaluate(const Volume&, glm::dvec3 centre_vol_mm, glm::dvec3 omega
 ContactResult step(Volume&, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
                    double radius_mm, const ModelParams&, double dt_s,
                    std::array<double, kMaxClasses>& removed_mm3,
-                   std::array<double, kMaxClasses>* energy_mJ = nullptr);
+                   std::array<double, kMaxClasses>* energy_mJ = nullptr,
+                   Quadrature = Quadrature::kLens);
 
 }  // namespace burrbench::model

@@ -37,6 +37,7 @@ struct Trajectory {                          // the burr's path in the VOLUME fr
 struct ReplayOptions {
   double step_s = 0;     // internal step; 0 → half the median sample period
   bool erosion = true;   // false: forces only (as α = ∞ for every class)
+  Quadrature quadrature = Quadrature::kLens;  // of the contact kernel (quadrature.hpp)
   // Forward sensitivities (sensitivity.hpp): with both set, the replay also fills
   // `sensitivities` with ∂F/∂θ_j for every direction. Null: a plain replay, bit-identical
   // to one without them.

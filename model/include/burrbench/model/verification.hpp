@@ -64,6 +64,7 @@ struct SampleReach {
 struct ConvergenceStudy {
   std::vector<RecordingConvergence> recordings;
   std::vector<SampleReach> reach;  // per sample, in order of first use
+  Quadrature quadrature = Quadrature::kLens;    // of the replays
   std::map<std::uint8_t, std::string> classes;  // labels present in the samples
   double sigma_N = NAN;                         // sensor noise per axis
   std::string sigma_source;
@@ -83,6 +84,10 @@ struct VerifyOptions {
   // round every centre), not all of it: the same bone where the burr goes, to rounding
   // (the voxel centres are computed from another origin), at a fraction of the memory.
   bool crop = true;
+  Quadrature quadrature = Quadrature::kLens;  // of every replay (quadrature.hpp)
+  // false: forces only (the contact force's own convergence, without erosion's geometry;
+  // docs/model.md "Where the cube quadrature's error comes from").
+  bool erosion = true;
 };
 
 // Replays every recording four times. InputError as for the replay.
