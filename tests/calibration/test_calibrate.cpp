@@ -453,7 +453,9 @@ min = 0.1
   std::size_t rows = 0;
   for (const auto& rec : pred.recordings) {
     const bool band = !rec.band95_N.empty();
-    if (rec.recording_id == "plunge") EXPECT_FALSE(band);
+    if (rec.recording_id == "plunge") {
+      EXPECT_FALSE(band);
+    }
     with_band += band;
     for (const auto& w : rec.band95_N) {
       widest = std::max({widest, w.x, w.y, w.z});
