@@ -6,7 +6,6 @@
 
 #include <fmt/format.h>
 
-#include "burrbench/analysis/analysis_input.hpp"
 #include "burrbench/analysis/criteria.hpp"
 #include "burrbench/calibration/calibrate.hpp"
 #include "burrbench/data_schema/error.hpp"
@@ -15,7 +14,7 @@
 #include "burrbench/data_schema/output_folder.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
 #include "burrbench/data_schema/progress.hpp"
-#include "analysis_replay.hpp"
+#include "report_prediction.hpp"
 #include "library_versions.hpp"
 #include "verb_registry.hpp"
 
@@ -44,10 +43,11 @@ void run(const Args& a) {
   calibration::validate(o);  // before any output folder is made
   const auto manifest = data_schema::read_manifest(a.experiment);
   // Criteria fixed before the fit: checked now, their hash recorded in fit.json.
-  std::string criteria_sha;
+  std::string criteria_sha, criteria_utc;
   if (!a.criteria.empty()) {
     (void)analysis::read_criteria(a.criteria);
     criteria_sha = sha256_file(a.criteria);
+    criteria_utc = make_provenance({}).created_utc;  // when they were fixed: before the fit starts
   }
   std::vector<fs::path> inputs{manifest.file};
   for (const auto& s : manifest.samples) inputs.push_back(s.path);
@@ -57,7 +57,7 @@ void run(const Args& a) {
   // Written whole at the end, or not at all (a failed or interrupted fit leaves nothing).
   data_schema::OutputFolder folder(a.out, "--out", a.overwrite);
   folder.refuse_inputs(
-      {"fit.json", "params.toml", "analysis.json", "predictions.csv", "wrench.csv", "band.csv", "prediction.h5"}, inputs);
+      {"fit.json", "params.toml", "prediction.h5"}, inputs);
   TerminalProgress progress("calibrate");
   o.progress = &progress;
   auto res = calibration::calibrate(a.experiment, o);
@@ -65,29 +65,23 @@ void run(const Args& a) {
     if (sha256_file(a.criteria) != criteria_sha)
       throw InputError(a.criteria, "file", "unchanged during the fit (criteria are fixed before it)", "changed");
     const std::string path = fs::absolute(a.criteria).string();
-    res.fit.settings["criteria"] = {{"path", path}, {"sha256", criteria_sha}};
+    res.fit.settings["criteria"] = {{"path", path}, {"sha256", criteria_sha}, {"recorded_utc", criteria_utc}};
     res.fit.provenance.inputs.push_back({path, criteria_sha});
   }
   folder.write([&](const fs::path& dir) {
     data_schema::write_fit(dir / "fit.json", res.fit);
     data_schema::write_params(dir / "params.toml", res.params);
-    // The analysis input at the optimum (fitted constants and nuisances, the prediction
-    // band): `burrbench report DIR` renders it without replaying, so the report needs
+    // The prediction at the optimum (fitted constants and nuisances, the band) with its
+    // context: `burrbench report DIR` renders it without replaying, so the report needs
     // neither the sample nor the recordings.
-    model::ExperimentPrediction prediction;
-    auto in = apps::replay_experiment(
-        a.experiment, res.params, &res.fit,
-        {true, "", nullptr, "params.toml", nullptr, &prediction, o.threads, false});
+    auto prediction = apps::predict_for_report(
+        a.experiment, res.params, {"calibrate", &res.fit, true, "", nullptr, "params.toml", o.threads, false});
     for (const char* name : {"fit.json", "params.toml"}) {
-      const std::string sha = sha256_file(dir / name);
-      in.provenance.inputs.push_back({(folder.target() / name).string(), sha});
-      if (std::string(name) == "params.toml") {
-        in.params_path = fs::absolute(folder.target() / name).string();
-        in.params_sha256 = sha;
-      }
+      const std::string path = fs::absolute(folder.target() / name).string(), sha = sha256_file(dir / name);
+      prediction.provenance.inputs.push_back({path, sha});
+      if (std::string(name) == "params.toml") prediction.context["params"] = {{"path", path}, {"sha256", sha}};
     }
-    model::write_prediction(dir / "prediction.h5", prediction, in.provenance);
-    analysis::write_analysis_input(dir, in);
+    data_schema::write_prediction(dir / "prediction.h5", prediction);
   });
   folder.commit();
   const fs::path fit = folder.target() / "fit.json", params = folder.target() / "params.toml";
@@ -96,7 +90,7 @@ void run(const Args& a) {
   progress.finish(fmt::format("done: {} replays in {:.1f} s (refinement of the optimum: {} iterations)",
                               res.fit.solver.replays, res.fit.solver.wall_s, res.fit.solver.iterations));
   std::cout << res.summary
-            << fmt::format("wrote {} and {} (with prediction.h5 at the optimum and the analysis input for `burrbench report {}`)\n", fit.string(),
+            << fmt::format("wrote {} and {} (with prediction.h5 at the optimum for `burrbench report {}`)\n", fit.string(),
                            params.string(), folder.target().string());
 }
 

@@ -17,9 +17,10 @@
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/data_schema/prediction.hpp"
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/model/verification.hpp"
-#include "analysis_replay.hpp"
+#include "report_prediction.hpp"
 #include "library_versions.hpp"
 #include "verb_registry.hpp"
 
@@ -78,8 +79,7 @@ void run(const Args& a) {
     std::vector<fs::path> inputs{manifest.file};
     for (const auto& s : manifest.samples) inputs.push_back(s.path);
     for (const auto& r : manifest.recordings) inputs.push_back(r.path);
-    std::vector<std::string> names{"analysis.json", "predictions.csv", "wrench.csv", "band.csv", "report.html",
-                                   "residuals.csv", "metrics.json", "prediction.h5"};
+    std::vector<std::string> names{"report.html", "residuals.csv", "metrics.json", "prediction.h5"};
     if (!criteria_there) {
       names.push_back("criteria.toml");
       inputs.push_back(a.criteria);
@@ -96,51 +96,57 @@ void run(const Args& a) {
   }
 
   TerminalProgress progress("validate");
-  model::ExperimentPrediction prediction;
-  auto in = apps::replay_experiment(a.experiment, params, nullptr,
-                                    {!a.no_tare, a.context, &progress, a.params, fit ? &*fit : nullptr, &prediction, a.threads});
-  // A criterion that selects data this experiment lacks is bad input, named by its file.
-  (void)analysis::evaluate_criteria(criteria, analysis::compute_metric_rows(in), a.criteria);
+  // The report's inputs, in memory: the prediction (at the fit's nuisances with --fit)
+  // with its context, the fit, the criteria and the verification study. The same
+  // prediction goes to prediction.h5, from which `burrbench report DIR` renders it again.
+  analysis::ReportInputs in;
+  in.prediction = apps::predict_for_report(a.experiment, params,
+                                           {"validate", fit ? &*fit : nullptr, !a.no_tare, a.context, &progress,
+                                            a.params, a.threads, true});
+  in.prediction_file = (folder.target() / "prediction.h5").string();
+  in.criteria = criteria;
+  in.criteria_path = fs::absolute(a.criteria).string();
+  in.criteria_sha256 = read[0].sha256;
+  // A criterion that selects data this experiment lacks is bad input, named by its file
+  // (before the verification's replays).
+  (void)analysis::evaluate_criteria(criteria, analysis::compute_metric_rows(analysis::report_data(in)), a.criteria);
   if (!a.no_verification) {
     // Solution verification: the same constants at l/2, 2l and half the step.
     TerminalProgress vp("verify");
     model::VerifyOptions vo;
     vo.threads = a.threads;
-    // Read again: a file changed since the analysis read it shows at the check below.
+    // Read again: a file changed since the prediction read it shows at the check below.
     in.verification = model::to_json(model::verify_convergence(model::load_experiment(a.experiment),
                                                                model::ModelParams::from(params), vo, &vp));
+    in.prediction.context["verification"] = in.verification;
   }
-  in.params_path = fs::absolute(a.params).string();
-  in.params_sha256 = read[1].sha256;
-  in.criteria_path = fs::absolute(a.criteria).string();
-  in.criteria_sha256 = read[0].sha256;
-  in.provenance.inputs.push_back({in.params_path, in.params_sha256});
-  in.provenance.inputs.push_back({in.criteria_path, in.criteria_sha256});
-  if (!a.fit.empty()) {
-    in.fit_path = fs::absolute(a.fit).string();
-    in.fit_sha256 = read[2].sha256;
-    in.provenance.inputs.push_back({in.fit_path, in.fit_sha256});
-    in.calibration["fit"] = in.fit_path;
+  auto& prov = in.prediction.provenance.inputs;
+  in.prediction.context["params"] = {{"path", fs::absolute(a.params).string()}, {"sha256", read[1].sha256}};
+  prov.push_back({fs::absolute(a.params).string(), read[1].sha256});
+  prov.push_back({in.criteria_path, in.criteria_sha256});
+  if (fit) {
+    in.fit = fit;
+    prov.push_back({fs::absolute(a.fit).string(), read[2].sha256});
   }
   analysis::ReportSummary s;
   folder.write([&](const fs::path& dir) {
-    check_unchanged(in.provenance.inputs, "validate");  // else the report names files it did not come from
-    model::write_prediction(dir / "prediction.h5", prediction, in.provenance);
-    analysis::write_analysis_input(dir, in);
-    data_schema::copy_file_atomic(a.criteria, dir / "criteria.toml");
+    check_unchanged(prov, "validate");  // else the report names files it did not come from
+    data_schema::write_prediction(dir / "prediction.h5", in.prediction);
+    if (!criteria_there) data_schema::copy_file_atomic(a.criteria, dir / "criteria.toml");
     if (!params_there) data_schema::copy_file_atomic(a.params, dir / "params.toml");
     if (!a.fit.empty()) data_schema::copy_file_atomic(a.fit, dir / "fit.json");
-    s = analysis::write_report(dir, dir / "report.html",
-                               {a.assets, a.context, nullptr, apps::library_versions()});
-    if (criteria_there) fs::remove(dir / "criteria.toml");  // read by the report; the folder has it
+    analysis::ReportOptions ro{a.assets, a.context, nullptr, apps::library_versions()};
+    ro.copy_fit = false;  // the folder keeps the --fit file's exact copy (provenance names its hash)
+    s = analysis::write_report(in, dir / "report.html", ro);
   });
   folder.commit();
   progress.finish(fmt::format("{} recordings, {} samples", s.recordings, s.samples));
 
   std::size_t failed = 0;
   for (const auto& r : s.results) failed += !r.pass;
-  for (const auto& r : in.recordings)
-    if (!r.registration.empty()) std::cout << fmt::format("  {}: {}\n", r.id, r.registration);
+  for (const auto& [id, r] : in.prediction.context.at("recordings").items())
+    if (!r.value("registration", std::string()).empty())
+      std::cout << fmt::format("  {}: {}\n", id, r.value("registration", std::string()));
   std::cout << fmt::format("report: {}\n", (folder.target() / "report.html").string());
   for (const auto& r : s.results) {
     const auto& c = s.criteria.criteria[r.index];
@@ -162,13 +168,14 @@ void setup(CLI::App& root) {
   cmd->add_option("EXPERIMENT,--experiment", a->experiment, "experiment manifest (.toml), as --experiment E.toml or just E.toml")->required();
   cmd->add_option("--params", a->params, "parameter set (.toml, burrbench.params)")->required();
   cmd->add_option("--criteria", a->criteria, "acceptance criteria (.toml, burrbench.criteria)")->required();
-  cmd->add_option("--out", a->out, "output directory (report.html, analysis.json, CSVs, metrics.json): new or empty")
+  cmd->add_option("--out", a->out, "output directory (report.html, prediction.h5, residuals.csv, metrics.json): new or empty")
       ->required();
   cmd->add_flag("--overwrite", a->overwrite, "write into an existing --out folder, replacing the files of the same names");
   cmd->add_option("--assets", a->assets, "report assets folder (see `burrbench report --help`)");
   cmd->add_option("--fit", a->fit,
-                  "the fit.json the parameters came from: the report shows its intervals, correlations, search "
-                  "and nuisances, and whether the criteria were fixed before it (calibrate --criteria)");
+                  "the fit.json the parameters came from: the replay applies its nuisances (lag, biases, pose "
+                  "correction, spindle terms) and the report shows its intervals, correlations, search and "
+                  "whether the criteria were fixed before it (calibrate --criteria)");
   cmd->add_option("--context-of-use", a->context, "context-of-use statement for the report");
   cmd->add_option("--threads", a->threads, "replays run at once (recordings; in the verification, recordings and levels)")->capture_default_str()->check(CLI::Range(1, model::kMaxThreads));
   cmd->add_flag("--no-tare", a->no_tare, "do not subtract the no-contact mean force (sensor bias)");

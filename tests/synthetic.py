@@ -3,6 +3,7 @@ folder, and the CLI runner the tests that use it share."""
 import os
 import subprocess
 from pathlib import Path
+from report_context import context
 
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
@@ -82,7 +83,7 @@ def validate_warnings(manifest, out, marker):
                         "--no-verification"], capture_output=True, text=True, timeout=600)
     assert p.returncode in (0, 1), p.stderr
     said = [line[len("warning: "):] for line in p.stderr.splitlines() if line.startswith("warning: ") and marker in line]
-    limits = json.loads((Path(out) / "analysis.json").read_text())["limitations"]
+    limits = context(out)["findings"]
     assert [w for w in limits if marker in w] == said, (limits, said)
     return p.returncode, said
 

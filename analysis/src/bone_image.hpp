@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "burrbench/analysis/analysis_input.hpp"
+#include "burrbench/analysis/report_data.hpp"
 
 namespace burrbench::analysis {
 

@@ -4,7 +4,6 @@
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
-#include "burrbench/analysis/analysis_input.hpp"
 #include "burrbench/analysis/criteria.hpp"
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/format_version.hpp"
@@ -51,32 +50,11 @@ std::string describe_metrics(const std::filesystem::path& path) {
   return s;
 }
 
-std::string describe_analysis(const std::filesystem::path& path) {
-  // analysis.json goes with predictions.csv in the same folder: both are read and checked.
-  const auto in = read_analysis_input(path.parent_path().empty() ? "." : path.parent_path());
-  std::size_t n = 0;
-  for (const auto& r : in.recordings) n += r.t_s.size();
-  std::string s = fmt::format("analysis directory (burrbench.analysis, {}), {} recordings, {} samples, {} sample volumes\n",
-                              in.mode, in.recordings.size(), n, in.samples.size());
-  for (const auto& r : in.recordings) {
-    std::size_t used = 0;
-    for (const auto u : r.used) used += u != 0;
-    s += fmt::format("  {} ({}, sample {}): {} samples, {} used\n", r.id, r.role, r.sample_id, r.t_s.size(), used);
-  }
-  for (const auto& p : in.parameters)
-    s += fmt::format("  constants of {}: alpha {:.6g} N/mm^2, C1 {:.6g} N/mm^2, mu {:.6g}\n", p.class_name,
-                     p.alpha_N_per_mm2, p.c1_N_per_mm2, p.mu);
-  if (in.verification.is_object() && in.verification.contains("verdict") && in.verification["verdict"].is_string())
-    s += "verification: " + in.verification["verdict"].get<std::string>() + "\n";
-  return s;
-}
-
 }  // namespace
 
 std::optional<std::string> describe_file(const std::filesystem::path& path, const std::string& declared_format) {
   if (declared_format == "burrbench.criteria") return describe_criteria(path);
   if (declared_format == "burrbench.metrics") return describe_metrics(path);
-  if (declared_format == kAnalysisFormat) return describe_analysis(path);
   return std::nullopt;
 }
 

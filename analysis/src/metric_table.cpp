@@ -1,5 +1,7 @@
 #include "burrbench/analysis/metric_table.hpp"
 
+#include "burrbench/analysis/report_data.hpp"
+
 #include <cmath>
 #include <map>
 
@@ -54,7 +56,7 @@ void emit(std::vector<MetricRow>& rows, const std::string& rec, const std::strin
 
 }  // namespace
 
-std::vector<MetricRow> compute_metric_rows(const AnalysisInput& in) {
+std::vector<MetricRow> compute_metric_rows(const ReportData& in) {
   std::vector<MetricRow> rows;
   // role → segment label → pooled series (std::map: stable, sorted output order)
   std::map<std::string, std::map<std::string, Series>> pooled;

@@ -160,7 +160,7 @@ json decimated(const RecordingSeries& r) {
   return rec;
 }
 
-json histogram(const AnalysisInput& in, const std::string& role) {
+json histogram(const ReportData& in, const std::string& role) {
   double lo = INFINITY, hi = -INFINITY;
   for (const auto& r : in.recordings)
     if (r.role == role)
@@ -190,7 +190,7 @@ json histogram(const AnalysisInput& in, const std::string& role) {
 
 // What each session logged about itself and what the replay found: dropped and stale
 // rows, buried samples, and the events (gaps, reconnects, faults) with their times.
-std::string data_quality_table(const AnalysisInput& in) {
+std::string data_quality_table(const ReportData& in) {
   std::string h =
       "<h3>Data quality</h3><p class=\"muted\">Per recording: force samples dropped by the alignment "
       "(stale or non-increasing timestamps), stale rows per device stream (the device repeated a value; "
@@ -308,7 +308,7 @@ std::string nuisance_table(const json& fit) {
          rows + "</table></div>";
 }
 
-std::string parameter_section(const AnalysisInput& in, const json* fit) {
+std::string parameter_section(const ReportData& in, const json* fit) {
   std::string h;
   if (fit && fit->contains("parameters")) {
     // The bootstrap's column only when it ran (`--bootstrap N`): else a column of blanks.
@@ -400,8 +400,9 @@ std::string parameter_section(const AnalysisInput& in, const json* fit) {
     }
     h += nuisance_table(*fit);
     if (in.mode == "validate")
-      h += "<p class=\"muted\">The constants replayed here are this fit's (<code>" + esc(in.fit_path) +
-           "</code>, given to validate with <code>--fit</code>; checked against the parameter set).</p>";
+      h += "<p class=\"muted\" id=\"fit-replayed\">The constants replayed here are this fit's (given to validate "
+           "with <code>--fit</code>; checked against the parameter set), at its nuisances: the lag, biases, pose "
+           "correction and spindle terms it fitted per recording (section 5).</p>";
   } else {
     h += "<p>Fixed parameters replayed (no fit in this run): <code>" + esc(in.params_path) +
          "</code>. Intervals and identifiability come from the calibration that produced them.</p>";
@@ -417,7 +418,7 @@ std::string parameter_section(const AnalysisInput& in, const json* fit) {
 
 // The convergence study (validate), or the calibration's discretization check (calibrate):
 // whether the model's discretization error is below the sensor noise, in words first.
-std::string verification_section(const AnalysisInput& in, const json* fit) {
+std::string verification_section(const ReportData& in, const json* fit) {
   std::string h;
   const json& v = in.verification;
   if (v.is_object() && v.contains("recordings")) {
@@ -540,7 +541,7 @@ std::string cross_validation_section(const std::vector<MetricRow>& rows, const j
 
 // Were the criteria fixed before the fit? calibrate --criteria records their SHA-256 in
 // fit.json (settings.criteria); the criteria of this report must be that same content.
-void criteria_predate(const json& fit, const AnalysisInput& in, ReportSummary& sum) {
+void criteria_predate(const json& fit, const ReportData& in, ReportSummary& sum) {
   const json* rec = nullptr;
   if (fit.contains("settings") && fit.at("settings").contains("criteria") && fit.at("settings").at("criteria").is_object())
     rec = &fit.at("settings").at("criteria");
@@ -612,11 +613,10 @@ fs::path default_assets_dir() {
   return fs::path(__FILE__).parent_path().parent_path() / "report";
 }
 
-ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const ReportOptions& opt) {
+ReportSummary write_report(const ReportInputs& inputs, const fs::path& out_html, const ReportOptions& opt) {
   const fs::path out_dir = out_html.parent_path().empty() ? fs::path(".") : out_html.parent_path();
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw InputError(dir.string(), "DIR", "an analysis directory", "not a directory");
-  // Assets first: a missing one should fail before any replay.
+  // Assets first: a missing one should fail before any work.
   const fs::path assets = opt.assets_dir.empty() ? default_assets_dir() : opt.assets_dir;
   const std::string tmpl = read_text(assets / "template.html", "template.html");
   const std::string css = read_text(assets / "report.css", "report.css") + "\n" +
@@ -625,19 +625,9 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
       strip_url_schemes(read_text(assets / "node_modules/uplot/dist/uPlot.iife.min.js", "uPlot (npm ci)")) +
       "\n" + read_text(assets / "report.js", "report.js");
 
-  // The report only reads files: it never runs the model (an older calibrate directory
-  // without analysis.json is replayed by `burrbench report` first, apps/verb_report.cpp).
-  if (!fs::exists(dir / "analysis.json"))
-    throw InputError((dir / "analysis.json").string(), "DIR",
-                     "an analysis directory with analysis.json (written by validate or calibrate)", "none found");
-  AnalysisInput in = read_analysis_input(dir);
-  // A validate run replayed fixed constants: a fit.json lying in its folder is its own only
-  // when validate --fit put it there (analysis.json names it by hash).
-  const bool has_fit = fs::exists(dir / "fit.json") &&
-                       (in.mode == "calibrate" ||
-                        (!in.fit_sha256.empty() && sha256_file(dir / "fit.json") == in.fit_sha256));
-  std::optional<data_schema::FitResult> fit_result;
-  if (has_fit) fit_result = data_schema::read_fit(dir / "fit.json");  // validates
+  // The report never runs the model: everything it shows is in its inputs.
+  ReportData in = report_data(inputs);
+  const bool has_fit = inputs.fit.has_value();
   if (in.context_of_use.empty()) in.context_of_use = opt.context_of_use;  // calibrate states none
   const auto rows = compute_metric_rows(in);
 
@@ -645,15 +635,15 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   sum.html = out_html;
   sum.recordings = in.recordings.size();
   for (const auto& r : in.recordings) sum.samples += r.t_s.size();
-  if (fs::exists(dir / "criteria.toml")) {
+  if (inputs.criteria) {
     sum.has_criteria = true;
-    sum.criteria = read_criteria(dir / "criteria.toml");
-    sum.results = evaluate_criteria(sum.criteria, rows, (dir / "criteria.toml").string());
+    sum.criteria = *inputs.criteria;
+    sum.results = evaluate_criteria(sum.criteria, rows, inputs.criteria_path);
     sum.pass = all_pass(sum.results);
   }
   json fit;
   if (has_fit) {
-    fit = data_schema::read_json_file(dir / "fit.json");
+    fit = data_schema::fit_to_json(*inputs.fit);
     if (sum.has_criteria) criteria_predate(fit, in, sum);
   }
 
@@ -834,7 +824,7 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
                                                      {"params sha256", in.params_sha256},
                                                      {"criteria", in.criteria_path},
                                                      {"criteria sha256", in.criteria_sha256},
-                                                     {"analysis input created", in.provenance.created_utc}});
+                                                     {"prediction created", in.provenance.created_utc}});
 
   // Sign-off: left blank for the people who answer for the release (print, sign, date).
   b += "<h2 id=\"signoff\">16. Sign-off</h2><p class=\"muted\">This report, generated " +
@@ -882,17 +872,13 @@ ReportSummary write_report(const fs::path& dir, const fs::path& out_html, const 
   replace_once(html, "<!--BURRBENCH:JS-->", js);
   data_schema::write_file_atomic(out_html, html);
 
-  // Beside the report: the series, residuals, metrics and the fit.
-  if (!fs::equivalent(dir, out_dir, ec)) {
-    for (const char* name : {"analysis.json", "predictions.csv", "wrench.csv", "band.csv"})
-      if (fs::exists(dir / name)) data_schema::copy_file_atomic(dir / name, out_dir / name);
-    if (fit_result) {
-      // The copy beside the report carries the metrics (FitResult::metrics is analysis's
-      // to fill); the calibrate directory's own fit.json is an input and stays as it is.
-      auto f = *fit_result;
-      f.metrics = {{"format", "burrbench.metrics"}, {"rows", metric_rows_to_json(rows)}};
-      data_schema::write_fit(out_dir / "fit.json", f);
-    }
+  // Beside the report: the residuals, the metrics and the fit.
+  if (inputs.fit && opt.copy_fit) {
+    // The copy beside the report carries the metrics (FitResult::metrics is analysis's
+    // to fill); the calibrate directory's own fit.json is an input and stays as it is.
+    auto f = *inputs.fit;
+    f.metrics = {{"format", "burrbench.metrics"}, {"rows", metric_rows_to_json(rows)}};
+    data_schema::write_fit(out_dir / "fit.json", f);
   }
   write_residuals_csv(out_dir / "residuals.csv", in);
   json mj = {{"format", "burrbench.metrics"}, {"format_version", "1.0"},

@@ -54,7 +54,7 @@ namespace {
 
 // Per recording: each class's α·(removed volume) beside the replay's friction work on it
 // (equal by the energy balance), and the spindle's cutting energy measured and predicted.
-std::string energy_table(const AnalysisInput& in) {
+std::string energy_table(const ReportData& in) {
   std::string h =
       "<h3>Cutting energy</h3><p class=\"muted\">Per recording and bone class: α·(removed volume), the "
       "work erosion takes, beside the replay's friction work ∫ΣW dt on that class (equal by the energy "
@@ -135,7 +135,7 @@ std::string identifiability_table(const json& ci) {
 
 }  // namespace
 
-std::string wrench_section(const AnalysisInput& in, const json* fit) {
+std::string wrench_section(const ReportData& in, const json* fit) {
   std::string h;
   bool any = false;
   for (std::size_t i = 0; i < in.recordings.size(); ++i) {

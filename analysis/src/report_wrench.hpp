@@ -7,13 +7,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "burrbench/analysis/analysis_input.hpp"
+#include "burrbench/analysis/report_data.hpp"
 
 namespace burrbench::analysis {
 
 // The section's HTML body (plots are divs report.js fills: plot-torque-i,
 // plot-spindle-i, plot-energy-i for recording i).
-std::string wrench_section(const AnalysisInput& in, const nlohmann::json* fit);
+std::string wrench_section(const ReportData& in, const nlohmann::json* fit);
 
 // Adds a recording's moment and spindle series to its plot data (every `stride`-th
 // sample, as the force): tm/tp (3 axes), sm/sp, and the cumulative cutting energy

@@ -22,7 +22,7 @@ double normal_quantile(double p) {
   return x;
 }
 
-json residual_diagnostics(const AnalysisInput& in, const std::string& role) {
+json residual_diagnostics(const ReportData& in, const std::string& role) {
   constexpr std::size_t kMaxQQ = 2000;
   constexpr std::size_t kMaxLag = 50;
   std::vector<double> e;

@@ -8,7 +8,8 @@
 //   used_validate, spindle_offset_Nmm, band95_N, @role, @force_bias_N, @force_bias_source,
 //   @torque_bias_Nmm, @torque_bias_source, @spindle_offset_source, @lag_ms,
 //   @depth_offset_mm, @friction_energy_mJ; /samples/<id>/{removed_depth_mm,
-//   removed_class} [ny, nx] with @voxel_mm, @removed_volume_mm3; 2.4: @quadrature.
+//   removed_class} [ny, nx] with @voxel_mm, @removed_volume_mm3; 2.4: @quadrature per
+//   recording and, optional, spin_rad_s and /context (the run's context, JSON as UTF-8 bytes).
 #include "burrbench/data_schema/prediction.hpp"
 
 #include <fmt/format.h>
@@ -68,7 +69,8 @@ constexpr Vec3Field kWrench3[] = {{"moment_burr_vol_Nmm", "N*mm", &PR::moment_bu
                                   {"torque_sensor_meas_Nmm", "N*mm", &PR::torque_sensor_meas_Nmm}};
 constexpr ScalarField kWrench1[] = {{"spindle_torque_pred_Nmm", "N*mm", &PR::spindle_torque_pred_Nmm},
                                     {"spindle_torque_meas_Nmm", "N*mm", &PR::spindle_torque_meas_Nmm},
-                                    {"spindle_offset_Nmm", "N*mm", &PR::spindle_offset_Nmm}};  // 2.3
+                                    {"spindle_offset_Nmm", "N*mm", &PR::spindle_offset_Nmm},  // 2.3
+                                    {"spin_rad_s", "rad/s", &PR::spin_rad_s}};                // 2.4
 // 2.3: optional per-sample datasets.
 constexpr Vec3Field kBand{"band95_N", "N", &PR::band95_N};
 constexpr FlagField kRoleFlags[] = {
@@ -87,8 +89,9 @@ constexpr FlagField kFlags[] = {
     {"use", "1 = inside a used segment", &PR::use, 1}};
 
 // t_s + 5 vectors + depth (float64) + 3 flags (uint8) per sample, + the 2.2 wrench.
-// 2.3: two flags, the band and the spindle offset.
-constexpr std::uint64_t kBytesPerSample = 8 + 5 * 24 + 8 + 3 + 3 * 24 + 2 * 8 + 2 + 24 + 8;
+// 2.3: two flags, the band and the spindle offset; 2.4: the spin speed.
+constexpr std::uint64_t kBytesPerSample = 8 + 5 * 24 + 8 + 3 + 3 * 24 + 2 * 8 + 2 + 24 + 8 + 8;
+constexpr std::uint64_t kMaxContextBytes = 64ull << 20;  // the /context document
 constexpr std::uint64_t kMaxElements = 1ull << 31;  // per dataset
 constexpr std::uint64_t kMaxPredictionBytes = 4ull << 30;
 
@@ -203,6 +206,7 @@ void validate_removed(const RemovedBone& s, const std::string& file) {
 }  // namespace
 
 void validate(const Prediction& p, const std::string& file) {
+  if (!p.context.is_null() && !p.context.is_object()) throw InputError(file, "/context", "a JSON object");
   std::set<std::string> ids;
   for (const auto& r : p.recordings) {
     if (!ids.insert(r.recording_id).second)
@@ -291,6 +295,11 @@ void write_prediction(const std::filesystem::path& path, const Prediction& p) {
     w.attr(b + "/removed_class", "unit", std::string("class label"));
     w.attr(b, "voxel_mm", s.voxel_mm);
     w.attr(b, "removed_volume_mm3", s.removed_volume_mm3);
+  }
+  if (p.context.is_object()) {
+    const std::string text = p.context.dump();
+    w.dataset("/context", {hsize_t(text.size())}, reinterpret_cast<const std::uint8_t*>(text.data()), true);
+    w.attr("/context", "unit", std::string("JSON, UTF-8"));
   }
   w.commit();
 }
@@ -424,7 +433,7 @@ namespace {
 Prediction read_prediction_from(const h5::Reader& r) {
   const std::string file = r.file();
   h5::check_header(r, kPredictionFormat, kPredictionVersionMajor);
-  r.expect_only("/", {"provenance", "recordings", "samples"});
+  r.expect_only("/", {"provenance", "recordings", "samples", "context"});
   Prediction p;
   p.provenance = h5::read_provenance(r);
   const auto ids = r.members("/recordings");
@@ -443,6 +452,14 @@ Prediction read_prediction_from(const h5::Reader& r) {
   for (const auto& id : ids) p.recordings.push_back(read_recording(r, id));
   if (r.exists("/samples"))
     for (const auto& id : r.members("/samples")) p.removed.push_back(read_removed(r, id));
+  if (r.exists("/context")) {  // 2.4
+    std::vector<hsize_t> shape;
+    const auto bytes = r.read<std::uint8_t>("/context", h5::Elem::kUInt8, &shape, kMaxContextBytes);
+    if (shape.size() != 1) throw InputError(file, "/context", "a 1-D uint8 dataset (JSON text)");
+    check_unit(r, "/context", "JSON, UTF-8");
+    p.context = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
+    if (!p.context.is_object()) throw InputError(file, "/context", "a JSON object");
+  }
   validate(p, file);
   return p;
 }

@@ -408,8 +408,11 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
   p.torque_sensor_pred_Nmm.resize(n);
   p.spindle_torque_pred_Nmm.resize(n);
   p.torque_sensor_meas_Nmm = r.torque_sensor_Nmm;
-  if (!r.spindle_torque_Nmm.t_s.empty())
+  if (!r.spindle_torque_Nmm.t_s.empty()) {
     for (double t : tr.t_s) p.spindle_torque_meas_Nmm.push_back(r.spindle_torque_Nmm.at(t));
+    // The speed the load is compared at (the report plots the load against it).
+    for (const glm::dvec3& w : tr.omega_vol_rad_s) p.spin_rad_s.push_back(glm::length(w));
+  }
   glm::dvec3 free_sum(0);
   std::size_t free_n = 0;
   for (std::size_t k = 0; k < n; ++k) {
@@ -469,9 +472,10 @@ static_assert(std::size_t(kMaxClasses) == data_schema::kPredictionClasses,
               "the prediction file records removed volume for every model class label");
 
 void write_prediction(const std::filesystem::path& path,
-                      const ExperimentPrediction& preds, const Provenance& prov) {
+                      const ExperimentPrediction& preds, const Provenance& prov, const nlohmann::json& context) {
   data_schema::Prediction file;
   file.provenance = prov;
+  file.context = context;
   file.recordings.assign(preds.recordings.begin(), preds.recordings.end());  // the records without wall_s
   file.removed = preds.removed;
   data_schema::write_prediction(path, file);

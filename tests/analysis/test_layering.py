@@ -1,6 +1,6 @@
 """analysis/ only reads files: it links data_schema alone among our libraries and
 includes no header of model/, calibration/ or rig/ (DESIGN.md "Folders"; issue 14). The
-replay that fills an analysis input lives in apps/ (analysis_replay)."""
+prediction and context a report is made from are built in apps/ (report_prediction)."""
 from layering import foreign_includes, linked_libraries
 
 

@@ -24,7 +24,7 @@ const MetricRow& find(const std::vector<MetricRow>& rows, const std::string& rec
 }  // namespace
 
 TEST(MetricTable, SegmentsAxesRolesAndUnusedSamples) {
-  AnalysisInput in = burrbench::testing::small_input();
+  ReportData in = burrbench::testing::small_input();
   // Recording 0 (calibrate): predicted = measured except x + 1 N in the "plunge" segment
   // [0, 1) s; an unused sample carries a 1000 N error that must not count.
   auto& r0 = in.recordings[0];
@@ -53,7 +53,7 @@ TEST(Criteria, ParseEvaluateAndReject) {
     std::ofstream(dir / "c.toml") << text;
     return dir / "c.toml";
   };
-  AnalysisInput in = burrbench::testing::small_input();
+  ReportData in = burrbench::testing::small_input();
   const auto rows = compute_metric_rows(in);
   const double rmse = find(rows, "", "validate", "all", "magnitude").m.rmse_N;
   ASSERT_GT(rmse, 0);
@@ -110,7 +110,7 @@ max = {}
 }
 
 TEST(Criteria, UndefinedMetricFails) {
-  AnalysisInput in = burrbench::testing::small_input();
+  ReportData in = burrbench::testing::small_input();
   for (auto& m : in.recordings[1].measured_N) m = glm::dvec3(1.0);  // flat: R² undefined
   const auto rows = compute_metric_rows(in);
   Criteria c;

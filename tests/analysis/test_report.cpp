@@ -1,5 +1,6 @@
-// The report as a reader gets it: `burrbench report` on an analysis directory written by
-// the real writer, then loaded in headless Chromium (tests/analysis/browser_check.py).
+// The report as a reader gets it: `burrbench report` on a directory whose prediction.h5 the
+// real writer wrote, then loaded in headless Chromium (tests/analysis/browser_check.py); and
+// report_data, the report's view of a prediction, against the data it was made from.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +13,8 @@
 #include "analysis/analysis_fixture.hpp"
 #include "burrbench_cli.hpp"
 #include "burrbench/analysis/report.hpp"
+#include "burrbench/data_schema/error.hpp"
+#include "burrbench/data_schema/prediction.hpp"
 
 namespace fs = std::filesystem;
 using namespace burrbench::analysis;
@@ -58,11 +61,11 @@ TEST(Report, SelfContainedEscapedAndRendersInChromium) {
   in.experiment_name = std::string("exp ") + kScript;
   in.context_of_use = kImg;
   in.recordings[0].notes = std::string("notes ") + kScript + kImg;
-  in.recordings[1].id = std::string("R2 ") + kScript;
+  in.recordings[1].id = std::string("R2 ") + kImg;  // ids hold no '/' (HDF5 group names)
   in.samples[0].id = std::string("S1 ") + kImg;
   in.limitations.push_back(kScript);
   const auto dir = burrbench::testing::temp_dir("report");
-  write_analysis_input(dir, in);
+  burrbench::data_schema::write_prediction(dir / "prediction.h5", burrbench::testing::prediction_of(in));
   const auto out = dir / "out" / "report.html";
   const auto r = run(cli() + " report " + dir.string() + " --out " + out.string());
   ASSERT_EQ(r.rc, 0) << r.out;
@@ -75,7 +78,7 @@ TEST(Report, SelfContainedEscapedAndRendersInChromium) {
   EXPECT_EQ(html.find("<img src=x"), std::string::npos);
   EXPECT_NE(html.find("&lt;script&gt;document.title=&#39;PWNED&#39;&lt;/script&gt;"), std::string::npos);
   EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);  // the removed-bone map
-  for (const char* f : {"predictions.csv", "residuals.csv", "metrics.json", "removed_0.png"})
+  for (const char* f : {"residuals.csv", "metrics.json", "removed_0.png"})
     EXPECT_TRUE(fs::exists(out.parent_path() / f)) << f;
 
   const auto b = run("/usr/bin/python3 " + std::string(BURRBENCH_SOURCE_DIR) +
@@ -105,11 +108,65 @@ TEST(Report, BadInputsExitTwo) {
   fs::create_directories(dir / "empty");
   r = run(cli() + " report " + (dir / "empty").string() + " --out " + (dir / "rep" / "r.html").string());
   EXPECT_EQ(r.rc, 2) << r.out;
-  EXPECT_NE(r.out.find("analysis.json"), std::string::npos) << r.out;
-  write_analysis_input(dir, burrbench::testing::small_input());
+  EXPECT_NE(r.out.find("prediction.h5"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("rerun `burrbench validate`"), std::string::npos) << r.out;
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << "one line: " << r.out;
+  // An analysis directory of the older format (analysis.json): the same one line.
+  std::ofstream(dir / "empty" / "analysis.json") << "{}\n";  // its presence marks the older format
+  r = run(cli() + " report " + (dir / "empty").string() + " --out " + (dir / "rep" / "r.html").string());
+  EXPECT_EQ(r.rc, 2) << r.out;
+  EXPECT_NE(r.out.find("rerun `burrbench validate`"), std::string::npos) << r.out;
+  burrbench::data_schema::write_prediction(dir / "prediction.h5", burrbench::testing::prediction_of(burrbench::testing::small_input()));
   r = run(cli() + " report " + dir.string() + " --out " + (dir / "rep" / "r.html").string() + " --assets " +
           (dir / "no-assets").string());
   EXPECT_EQ(r.rc, 2) << r.out;
   EXPECT_NE(r.out.find("template.html"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(dir / "rep")) << "nothing written, no folder left behind";
+}
+
+// The report's view of a prediction gives back, field by field, the data it was made from
+// (the fixture's inverse, prediction_of, written the way validate writes its context).
+TEST(ReportData, FromThePredictionAndItsContext) {
+  const auto data = burrbench::testing::small_input();
+  ReportInputs in;
+  in.prediction = burrbench::testing::prediction_of(data);
+  in.prediction_file = "p.h5";
+  const ReportData back = report_data(in);
+  EXPECT_EQ(back.mode, data.mode);
+  EXPECT_EQ(back.experiment_name, data.experiment_name);
+  EXPECT_EQ(back.limitations, data.limitations);
+  ASSERT_EQ(back.recordings.size(), data.recordings.size());
+  for (std::size_t i = 0; i < data.recordings.size(); ++i) {
+    const auto &a = back.recordings[i], &b = data.recordings[i];
+    EXPECT_EQ(a.id, b.id);
+    EXPECT_EQ(a.role, b.role);
+    EXPECT_EQ(a.t_s, b.t_s);
+    EXPECT_EQ(a.measured_N, b.measured_N);
+    EXPECT_EQ(a.predicted_N, b.predicted_N);
+    EXPECT_EQ(a.used, b.used);
+    ASSERT_EQ(a.segments.size(), b.segments.size());
+    for (std::size_t k = 0; k < a.segments.size(); ++k) EXPECT_EQ(a.segments[k].label, b.segments[k].label);
+  }
+  ASSERT_EQ(back.samples.size(), 1u);
+  EXPECT_EQ(back.samples[0].removed_depth_mm, data.samples[0].removed_depth_mm);
+  EXPECT_EQ(back.samples[0].classes, data.samples[0].classes);
+  // A recording whose samples count in both roles is shown once per role.
+  auto& r = in.prediction.recordings[0];
+  for (std::size_t k = 0; k < r.samples(); ++k) (k < 100 ? r.used_calibrate : r.used_validate)[k] = 1;
+  for (std::size_t k = 0; k < r.samples(); ++k) (k < 100 ? r.used_validate : r.used_calibrate)[k] = 0;
+  in.prediction.context["recordings"]["R1"]["segments"][1]["role"] = "validate";
+  const ReportData split = report_data(in);
+  ASSERT_EQ(split.recordings.size(), 3u);
+  EXPECT_EQ(split.recordings[1].id, "R1@validate");
+  EXPECT_EQ(split.recordings[1].segments.at(0).label, "sweep");
+  EXPECT_EQ(split.recordings[0].segments.at(0).label, "plunge");
+  // A context that lacks a recording of the prediction names the file and the field.
+  in.prediction.context["recordings"].erase("R2");
+  try {
+    (void)report_data(in);
+    FAIL() << "no error";
+  } catch (const burrbench::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("recordings.R2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("p.h5"), std::string::npos) << e.what();
+  }
 }

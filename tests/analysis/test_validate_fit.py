@@ -10,6 +10,7 @@ import pytest
 
 from bad_input import assert_refused
 from synthetic import BURRBENCH, SRC, make_synthetic, run_ok
+from report_context import context
 
 CRITERIA = SRC / "examples" / "criteria" / "release.toml"
 
@@ -129,11 +130,13 @@ def test_the_dossier_draws_every_section_and_plot_and_prints_every_column(fitted
     assert note.count("<li>") == min(len(flagged), 12) + (len(flagged) > 12)
     # The class map marks exactly the columns the depth map shows removed, with labels of
     # the sample's classes.
-    analysis = json.loads((tmp_path / "gate" / "analysis.json").read_text())
-    for smp in analysis["samples"]:
-        depth, cls = smp["removed_depth_mm"], smp["removed_class"]
-        assert [d > 0 for d in depth] == [c > 0 for c in cls]
-        assert {c for c in cls if c} <= {int(k) for k in smp["classes"]}
+    import h5py
+    classes = context(tmp_path / "gate")["samples"]
+    with h5py.File(tmp_path / "gate" / "prediction.h5") as f:
+        for sid, smp in f["samples"].items():
+            depth, cls = smp["removed_depth_mm"][()].ravel(), smp["removed_class"][()].ravel()
+            assert [d > 0 for d in depth] == [c > 0 for c in cls]
+            assert {int(c) for c in cls if c} <= {int(k) for k in classes[sid]["classes"]}
     check = str(SRC / "tests" / "analysis" / "browser_check.py")
     seen = json.loads(subprocess.run(["/usr/bin/python3", check, str(report), str(tmp_path / "chromium")],
                                      capture_output=True, text=True, timeout=300, check=True).stdout)
@@ -191,7 +194,6 @@ def test_the_prediction_band_matches_central_differences_of_whole_replays(fitted
     covariance: 1.96·√(gᵀCg) with g = ∂F/∂ln θ from the forward sensitivities. Checked
     against g from central differences of `burrbench replay` runs with each fitted
     constant moved by ±h in ln θ."""
-    import csv
     import math
     import tomllib
 
@@ -200,11 +202,9 @@ def test_the_prediction_band_matches_central_differences_of_whole_replays(fitted
     out = tmp_path / "gate"
     p = gate(fitted, out, fitted / "cal" / "fit.json", fitted / "criteria.toml")
     assert p.returncode == 0, p.stdout + p.stderr
-    assert json.loads((out / "analysis.json").read_text())["recordings"][2]["band"] is True
-    band = {}
-    with open(out / "band.csv") as f:
-        for row in csv.DictReader(f):
-            band.setdefault(row["recording_id"], []).append([float(row[f"band95_N_{a}"]) for a in "xyz"])
+    with h5py.File(out / "prediction.h5") as f:
+        band = {rid: np.array(g["band95_N"][()]) for rid, g in f["recordings"].items() if "band95_N" in g}
+    assert "polish" in band
     fit = json.loads((fitted / "cal" / "fit.json").read_text())
     names, cov = fit["covariance"]["names"], fit["covariance"]["matrix"]
     params = tomllib.loads((fitted / "cal" / "params.toml").read_text())["classes"]

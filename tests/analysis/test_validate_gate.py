@@ -19,6 +19,7 @@ sys.path.insert(0, HERE)
 import browser_check  # noqa: E402
 from bad_input import assert_refused
 from synthetic import PLUNGE_TWICE_WARNING, drill_plunge_twice
+from report_context import context
 
 BURRBENCH = os.environ.get("BURRBENCH", "burrbench")
 SRC = os.environ.get("BURRBENCH_SOURCE_DIR", os.path.join(HERE, "..", ".."))
@@ -62,13 +63,12 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
     pooled = [x for x in m["rows"] if x["recording"] == "" and x["role"] == "validate"
               and x["segment"] == "all" and x["axis"] == "x"][0]
     assert 0.015 < pooled["rmse_N"] < 0.03, pooled
-    for f in ("report.html", "predictions.csv", "residuals.csv", "analysis.json", "criteria.toml"):
+    for f in ("report.html", "prediction.h5", "residuals.csv", "metrics.json", "criteria.toml"):
         assert (out / f).exists(), f
     assert [sha(p) for p in inputs] == before  # inputs untouched
     # `inspect` reads every file the gate wrote, analysis's formats included (issue 12).
     for f, want in (("criteria.toml", "acceptance criteria (burrbench.criteria), 4 criteria"),
-                    ("metrics.json", "release gate PASS"),
-                    ("analysis.json", "analysis directory (burrbench.analysis, validate), 3 recordings")):
+                    ("metrics.json", "release gate PASS")):
         r = run("inspect", str(out / f))
         assert r.returncode == 0 and want in r.stdout and r.stdout.endswith("valid\n"), r.stdout + r.stderr
     # ... and says what a reviewer needs from each: every check of the gate with its value,
@@ -78,11 +78,6 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
         line = f"  {'PASS' if c['pass'] else 'FAIL'} {c['name']} [{c['axis']}] = {c['value']:.4g}\n"
         assert line in r.stdout, (line, r.stdout)
     assert "criteria fixed before the fit: not established\n" in r.stdout, r.stdout
-    r = run("inspect", str(out / "analysis.json"))
-    a = json.load(open(out / "analysis.json"))
-    for rec in a["recordings"]:
-        assert f"  {rec['id']} ({rec['role']}, sample {rec['sample']}): " in r.stdout, (rec, r.stdout)
-    assert "verification: " + a["verification"]["verdict"] + "\n" in r.stdout, r.stdout
     (out / "metrics.json").write_text('{"format": "burrbench.metrics", "format_version": "1.0"}')
     r = run("inspect", str(out / "metrics.json"))
     assert_refused(r.returncode, r.stderr, out / "metrics.json", f"{out / 'metrics.json'}: rows: expected")
@@ -95,7 +90,7 @@ def test_true_parameters_pass_and_report_renders(exp, tmp_path):
     assert sha(exp / "polish.h5") in html  # input hashes in the data section
     # Solution verification (issue 18): the convergence table and, in words, whether the
     # discretization error is below the sensor noise. At R/l = 10 it is not.
-    v = json.load(open(out / "analysis.json"))["verification"]
+    v = context(out)["verification"]
     assert [r["id"] for r in v["recordings"]] == ["plunge", "sweep", "polish"]
     assert v["below_noise"] is False
     assert "verification: " + v["verdict"] in gate_stdout
@@ -133,7 +128,7 @@ def test_no_verification_skips_the_study_and_says_so(exp, tmp_path):
     r = run("validate", "--experiment", str(exp / "experiment.toml"), "--params", str(exp / "params_true.toml"),
             "--criteria", CRITERIA, "--out", str(out), "--no-verification")
     assert r.returncode == 0, r.stdout + r.stderr
-    assert "verification" not in json.load(open(out / "analysis.json"))
+    assert "verification" not in context(out)
     html = open(out / "report.html", encoding="utf-8").read()
     assert "Not computed in this run" in html[html.index('id="verif"'):html.index('id="data"')]
 
@@ -152,7 +147,7 @@ def test_two_recordings_that_drill_one_spot_are_named(exp, tmp_path):
     assert len(warned) == 1, r.stderr
     assert warned[0].startswith("warning: " + PLUNGE_TWICE_WARNING), warned
     assert "100 % of the smaller removal" in warned[0], warned
-    limitations = json.load(open(out / "analysis.json"))["limitations"]
+    limitations = context(out)["findings"]
     assert warned[0][len("warning: "):] in limitations
     # The shipped example drills separate spots: no pair named there.
     assert not [line for line in limitations if "removed the same bone of" in line
@@ -255,28 +250,55 @@ def test_report_without_out_writes_inside_the_directory_not_the_current_folder(e
     assert (gate / "report" / "report.html").exists() and (gate / "report" / "metrics.json").exists()
 
 
-def test_report_of_a_calibrate_directory(exp, tmp_path):
-    """`burrbench report` on calibrate's output renders the analysis input calibrate wrote
-    at the optimum (fitted constants and nuisances): it needs neither the sample nor the
-    recordings, and reports the fit's intervals, identifiability and correlations."""
-    cal = tmp_path / "cal"
-    r = run("calibrate", "--experiment", str(exp / "experiment.toml"), "--out", str(cal),
-            "--no-cross-validation", "--max-iterations", "10")
+def masked(text):
+    """A report's text without the times it was generated at (the rest is its content)."""
+    return re.sub(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ", "T", text)
+
+
+def report_without_the_data(exp, folder, out):
+    """`burrbench report folder` before and with the sample and the recordings moved away:
+    the report reads prediction.h5, fit.json and criteria.toml alone, so both are the same."""
+    r = run("report", str(folder), "--out", str(out))
     assert r.returncode == 0, r.stdout + r.stderr
-    assert json.load(open(cal / "analysis.json"))["mode"] == "calibrate"
-    out = tmp_path / "rep" / "report.html"
+    before = {f: masked((out.parent / f).read_text()) for f in (out.name, "residuals.csv", "metrics.json")}
     moved = [exp / f for f in ("sample.h5", "plunge.h5", "sweep.h5", "polish.h5")]
     try:
         for f in moved:
             f.rename(f.with_suffix(".away"))
-        r = run("report", str(cal), "--out", str(out))
+        shutil.rmtree(out.parent)  # the same command again: the report names its command line
+        r = run("report", str(folder), "--out", str(out))
     finally:
         for f in moved:
             f.with_suffix(".away").rename(f)
     assert r.returncode == 0, r.stdout + r.stderr
-    for f in ("fit.json", "analysis.json", "predictions.csv", "residuals.csv", "metrics.json"):
+    for f, text in before.items():
+        assert masked((out.parent / f).read_text()) == text, f
+    return before[out.name]
+
+
+def test_report_of_a_validate_directory_needs_neither_sample_nor_recordings(exp, tmp_path):
+    gate = tmp_path / "gate"
+    assert validate(exp, gate).returncode == 0
+    html = report_without_the_data(exp, gate, tmp_path / "rep" / "report.html")
+    assert "ACCEPTANCE CRITERIA: PASS" in html and "DISCRETIZATION ERROR" in html
+    # validate wrote its report from the same inputs, in memory.
+    assert masked((gate / "report.html").read_text()).split('id="repro"')[0] == html.split('id="repro"')[0]
+
+
+def test_report_of_a_calibrate_directory(exp, tmp_path):
+    """`burrbench report` on calibrate's output renders the prediction calibrate wrote at
+    the optimum (fitted constants and nuisances) with its context: it needs neither the
+    sample nor the recordings, and reports the fit's intervals, identifiability and
+    correlations."""
+    cal = tmp_path / "cal"
+    r = run("calibrate", "--experiment", str(exp / "experiment.toml"), "--out", str(cal),
+            "--no-cross-validation", "--max-iterations", "10")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert context(cal)["made_by"] == "calibrate"
+    out = tmp_path / "rep" / "report.html"
+    html = report_without_the_data(exp, cal, out)
+    for f in ("fit.json", "residuals.csv", "metrics.json"):
         assert (out.parent / f).exists(), f
-    html = open(out, encoding="utf-8").read()
     assert "Parameter correlation matrix" in html and "compact.c1" in html
     assert "never in contact" in html  # trabecular is not identifiable from these recordings
     m = json.load(open(out.parent / "metrics.json"))
@@ -285,24 +307,15 @@ def test_report_of_a_calibrate_directory(exp, tmp_path):
     # all at the synthetic noise floor σ = 0.02 N
     for rec in ("plunge", "sweep", "polish"):
         assert 0.015 < rows[(rec, "x")]["rmse_N"] < 0.03, rows[(rec, "x")]
-    # An older calibrate directory (fit.json and params.toml only): the report verb replays
-    # the fit first (analysis/ never runs the model) and reports the same numbers.
+    # A directory of the older formats (fit.json and params.toml only, or analysis.json):
+    # one line saying what to rerun, exit 2.
     old = tmp_path / "old"
     old.mkdir()
     for f in ("fit.json", "params.toml"):
         shutil.copy(cal / f, old / f)
-    out2 = tmp_path / "rep2" / "report.html"
-    r = run("report", str(old), "--out", str(out2))
-    assert r.returncode == 0, r.stdout + r.stderr
-    m2 = json.load(open(out2.parent / "metrics.json"))
-    rows2 = {(x["recording"], x["axis"]): x for x in m2["rows"] if x["segment"] == "all"}
-    for rec in ("plunge", "sweep", "polish"):
-        assert rows2[(rec, "x")]["rmse_N"] == pytest.approx(rows[(rec, "x")]["rmse_N"], rel=1e-9)
-    assert "Parameter correlation matrix" in open(out2, encoding="utf-8").read()
-    # ... and writes the prediction file as calibrate does today: the same predicted force.
-    with h5py.File(cal / "prediction.h5") as a, h5py.File(out2.parent / "prediction.h5") as b:
-        assert sorted(a["recordings"]) == sorted(b["recordings"]) == ["plunge", "polish", "sweep"]
-        for rec in a["recordings"]:
-            pa, pb = a["recordings"][rec], b["recordings"][rec]
-            assert np.allclose(pa["force_sensor_pred_N"][()], pb["force_sensor_pred_N"][()], rtol=0, atol=1e-9), rec
-            assert pa.attrs["force_bias_source"] == pb.attrs["force_bias_source"], rec
+    for extra in (None, "analysis.json"):
+        if extra:
+            (old / extra).write_text('{"format": "burrbench.analysis"}')
+        r = run("report", str(old), "--out", str(tmp_path / "rep2" / "report.html"))
+        assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+        assert "rerun `burrbench validate`" in r.stderr, r.stderr

@@ -10,6 +10,7 @@ import math
 import os
 import subprocess
 import tomllib
+from report_context import context
 
 SOURCE = os.environ["BURRBENCH_SOURCE_DIR"]
 BUILD = os.environ["BURRBENCH_BUILD_DIR"]
@@ -66,15 +67,15 @@ def test_demo_recovers_truth_and_writes_report(tmp_path):
     # The report's data-quality table counts what the acquired files hold (stale rows per
     # stream, events by kind), read here with h5py.
     import h5py
-    analysis = json.loads((out / "validate" / "analysis.json").read_text())
-    for rec in analysis["recordings"]:
+    recs = context(out / "validate")["recordings"]
+    for rid, rec in recs.items():
         q = rec["quality"]
-        with h5py.File(out / "acquired" / f"{rec['id']}.h5") as f:
+        with h5py.File(out / "acquired" / f"{rid}.h5") as f:
             stale = {name: int(f[f"streams/{name}/stale"][()].sum()) for name in f["streams"]}
             kinds = [k.decode() for k in f["events/kind"][()]]
-        assert q["stale_rows"] == stale, (rec["id"], q["stale_rows"], stale)
+        assert q["stale_rows"] == stale, (rid, q["stale_rows"], stale)
         assert len(q["events"]) == len(kinds) and [e["kind"] for e in q["events"]] == kinds
-    assert any(e["kind"] == "gap" for r in analysis["recordings"] for e in r["quality"]["events"])
+    assert any(e["kind"] == "gap" for r in recs.values() for e in r["quality"]["events"])
 
     # The Python notebook (examples/python/demo.ipynb) runs on the demo's outputs: it loads
     # the fit, plots measured against predicted force and replays with a changed μ.

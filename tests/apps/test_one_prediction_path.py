@@ -2,7 +2,6 @@
 its optimum) all replay through model::predict_experiment and write the same
 prediction.h5 format; what each applied (fitted bias and lag, or the tare) is recorded in
 the file, and the CSVs and analysis input beside it are exports of that one prediction."""
-import csv
 import json
 import subprocess
 import tomllib
@@ -12,6 +11,7 @@ import numpy as np
 import pytest
 
 from synthetic import BURRBENCH, SRC, make_synthetic, run_ok
+from report_context import context
 
 CRITERIA = SRC / "examples" / "criteria" / "release.toml"
 
@@ -54,10 +54,8 @@ def test_validate_without_tare_predicts_what_replay_predicts_bit_for_bit(runs):
         assert gate[rid]["role"] == ("validate" if rid == "polish" else "calibrate")
         assert not plain_removed  # a plain replay keeps no removed-bone map
     # The gate's prediction carries the removed bone the report draws.
-    analysis = json.loads((runs / "raw" / "analysis.json").read_text())
-    (sample,) = analysis["samples"]
-    assert removed[sample["id"]]["removed_volume_mm3"] == pytest.approx(sample["removed_volume_mm3"], rel=1e-12)
-    assert removed[sample["id"]]["removed_volume_mm3"] > 0
+    (sample,) = context(runs / "raw")["samples"]
+    assert removed[sample]["removed_volume_mm3"] > 0
 
 
 def test_the_tare_is_recorded_and_added_to_the_prediction(runs):
@@ -69,13 +67,6 @@ def test_the_tare_is_recorded_and_added_to_the_prediction(runs):
         assert np.allclose(rec["force_bias_N"], [0.05, -0.03, 0.1], atol=0.01), (rid, rec["force_bias_N"])
         assert np.allclose(rec["force_sensor_pred_N"] - plain[rid]["force_sensor_pred_N"], rec["force_bias_N"],
                            rtol=0, atol=1e-12)
-    # predictions.csv is an export of the same numbers (9 significant digits).
-    with open(runs / "tared" / "predictions.csv") as f:
-        rows = [r for r in csv.DictReader(f) if r["recording_id"] == "sweep"]
-    pred = tared["sweep"]["force_sensor_pred_N"]
-    assert len(rows) == len(pred)
-    got = np.array([[float(r[f"force_sensor_pred_N_{a}"]) for a in "xyz"] for r in rows])
-    assert np.allclose(got, pred, rtol=1e-8, atol=1e-12)
 
 
 def test_calibrate_writes_the_prediction_at_its_optimum_with_the_fitted_nuisances(runs):
@@ -94,7 +85,7 @@ def test_calibrate_writes_the_prediction_at_its_optimum_with_the_fitted_nuisance
     assert pred["polish"]["force_bias_source"] == "tare"
     assert pred["polish"]["used_validate"].sum() > 0 and pred["polish"]["used_calibrate"].sum() == 0
     # Energy balance survives the hand-off: α·removed = ∫ΣW dt per class.
-    params = {c["class_name"]: c for c in json.loads((runs / "cal" / "analysis.json").read_text())["parameters"]}
+    params = {c["class_name"]: c for c in context(runs / "cal")["parameters"]}
     for rid, rec in pred.items():
         for label, c in ((1, params.get("compact")), (2, params.get("trabecular"))):
             if c and rec["removed_mm3"][label] > 0:

@@ -197,7 +197,7 @@ def test_outputs_appear_all_together_or_not_at_all(exp, tmp_path):
     p = run("validate", exp / "experiment.toml", "--params", exp / "params_true.toml", "--criteria", CRITERIA,
             "--out", tmp_path / "ok")
     assert p.returncode == 0, p.stdout + p.stderr
-    assert {"report.html", "metrics.json", "analysis.json", "predictions.csv", "residuals.csv",
+    assert {"report.html", "metrics.json", "prediction.h5", "residuals.csv",
             "criteria.toml", "params.toml"} <= set(os.listdir(tmp_path / "ok"))
     no_leftovers(tmp_path)
 

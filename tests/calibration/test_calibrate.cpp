@@ -17,6 +17,7 @@
 
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
+#include "burrbench/data_schema/prediction.hpp"
 #include "reference_fixture.hpp"
 #include "report_metrics.hpp"
 
@@ -441,38 +442,27 @@ min = 0.1
                                  (dir / "val").string()));
   ASSERT_EQ(v.code, 0) << v.err;
   EXPECT_NE(v.err.find("warning: No prediction band for plunge:"), std::string::npos) << v.err;
-  std::ifstream af(dir / "val" / "analysis.json");
-  const auto a = nlohmann::json::parse(af);
+  const auto pred = burrbench::data_schema::read_prediction(dir / "val" / "prediction.h5");
   bool limitation = false;
-  for (const auto& l : a.at("limitations")) limitation |= l.get<std::string>().rfind("No prediction band for plunge", 0) == 0;
+  for (const auto& l : pred.context.at("findings"))
+    limitation |= l.get<std::string>().rfind("No prediction band for plunge", 0) == 0;
   EXPECT_TRUE(limitation);
   int with_band = 0;
-  for (const auto& rec : a.at("recordings")) {
-    const bool band = rec.value("band", false);
-    if (rec.at("id") == "plunge") {
+  // What is drawn stays a band of the constants' uncertainty: finite, well below 1 N.
+  double widest = 0;
+  std::size_t rows = 0;
+  for (const auto& rec : pred.recordings) {
+    const bool band = !rec.band95_N.empty();
+    if (rec.recording_id == "plunge") {
       EXPECT_FALSE(band);
     }
     with_band += band;
+    for (const auto& w : rec.band95_N) {
+      widest = std::max({widest, w.x, w.y, w.z});
+      ++rows;
+    }
   }
   EXPECT_EQ(with_band, 4) << "the other recordings keep their band";
-  // What is drawn stays a band of the constants' uncertainty: finite, well below 1 N.
-  std::ifstream bf(dir / "val" / "band.csv");
-  std::string line;
-  std::getline(bf, line);
-  double widest = 0;
-  std::size_t rows = 0;
-  while (std::getline(bf, line)) {
-    std::stringstream ls(line);
-    std::string f;
-    std::getline(ls, f, ',');
-    EXPECT_NE(f, "plunge");
-    std::getline(ls, f, ',');
-    for (int k = 0; k < 3; ++k) {
-      std::getline(ls, f, ',');
-      widest = std::max(widest, std::stod(f));
-    }
-    ++rows;
-  }
   EXPECT_GT(rows, 0u);
   EXPECT_LT(widest, 1.0);
   if (!HasFailure()) fs::remove_all(dir);

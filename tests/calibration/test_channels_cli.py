@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from synthetic import make_synthetic, resynth, run_ok
+from report_context import context
 
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
@@ -123,20 +124,23 @@ def test_report_shows_the_moments_the_spindle_energy_and_what_the_channels_add(f
     d = fits["dir"]
     run_ok("report", d / "all", "--out", tmp_path / "rep" / "report.html")
     rep = tmp_path / "rep"
-    analysis = json.loads((rep / "analysis.json").read_text())
-    assert analysis["format_version"] == "1.3"
-    recs = {r["id"]: r for r in analysis["recordings"]}
-    assert all(recs[r]["torque"] and recs[r]["spindle"] for r in ("plunge", "sweep", "polish"))
+    import h5py
+    ctx = context(d / "all")
+    with h5py.File(d / "all" / "prediction.h5") as f:
+        recs = {rid: {"datasets": set(g), **{k: (v.decode() if isinstance(v, bytes) else v) for k, v in g.attrs.items()}}
+                for rid, g in f["recordings"].items()}
+    assert all({"torque_sensor_meas_Nmm", "spindle_torque_meas_Nmm", "spin_rad_s"} <= recs[r]["datasets"]
+               for r in ("plunge", "sweep", "polish"))
     # Fitted recordings take the fit's idle terms; the held-out polish the tare.
     assert [recs[r]["spindle_offset_source"] for r in ("plunge", "sweep", "polish")] == ["fit", "fit", "tare"]
-    header = (rep / "wrench.csv").read_text().splitlines()[0]
-    assert header.startswith("recording_id,t_s,torque_sensor_meas_Nmm_x")
-    # Energy balance through the report: α·removed equals the replay's friction work, and
+    # Energy balance through the prediction: α·removed equals the replay's friction work, and
     # the drive's measured cutting energy equals the predicted one (noise ≈ 0.005 N·mm).
+    (compact_,) = [c for c in ctx["parameters"] if c["class_name"] == "compact"]
+    label = compact_["class_label"]
     for rid in ("plunge", "sweep", "polish"):
-        (e,) = recs[rid]["energy"]
-        assert e["class_name"] == "compact"
-        assert e["alpha_N_per_mm2"] * e["removed_mm3"] == pytest.approx(e["friction_energy_mJ"], rel=1e-6)
+        removed, work = recs[rid]["removed_mm3"][label], recs[rid]["friction_energy_mJ"][label]
+        assert removed > 0
+        assert compact_["alpha_N_per_mm2"] * removed == pytest.approx(work, rel=1e-6)
     html = (rep / "report.html").read_text()
     sec = html[html.index('id="wrench"'):html.index('id="resid"')]
     table = sec[sec.index('id="energy-table"'):sec.index("</table>", sec.index('id="energy-table"'))]
@@ -144,8 +148,8 @@ def test_report_shows_the_moments_the_spindle_energy_and_what_the_channels_add(f
     assert len(ratios) == 3 and all(abs(r - 1) < 0.05 for r in ratios), ratios
     chan = sec[sec.index('id="channel-table"'):]
     assert "correlation C1–α" in chan and chan.count("(in ln θ)") == 3
-    # Re-rendering the analysis directory reads wrench.csv back: the same section.
-    run_ok("report", rep, "--out", tmp_path / "again" / "report.html")
+    # Rendering the calibrate directory again gives the same section.
+    run_ok("report", d / "all", "--out", tmp_path / "again" / "report.html")
     again = (tmp_path / "again" / "report.html").read_text()
     assert again[again.index('id="energy-table"'):again.index('id="resid"')] == \
         html[html.index('id="energy-table"'):html.index('id="resid"')]

@@ -9,6 +9,7 @@ import subprocess
 import pytest
 
 from synthetic import PLUNGE_TWICE_WARNING, drill_plunge_twice, make_synthetic
+from report_context import context
 
 BURRBENCH = os.environ["BURRBENCH"]
 FAST = ["--starts", "1", "--no-profiles", "--no-cross-validation", "--no-discretization-check"]
@@ -39,7 +40,7 @@ def test_a_spot_drilled_twice_is_named_in_the_summary_fit_json_and_report(exp, t
     assert text in fit["settings"]["warnings"]
     stages = [s["stage"] for s in fit["solver"]["stages"]]
     assert stages[-1] == "overlaps", stages
-    assert text in json.loads((out / "analysis.json").read_text())["limitations"]
+    assert text in context(out)["findings"]
 
 
 def test_separate_spots_give_no_warning(exp, tmp_path):

@@ -8,6 +8,7 @@ import h5py
 import pytest
 
 from synthetic import make_synthetic, resynth, run_ok, validate_warnings
+from report_context import context
 
 DRIFT = "the force without contact moved by"
 
@@ -55,7 +56,7 @@ def test_validate_and_the_report_say_it_too(fits):
     assert len(said) == 1 and said[0].startswith("Recording plunge: " + DRIFT), said
     # The calibration's analysis replays at the fitted constants: its first and last
     # contacts, and so its figures, may differ by a sample.
-    limits = json.loads((warm / "cal" / "analysis.json").read_text())["limitations"]
+    limits = context(warm / "cal")["findings"]
     named = [w for w in limits if DRIFT in w]
     assert len(named) == 1 and named[0].startswith("Recording plunge: " + DRIFT), limits
 

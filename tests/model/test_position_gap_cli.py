@@ -12,6 +12,7 @@ import h5py
 import numpy as np
 import pytest
 from synthetic import STAGE_GAP_WARNING, cut_stream, drop_samples, make_synthetic, run_ok
+from report_context import context
 
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
@@ -87,10 +88,9 @@ def test_the_replay_follows_the_stage_where_the_sensor_was_silent(exp, tmp_path)
     gate = run("validate", manifest, "--params", folder / "params_true.toml", "--criteria",
                SRC / "examples" / "criteria" / "release.toml", "--out", tmp_path / "gate", "--no-verification")
     assert warnings_of(gate.stderr) == [], gate.stderr
-    analysis = json.loads((tmp_path / "gate" / "analysis.json").read_text())
-    for rec in analysis["recordings"]:
+    for rid, rec in context(tmp_path / "gate")["recordings"].items():
         silent = [e for e in rec["quality"]["events"] if e["kind"] == "force_silent"]
-        assert len(silent) == 1, rec["id"]
+        assert len(silent) == 1, rid
         assert silent[0]["t_s"] == pytest.approx(t_a) and silent[0]["stream"] == "ft_sensor", silent
         assert silent[0]["detail"].startswith(f"no force sample for {t_b - t_a:.4g} s: the replay followed"), silent
 
@@ -129,11 +129,9 @@ def test_calibrate_and_validate_leave_them_out_and_say_so(exp, tmp_path):
     said = [w for w in fit["settings"]["warnings"] if w.startswith(STAGE_GAP_WARNING)]
     assert len(said) == 1 and said[0].startswith(STAGE_GAP_WARNING + f"{n} force samples"), said
     assert "warning: " + said[0] in out
-    analysis = json.loads((tmp_path / "cal" / "analysis.json").read_text())
-    assert said[0] in analysis["limitations"]
+    assert said[0] in context(tmp_path / "cal")["findings"]
 
     gate = run("validate", manifest, "--params", manifest.parent / "params_true.toml", "--criteria",
                SRC / "examples" / "criteria" / "release.toml", "--out", tmp_path / "gate", "--no-verification")
     assert ["warning: " + said[0]] == [w for w in warnings_of(gate.stderr) if STAGE_GAP_WARNING in w], gate.stderr
-    analysis = json.loads((tmp_path / "gate" / "analysis.json").read_text())
-    assert said[0] in analysis["limitations"]
+    assert said[0] in context(tmp_path / "gate")["findings"]

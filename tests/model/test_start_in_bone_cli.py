@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 from synthetic import START_IN_BONE_WARNING, make_synthetic, run_ok, start_late
+from report_context import context
 
 BURRBENCH = os.environ["BURRBENCH"]
 SRC = Path(os.environ["BURRBENCH_SOURCE_DIR"])
@@ -46,7 +47,7 @@ def test_a_recording_that_begins_in_bone_is_named_with_its_depth(base, tmp_path)
     gate = warnings_of("validate", manifest, "--params", manifest.parent / "params_true.toml", "--criteria",
                        SRC / "examples" / "criteria" / "release.toml", "--out", tmp_path / "gate", "--no-verification")
     assert [w for w in gate if w.startswith(SAID)] == said
-    limits = json.loads((tmp_path / "gate" / "analysis.json").read_text())["limitations"]
+    limits = context(tmp_path / "gate")["findings"]
     assert [w for w in limits if w.startswith(SAID)] == said
 
 

@@ -1,5 +1,5 @@
 #pragma once
-// `burrbench inspect` for analysis's own formats (criteria, metrics, analysis directory):
+// `burrbench inspect` for analysis's own formats (criteria, metrics):
 // each file is read and validated by the reader the commands use, then summarised.
 #include <filesystem>
 #include <optional>

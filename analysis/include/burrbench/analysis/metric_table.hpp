@@ -7,10 +7,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "burrbench/analysis/analysis_input.hpp"
 #include "burrbench/analysis/metrics.hpp"
 
 namespace burrbench::analysis {
+
+struct ReportData;  // report_data.hpp (which includes this header through criteria.hpp)
 
 inline constexpr const char* kAxes[] = {"x", "y", "z", "magnitude"};
 
@@ -22,7 +23,7 @@ struct MetricRow {
   AxisMetrics m;
 };
 
-std::vector<MetricRow> compute_metric_rows(const AnalysisInput& in);
+std::vector<MetricRow> compute_metric_rows(const ReportData& in);
 
 // Metric names as used in criteria files and JSON ("rmse_N", "nrmse", "r2", ...).
 const std::vector<std::string>& metric_names();

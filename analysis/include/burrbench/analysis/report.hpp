@@ -1,10 +1,9 @@
 #pragma once
-// The self-contained HTML validation report (docs/report.md) written from an analysis
-// directory: DIR/analysis.json + DIR/predictions.csv (+ DIR/fit.json, DIR/criteria.toml
-// when present) — or a calibrate output directory with only fit.json, which is then
-// replayed (analysis.json + predictions.csv are written beside the report). Beside the
-// report it also writes predictions.csv, residuals.csv, metrics.json, removed-bone PNGs
-// and a copy of fit.json.
+// The self-contained HTML validation report (docs/report.md), written from ReportInputs
+// held in memory (the prediction with its context, the fit, the criteria, the verification
+// study): `validate` builds them from its replay, `burrbench report DIR` from DIR's
+// prediction.h5, fit.json and criteria.toml. Beside the report it writes residuals.csv,
+// metrics.json, removed-bone PNGs and a copy of the fit with its metrics.
 #include <filesystem>
 #include <optional>
 #include <utility>
@@ -14,6 +13,7 @@
 
 #include "burrbench/data_schema/html_text.hpp"
 #include "burrbench/analysis/criteria.hpp"
+#include "burrbench/analysis/report_data.hpp"
 #include "burrbench/data_schema/progress.hpp"
 
 namespace burrbench::analysis {
@@ -27,6 +27,9 @@ struct ReportOptions {
   // The reproducibility section's versions besides burrbench and uPlot (library name →
   // version), given by the caller that links them (apps/: Ceres, libmodbus, OpenCV, HDF5).
   std::vector<std::pair<std::string, std::string>> versions;
+  // Write the fit, with its metrics, beside the report (validate keeps the --fit file's
+  // exact copy in its folder instead: the prediction's provenance names it by hash).
+  bool copy_fit = true;
 };
 
 struct ReportSummary {
@@ -47,7 +50,7 @@ struct ReportSummary {
 // node_modules, else the source tree's analysis/report (path compiled in).
 std::filesystem::path default_assets_dir();
 
-ReportSummary write_report(const std::filesystem::path& dir, const std::filesystem::path& out_html,
+ReportSummary write_report(const ReportInputs& inputs, const std::filesystem::path& out_html,
                            const ReportOptions& opt = {});
 
 // Escaping for text from files: HTML text/attributes (data_schema's, shared with the

@@ -5,7 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "burrbench/analysis/analysis_input.hpp"
+#include "burrbench/analysis/report_data.hpp"
 
 namespace burrbench::analysis {
 
@@ -18,6 +18,6 @@ double normal_quantile(double p);
 // {role, qq: {theory[], sample[]} (standardised residuals of every used sample and axis,
 // at most 2000 order statistics), acf: {lag[], r: [x[], y[], z[]]} (lags 0..50 over
 // pairs of used samples within a recording)}; null when the role has no used sample.
-nlohmann::json residual_diagnostics(const AnalysisInput& in, const std::string& role);
+nlohmann::json residual_diagnostics(const ReportData& in, const std::string& role);
 
 }  // namespace burrbench::analysis

@@ -12,6 +12,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "burrbench/data_schema/provenance.hpp"
 
 namespace burrbench::data_schema {
@@ -23,7 +25,8 @@ inline constexpr int kPredictionVersionMajor = 2;
 // 2.1: the registration per recording; 2.2: the wrench; 2.3: what the prediction applied
 // (bias, lag, depth offset, tare), the samples each role counts, the band, the energy and
 // the removed bone per sample (issue 14: one hand-off from model to report); 2.4: the
-// contact quadrature of each recording's replay.
+// contact quadrature of each recording's replay, the spin speed per sample and the run's
+// context (issues 56 and 58: the report reads this file alone).
 inline constexpr int kPredictionVersionMinor = 4;
 // Class labels 0..7 whose removed volume is recorded (the model's label range).
 inline constexpr std::size_t kPredictionClasses = 8;
@@ -89,6 +92,8 @@ struct PredictedRecording {
   // The replay's friction work ∫ΣW dt per class label (mJ = N·mm): by the energy
   // balance it equals α·removed_mm3.
   std::array<double, kPredictionClasses> friction_energy_mJ{};
+  // 2.4: the burr's spin speed |ω| per sample (rad/s), when the spindle's load was logged.
+  std::vector<double> spin_rad_s;
   std::size_t samples() const { return t_s.size(); }
 };
 
@@ -107,6 +112,13 @@ struct Prediction {
   std::vector<PredictedRecording> recordings;  // replay order (kept in the file)
   std::vector<RemovedBone> removed;            // 2.3: one per sample, or empty
   Provenance provenance;
+  // 2.4, /context: what the report states about the run beyond the series, as the command
+  // that made the prediction knew it (docs/formats.md "The prediction's context"): which
+  // command ("made_by"), the experiment, the constants, the replay's and the calibration's
+  // settings, the data-quality findings, the solution-verification study, and per
+  // recording and sample its file, notes, segments and session log. An object, or null
+  // (a plain `replay`, or an older file).
+  nlohmann::json context;
 };
 
 // Throws InputError naming file and field on any defect: lengths, non-finite values,

@@ -328,9 +328,10 @@ struct ExperimentPrediction {
 ExperimentPrediction predict_experiment(const Experiment& e, const ModelParams& params,
                                         const PredictOptions& options = {});
 
-// Writes the data_schema prediction file (format "burrbench.prediction").
+// Writes the data_schema prediction file (format "burrbench.prediction"), with the run's
+// context (data_schema::Prediction::context; null: none, as a plain replay).
 void write_prediction(const std::filesystem::path& path, const ExperimentPrediction& p,
-                      const Provenance& provenance);
+                      const Provenance& provenance, const nlohmann::json& context = nullptr);
 void write_prediction_csv(const std::filesystem::path& path,
                           const std::vector<RecordingPrediction>& p);
 

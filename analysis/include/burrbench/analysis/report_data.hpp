@@ -1,27 +1,25 @@
 #pragma once
-// What the report reads from its directory (docs/report.md, "DIR layout"): the
-// "analysis input" that `calibrate` and `validate` fill — metadata in DIR/analysis.json
-// (format "burrbench.analysis"), the per-sample force series in DIR/predictions.csv and,
-// when a recording logged the sensor's moments or the spindle's load, those series in
-// DIR/wrench.csv. Forces and moments are in the SENSOR frame, as the sensor reports them.
+// What the report shows, in memory: the inputs it is given (ReportInputs: the prediction
+// with its context, the fit, the criteria, the verification study) and the per-role view
+// of them its sections read (ReportData, built by report_data()). Forces and moments are
+// in the SENSOR frame, as the sensor reports them. Nothing here is a file format: the one
+// hand-off from model to report is the prediction file (data_schema/prediction.hpp).
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
 
+#include "burrbench/analysis/criteria.hpp"
+#include "burrbench/data_schema/fit_result.hpp"
+#include "burrbench/data_schema/prediction.hpp"
 #include "burrbench/data_schema/provenance.hpp"
 
 namespace burrbench::analysis {
-
-inline constexpr const char* kAnalysisFormat = "burrbench.analysis";
-inline constexpr int kAnalysisVersionMajor = 1;
-// 1.1: verification; 1.2: wrench; 1.3: the CSVs' columns named as the prediction file's
-// datasets (one naming scheme; 1.0–1.2 directories are still read).
-inline constexpr int kAnalysisVersionMinor = 3;
 
 // One class's share of a recording's cutting energy (MODEL.md energy balance): the work
 // of erosion α·V_removed equals the friction work ∫ΣW dt the replay integrated for it.
@@ -53,17 +51,17 @@ struct DataQuality {
 
 struct RecordingSeries {
   std::string id, sample_id;
-  std::string role;               // "calibrate" | "validate"
+  std::string role;               // "calibrate" | "validate"; id@validate for the second role
   std::string path, sha256, notes;
   std::string registration;  // how the recording was registered: method, RMS, predicted TRE
   std::vector<SegmentSpan> segments;  // empty = whole recording
-  // Series (predictions.csv): time from the first sample, measured and predicted force
+  // Series: time from the first sample, measured and predicted force
   // (sensor frame), and whether the sample counted in the fit/metrics (0 = buried,
   // excluded or outside a used segment).
   std::vector<double> t_s;
   std::vector<glm::dvec3> measured_N, predicted_N;
   std::vector<std::uint8_t> used;
-  // 1.2, wrench.csv: the sensor's moment (N·mm, sensor frame), measured and predicted
+  // The sensor's moment (N·mm, sensor frame), measured and predicted
   // with the fitted moment bias or the tare added (both empty when not logged); the
   // spindle's load torque (N·mm, positive braking), measured and predicted with the
   // fitted idle and viscous terms or the tare added, that added offset on its own, and
@@ -71,16 +69,16 @@ struct RecordingSeries {
   std::vector<glm::dvec3> torque_measured_Nmm, torque_predicted_Nmm;
   std::vector<double> spindle_measured_Nmm, spindle_predicted_Nmm, spindle_offset_Nmm,
       spin_rad_s;
-  // 1.2: where the spindle's offset came from: "fit" (idle and viscous nuisances),
+  // Where the spindle's offset came from: "fit" (idle and viscous nuisances),
   // "tare" (the mean load of samples with no predicted contact) or "none" (neither: too
   // few samples without contact, so the offset is 0 and the measured energy not usable).
   std::string spindle_offset_source;
-  DataQuality quality;  // 1.2
-  // 1.2, band.csv: half-width of the 95 % band of the predicted force (sensor frame, N)
+  DataQuality quality;
+  // Half-width of the 95 % band of the predicted force (sensor frame, N)
   // from the fitted constants' covariance (delta method through the sensitivities);
   // empty without a fit.
   std::vector<glm::dvec3> band95_N;
-  // 1.2: per bone class touched, α·removed and the replay's friction work (empty before).
+  // Per bone class touched, α·removed and the replay's friction work (empty before).
   std::vector<ClassEnergy> energy;
   bool has_torque() const { return !torque_measured_Nmm.empty(); }
   bool has_spindle() const { return !spindle_measured_Nmm.empty(); }
@@ -94,7 +92,7 @@ struct SampleInfo {
   std::size_t nx = 0, ny = 0;
   std::vector<float> removed_depth_mm;
   double removed_volume_mm3 = 0;
-  // 1.2: per (x, y) column the class label of most removed bone (0 = none), and the
+  // Per (x, y) column the class label of most removed bone (0 = none), and the
   // sample's class names by label (the removed-bone map's class colours).
   std::vector<std::uint8_t> removed_class;
   std::map<int, std::string> classes;
@@ -106,14 +104,12 @@ struct ParameterRow {  // the constants a replay used (validate) — fit.json ha
   double alpha_N_per_mm2 = 0, c1_N_per_mm2 = 0, mu = 0;
 };
 
-struct AnalysisInput {
+struct ReportData {
   std::string mode;  // "calibrate" | "validate"
   std::string experiment_name, experiment_description, experiment_path, experiment_sha256;
   std::string context_of_use;
   std::string params_path, params_sha256;  // validate: the fixed parameters
   std::string criteria_path, criteria_sha256;
-  // 1.2: validate --fit: the fit the constants came from (copied beside as fit.json).
-  std::string fit_path, fit_sha256;
   std::uint64_t seed = 0;
   nlohmann::json model = nlohmann::json::object();        // name, version, replay settings
   nlohmann::json calibration = nlohmann::json::object();  // method and settings
@@ -122,19 +118,29 @@ struct AnalysisInput {
   std::vector<SampleInfo> samples;
   std::vector<RecordingSeries> recordings;
   Provenance provenance;
-  // 1.1: the solution-verification study (model::to_json(ConvergenceStudy)) when the run
+  // The solution-verification study (model::to_json(ConvergenceStudy)) when the run
   // made one (validate does by default); null otherwise.
   nlohmann::json verification;
 };
 
-// Writes DIR/analysis.json, DIR/predictions.csv and, when a recording has moments or a
-// spindle load, DIR/wrench.csv (creates DIR).
-void write_analysis_input(const std::filesystem::path& dir, const AnalysisInput& in);
-// Reads them; InputError naming the file and field on any defect (unknown keys,
-// missing fields, wrong version, unknown recording ids, NaN, lengths, huge sizes).
-AnalysisInput read_analysis_input(const std::filesystem::path& dir);
+// What write_report is given, all in memory: `validate` and `calibrate` build it from their
+// replay, `burrbench report DIR` from DIR's prediction.h5, fit.json and criteria.toml.
+struct ReportInputs {
+  data_schema::Prediction prediction;  // with its context (Prediction::context)
+  std::string prediction_file;         // names it in messages ("…/prediction.h5")
+  std::optional<data_schema::FitResult> fit;
+  std::optional<Criteria> criteria;
+  std::string criteria_path, criteria_sha256;  // the file the criteria were read from
+  // The solution-verification study (model::to_json(ConvergenceStudy)), or null.
+  nlohmann::json verification;
+};
+
+// The sections' view of the inputs: a recording whose segments carry both roles appears
+// once per role (the second as id@validate), each with its own used samples. InputError
+// naming the prediction file and the context's field on a defect.
+ReportData report_data(const ReportInputs& in);
 
 // Residuals CSV beside the report: recording_id, t_s, used, e = measured − predicted.
-void write_residuals_csv(const std::filesystem::path& path, const AnalysisInput& in);
+void write_residuals_csv(const std::filesystem::path& path, const ReportData& in);
 
 }  // namespace burrbench::analysis
