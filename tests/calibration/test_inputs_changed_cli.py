@@ -1,7 +1,7 @@
 """A file replaced while a command reads and replays it: the outputs would record a
 SHA-256 of a file the results did not come from, so the command writes nothing and names
-the file (data_schema::check_unchanged; docs/formats.md "Provenance"). And a calibrate
-directory's report replays the files the fit was made from, or refuses."""
+the file (data_schema::check_unchanged; docs/formats.md "Provenance"). And `validate --fit`
+replays the files the fit was made from, or refuses."""
 import hashlib
 import os
 import shutil
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 from bad_input import assert_refused
-from synthetic import BURRBENCH, make_synthetic, run_ok
+from synthetic import BURRBENCH, SRC, make_synthetic, run_ok
 
 
 def sha(path):
@@ -45,24 +45,23 @@ def test_a_sample_replaced_while_calibrate_runs_leaves_no_output(exp, tmp_path):
     assert not (tmp_path / "cal").exists() and not list(tmp_path.glob(".cal*"))
 
 
-def test_the_report_of_a_calibrate_directory_replays_the_files_of_the_fit(exp, tmp_path):
+def test_validate_with_a_fit_replays_the_files_of_the_fit(exp, tmp_path):
     folder = tmp_path / "exp"
     shutil.copytree(exp, folder)
     cal = tmp_path / "cal"
     run_ok("calibrate", folder / "experiment.toml", "--out", cal, "--starts", 2, "--no-profiles",
            "--no-cross-validation", "--no-discretization-check")
-    old = tmp_path / "old"  # an older calibrate directory: the report replays its fit
-    old.mkdir()
-    for f in ("fit.json", "params.toml"):
-        shutil.copy(cal / f, old / f)
-    run_ok("report", old, "--out", tmp_path / "rep" / "report.html")
-    # The held-out recording exported again since, with other data: its report would not
-    # be the fit's.
+    validate = [BURRBENCH, "validate", folder / "experiment.toml", "--params", cal / "params.toml",
+                "--fit", cal / "fit.json", "--criteria", SRC / "examples" / "criteria" / "release.toml",
+                "--no-verification"]
+    p = subprocess.run([*validate, "--out", tmp_path / "val"], capture_output=True, text=True, timeout=600)
+    assert p.returncode in (0, 1) and (tmp_path / "val" / "prediction.h5").exists(), p.stderr  # 1: the gate failed
+    # The held-out recording exported again since, with other data: its validation would
+    # not be the fit's.
     fit_sha = sha(folder / "polish.h5")
     shutil.copy(folder / "sweep.h5", folder / "polish.h5")
-    p = subprocess.run([BURRBENCH, "report", old, "--out", tmp_path / "rep2" / "report.html"], capture_output=True,
-                       text=True, timeout=600)
+    p = subprocess.run([*validate, "--out", tmp_path / "val2"], capture_output=True, text=True, timeout=600)
     assert_refused(p.returncode, p.stderr, folder / "polish.h5",
                    f"file: expected the file the fit was made from (SHA-256 {fit_sha[:12]}… in its fit.json), got "
                    f"changed since (now {sha(folder / 'polish.h5')[:12]}…)")
-    assert not (tmp_path / "rep2").exists()
+    assert not (tmp_path / "val2").exists()
