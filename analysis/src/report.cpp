@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <ctime>
+#include <iomanip>
 #include <fstream>
 #include <map>
 #include <optional>
@@ -290,6 +292,42 @@ std::string discretization_cell(const json& p) {
   return n("coarse_estimate") + "<br><b>limited</b>: [" + n("ci95_low") + ", " + n("ci95_high") + "]";
 }
 
+// What the replay applied to each recording: the lag (the fit's where it fitted one, else
+// the manifest's lag_ms), the force bias and its source, the depth offset.
+std::string applied_table(const ReportData& in, const json* fit) {
+  const auto lag_fitted = [&](const std::string& id) {
+    if (!fit || !fit->contains("nuisance") || !fit->at("nuisance").is_array()) return false;
+    return std::any_of(fit->at("nuisance").begin(), fit->at("nuisance").end(), [&](const json& n) {
+      return n.value("recording_id", std::string()) == id && n.value("name", std::string()) == "lag" &&
+             !n.value("fixed", false);
+    });
+  };
+  std::string h = "<h3>Applied per recording</h3><table id=\"applied-table\"><tr><th>recording</th><th>lag (ms)</th>"
+                  "<th>lag from</th><th>force bias (N)</th><th>force bias from</th><th>depth offset (mm)</th></tr>";
+  for (const auto& r : in.recordings) {
+    if (r.id.ends_with("@validate")) continue;  // the same replay as its calibrate part
+    h += "<tr>" + td(esc(r.id)) + td(num(r.lag_ms), true) + td(lag_fitted(r.id) ? "fit.json" : "manifest") +
+         td(fmt::format("{}, {}, {}", num(r.force_bias_N.x), num(r.force_bias_N.y), num(r.force_bias_N.z)), true) +
+         td(r.force_bias_source == "fit" ? "fit.json" : esc(r.force_bias_source)) + td(num(r.depth_offset_mm), true) +
+         "</tr>";
+  }
+  return h + "</table>";
+}
+
+// A constant's verdict as the report states it: the profile's verdict, and "limited by
+// discretization error" beside it when the discretization check found it so — the table's
+// "at 2l" column and the verdict must not disagree.
+bool limited(const json& p) {
+  return p.contains("discretization") && p.at("discretization").is_object() &&
+         p.at("discretization").value("limited", false);
+}
+
+std::string constant_verdict(const json& p) {
+  const bool ident = p.value("identifiable", false);
+  const std::string verdict = p.value("verdict", std::string(ident ? "identifiable" : "non_identifiable"));
+  return limited(p) ? verdict + ", limited by discretization error" : verdict;
+}
+
 // The fit's nuisance estimates that were free (per recording; a pose per sample mounting).
 std::string nuisance_table(const json& fit) {
   if (!fit.contains("nuisance") || !fit.at("nuisance").is_array()) return {};
@@ -342,8 +380,12 @@ std::string parameter_section(const ReportData& in, const json* fit) {
            td(interval("ci95_low", "ci95_high"), true) +
            (bootstrap ? td(interval("bootstrap_ci95_low", "bootstrap_ci95_high"), true) : std::string()) +
            td(discretization_cell(p), true) + td(p.value("fixed", false) ? "yes" : "no") +
-           td(ident && verdict != "imprecise" ? esc(verdict)
-                                              : "<b>" + esc(verdict) + "</b>: " + esc(p.value("reason", std::string()))) +
+           td(ident && verdict != "imprecise" && !limited(p)
+                  ? esc(verdict)
+                  : "<b>" + esc(constant_verdict(p)) + "</b>" +
+                        (p.value("reason", std::string()).empty() ? std::string()
+                                                                  : ": " + esc(p.value("reason", std::string()))) +
+                        (limited(p) ? " (read the widened interval of the 2l column)" : "")) +
            "</tr>";
     }
     h += "</table>";
@@ -381,18 +423,22 @@ std::string parameter_section(const ReportData& in, const json* fit) {
       const auto& names = c.at("names");
       const auto& mat = c.at("matrix");
       const std::size_t k = names.size();
-      h += "<h3>Parameter correlation matrix</h3><div class=\"scroll\"><table><tr><th></th>";
-      for (const auto& nm : names) h += "<th>" + esc(nm.get<std::string>()) + "</th>";
+      // Columns numbered as the rows (the names would make a 24-column matrix wider than a
+      // printed page); correlations to two decimals.
+      h += "<h3>Parameter correlation matrix</h3><p class=\"muted\">Column k is the entry of row k.</p>"
+           "<div class=\"scroll\"><table id=\"correlation-table\" class=\"matrix\"><tr><th></th>";
+      for (std::size_t j = 0; j < k; ++j)
+        h += fmt::format("<th title=\"{}\">{}</th>", esc(names[j].get<std::string>()), j + 1);
       h += "</tr>";
       for (std::size_t i = 0; i < k; ++i) {
-        h += "<tr><th>" + esc(names[i].get<std::string>()) + "</th>";
+        h += fmt::format("<tr><th>{} {}</th>", i + 1, esc(names[i].get<std::string>()));
         for (std::size_t j = 0; j < k; ++j) {
           const auto& v = mat.is_array() && mat.size() == k * k ? mat[i * k + j]
                                                                  : mat.at(i).at(j);
           const double x = v.is_number() ? v.get<double>() : NAN;
           const int shade = std::isfinite(x) ? int(255 - 120 * std::min(1.0, std::abs(x))) : 255;
-          h += fmt::format("<td class=\"num\" style=\"background:rgb(255,{},{})\">{}</td>", shade,
-                           shade, num(x, 3));
+          h += fmt::format("<td class=\"num\" style=\"background:rgb(255,{},{})\">{}</td>", shade, shade,
+                           std::isfinite(x) ? fmt::format("{:.2f}", x) : std::string("n/a"));
         }
         h += "</tr>";
       }
@@ -494,6 +540,62 @@ std::string verification_section(const ReportData& in, const json* fit) {
   return h;
 }
 
+// The verification's verdict in one badge and a clause, for the top of the report beside
+// the gate: the convergence study's (validate), else the fit's discretization check.
+std::string verification_badge(const ReportData& in, const json* fit) {
+  const json& v = in.verification;
+  if (v.is_object() && v.contains("recordings")) {
+    const bool known = v.contains("below_noise") && v.at("below_noise").is_boolean();
+    const bool below = known && v.at("below_noise").get<bool>();
+    return fmt::format("<span class=\"verdict {}\" id=\"verification-badge\">{}</span>",
+                       !known ? "none" : below ? "pass" : "fail",
+                       !known ? "VERIFICATION: NOISE UNKNOWN"
+                       : below ? "VERIFICATION: DISCRETIZATION ERROR BELOW NOISE"
+                               : "VERIFICATION: DISCRETIZATION ERROR ABOVE NOISE");
+  }
+  if (fit && fit->contains("settings") && fit->at("settings").contains("discretization_check") &&
+      fit->at("settings").at("discretization_check").value("computed", false)) {
+    std::size_t n = 0;
+    for (const auto& p : fit->at("parameters")) n += limited(p);
+    return fmt::format("<span class=\"verdict {}\" id=\"verification-badge\">DISCRETIZATION CHECK: {}</span>",
+                       n ? "fail" : "pass", n ? fmt::format("{} CONSTANT(S) LIMITED", n) : std::string("NO CONSTANT LIMITED"));
+  }
+  return "<span class=\"verdict none\" id=\"verification-badge\">VERIFICATION NOT COMPUTED</span>";
+}
+
+// The top of the report: the gate, the verification beside it, and the constants that are
+// not plainly identifiable (limited by discretization, imprecise, not identifiable), so a
+// green gate cannot hide a red finding further down.
+std::string verdicts_block(const ReportData& in, const ReportSummary& sum, const json* fit) {
+  std::string h = "<div id=\"verdicts\"><p>";
+  h += sum.has_criteria ? (sum.pass ? "<span class=\"verdict pass\" id=\"verdict\">ACCEPTANCE CRITERIA: PASS</span>"
+                                    : "<span class=\"verdict fail\" id=\"verdict\">ACCEPTANCE CRITERIA: FAIL</span>")
+                        : "<span class=\"verdict none\" id=\"verdict\">No acceptance criteria</span>";
+  h += " " + verification_badge(in, fit);
+  const json& v = in.verification;
+  if (v.is_object() && !v.value("verdict", std::string()).empty())
+    h += " <span class=\"muted\">" + esc(v.value("verdict", std::string())) + " (section 3)</span>";
+  h += "</p>";
+  if (fit && fit->contains("parameters")) {
+    std::vector<std::string> flagged;
+    std::size_t free = 0;
+    for (const auto& p : fit->at("parameters")) {
+      if (p.value("fixed", false)) continue;
+      ++free;
+      const std::string verdict = constant_verdict(p);
+      if (verdict != "identifiable")
+        flagged.push_back("<b>" + esc(p.value("class_name", std::string()) + " " + p.value("name", std::string())) +
+                          "</b>: " + esc(verdict));
+    }
+    h += flagged.empty()
+             ? fmt::format("<p id=\"constants-verdict\"><span class=\"verdict pass\">CONSTANTS</span> all {} "
+                           "identifiable, none limited by discretization error (section 6).</p>", free)
+             : fmt::format("<p id=\"constants-verdict\"><span class=\"verdict fail\">CONSTANTS</span> {} of {} not "
+                           "plainly identifiable (section 6): {}.</p>", flagged.size(), free, fmt::join(flagged, "; "));
+  }
+  return h + "</div>";
+}
+
 std::string cross_validation_section(const std::vector<MetricRow>& rows, const json* fit) {
   std::string h =
       "<p>Pooled over all used samples of each role; calibration data and held-out "
@@ -539,15 +641,36 @@ std::string cross_validation_section(const std::vector<MetricRow>& rows, const j
   return h;
 }
 
-// Were the criteria fixed before the fit? calibrate --criteria records their SHA-256 in
-// fit.json (settings.criteria); the criteria of this report must be that same content.
+// When the fit started (UTC, ISO 8601): fit.json's provenance is stamped when its results
+// are assembled, after the search, so the start is that time less the solver's wall time.
+// "unknown" when either is missing or unreadable.
+std::string fit_started_utc(const json& fit) {
+  if (!fit.contains("provenance") || !fit.at("provenance").is_object() || !fit.contains("solver") ||
+      !fit.at("solver").is_object())
+    return "unknown";
+  std::tm tm{};
+  std::istringstream in(fit.at("provenance").value("created_utc", std::string()));
+  in >> std::get_time(&tm, "%Y-%m-%dT%H:%M:%SZ");
+  const double wall_s = fit.at("solver").value("wall_s", NAN);
+  if (in.fail() || !std::isfinite(wall_s)) return "unknown";
+  const std::time_t start = timegm(&tm) - std::time_t(std::ceil(wall_s));
+  std::tm utc{};
+  gmtime_r(&start, &utc);
+  return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z", utc.tm_year + 1900, utc.tm_mon + 1, utc.tm_mday,
+                     utc.tm_hour, utc.tm_min, utc.tm_sec);
+}
+
+// Were the criteria fixed before the fit? calibrate --criteria records their SHA-256 and
+// the time it read them in fit.json (settings.criteria); the criteria of this report must
+// be that same content, and the time is shown beside the fit's own start.
 void criteria_predate(const json& fit, const ReportData& in, ReportSummary& sum) {
   const json* rec = nullptr;
   if (fit.contains("settings") && fit.at("settings").contains("criteria") && fit.at("settings").at("criteria").is_object())
     rec = &fit.at("settings").at("criteria");
-  const std::string when = fit.contains("provenance") && fit.at("provenance").is_object()
-                               ? fit.at("provenance").value("created_utc", std::string("?"))
-                               : std::string("?");
+  const std::string when = fmt::format("recorded {}; the fit started {}",
+                                       rec ? rec->value("recorded_utc", std::string("at a time not recorded"))
+                                           : std::string("never"),
+                                       fit_started_utc(fit));
   if (!rec || !rec->contains("sha256")) {
     sum.criteria_predate_text =
         "Not established: the fit recorded no criteria (run calibrate with --criteria to fix them before the fit).";
@@ -557,7 +680,7 @@ void criteria_predate(const json& fit, const ReportData& in, ReportSummary& sum)
   sum.criteria_predate_fit = sha == in.criteria_sha256;
   sum.criteria_predate_text =
       *sum.criteria_predate_fit
-          ? fmt::format("Fixed before the fit: calibrate recorded these criteria (SHA-256 {}) when it fitted the "
+          ? fmt::format("Fixed before the fit: calibrate recorded these criteria (SHA-256 {}) before it fitted the "
                         "constants ({}).", sha.substr(0, 12), when)
           : fmt::format("Changed after the fit: calibrate recorded criteria with SHA-256 {} ({}, {}); the criteria "
                         "used here have {}.", sha.substr(0, 12), rec->value("path", std::string("?")), when,
@@ -654,9 +777,7 @@ ReportSummary write_report(const ReportInputs& inputs, const fs::path& out_html,
   b += "<h1>" + esc(title) + "</h1>";
   b += fmt::format("<p class=\"muted\">Mode: {} · generated {} by {}</p>", esc(in.mode),
                    esc(make_provenance({}).created_utc), esc(software_version()));
-  b += sum.has_criteria ? (sum.pass ? "<p><span class=\"verdict pass\" id=\"verdict\">ACCEPTANCE CRITERIA: PASS</span></p>"
-                                    : "<p><span class=\"verdict fail\" id=\"verdict\">ACCEPTANCE CRITERIA: FAIL</span></p>")
-                        : "<p><span class=\"verdict none\" id=\"verdict\">No acceptance criteria</span></p>";
+  b += verdicts_block(in, sum, has_fit ? &fit : nullptr);
   b += "<nav><a href=\"#glance\">At a glance</a><a href=\"#cou\">Context</a><a href=\"#model\">Model</a><a href=\"#verif\">Verification</a><a href=\"#data\">Data</a>"
        "<a href=\"#calib\">Calibration</a><a href=\"#params\">Parameters</a><a href=\"#force\">Force</a><a href=\"#wrench\">Moments</a>"
        "<a href=\"#resid\">Residuals</a><a href=\"#metrics\">Metrics</a><a href=\"#cv\">Cross-validation</a>"
@@ -726,6 +847,7 @@ ReportSummary write_report(const ReportInputs& inputs, const fs::path& out_html,
 
   b += "<h2 id=\"calib\">5. Calibration method and settings</h2>";
   b += in.calibration.empty() ? std::string("<p class=\"muted\">(none recorded)</p>") : kv_table(in.calibration);
+  b += applied_table(in, has_fit ? &fit : nullptr);
   if (has_fit) {
     for (const char* k : {"settings", "solver", "residuals_summary"})
       if (fit.contains(k) && fit.at(k).is_object()) b += std::string("<h3>") + k + "</h3>" + kv_table(fit.at(k));
@@ -817,14 +939,22 @@ ReportSummary write_report(const ReportInputs& inputs, const fs::path& out_html,
   for (const auto& f : in.provenance.inputs)
     b += "<tr>" + td("<code>" + esc(f.path) + "</code>") + td("<span class=\"hash\">" + esc(f.sha256) + "</span>") + "</tr>";
   b += "</table>";
-  b += "<h3>Seeds and settings</h3>" + kv_table(json{{"seed", in.seed},
-                                                     {"experiment", in.experiment_path},
-                                                     {"experiment sha256", in.experiment_sha256},
-                                                     {"params", in.params_path},
-                                                     {"params sha256", in.params_sha256},
-                                                     {"criteria", in.criteria_path},
-                                                     {"criteria sha256", in.criteria_sha256},
-                                                     {"prediction created", in.provenance.created_utc}});
+  json seeds = {{"seed", in.seed},
+               {"experiment", in.experiment_path},
+               {"experiment sha256", in.experiment_sha256},
+               {"params", in.params_path},
+               {"params sha256", in.params_sha256},
+               {"criteria", in.criteria_path},
+               {"criteria sha256", in.criteria_sha256}};
+  if (has_fit) {
+    const json& st = fit.contains("settings") ? fit.at("settings") : json::object();
+    const json rec = st.contains("criteria") && st.at("criteria").is_object() ? st.at("criteria") : json::object();
+    seeds["criteria sha256 recorded by the fit"] = rec.value("sha256", std::string("none"));
+    seeds["criteria recorded by the fit (UTC)"] = rec.value("recorded_utc", std::string("none"));
+    seeds["fit started (UTC)"] = fit_started_utc(fit);
+  }
+  seeds["prediction created"] = in.provenance.created_utc;
+  b += "<h3>Seeds and settings</h3>" + kv_table(seeds);
 
   // Sign-off: left blank for the people who answer for the release (print, sign, date).
   b += "<h2 id=\"signoff\">16. Sign-off</h2><p class=\"muted\">This report, generated " +
