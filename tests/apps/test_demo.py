@@ -89,7 +89,10 @@ def test_demo_recovers_truth_and_writes_report(demo, tmp_path):
             stale = {name: int(f[f"streams/{name}/stale"][()].sum()) for name in f["streams"]}
             kinds = [k.decode() for k in f["events/kind"][()]]
         assert q["stale_rows"] == stale, (rid, q["stale_rows"], stale)
-        assert len(q["events"]) == len(kinds) and [e["kind"] for e in q["events"]] == kinds
+        # Beside the session's log the report lists the stretches without force samples the
+        # replay found (kind force_silent, after a FIFO overrun on a loaded host).
+        logged = [e for e in q["events"] if e["kind"] != "force_silent"]
+        assert len(logged) == len(kinds) and [e["kind"] for e in logged] == kinds
     assert any(e["kind"] == "gap" for r in recs.values() for e in r["quality"]["events"])
 
     # The Python notebook (examples/python/demo.ipynb) runs on the demo's outputs: it loads
