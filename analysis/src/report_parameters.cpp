@@ -151,9 +151,7 @@ std::string correlation_matrix(const json* fit) {
     const auto& names = c.at("names");
     const auto& mat = c.at("matrix");
     const std::size_t k = names.size();
-    // Columns numbered as the rows (the names would make a 24-column matrix wider than a
-    // printed page); correlations to two decimals.
-    h += "<h3>Parameter correlation matrix</h3><p class=\"muted\">Column k is the entry of row k.</p>"
+    h += "<h3>Parameter correlation matrix</h3><p class=\"muted\">Column k is the constant or nuisance of row k.</p>"
          "<div class=\"scroll\"><table id=\"correlation-table\" class=\"matrix\"><tr><th></th>";
     for (std::size_t j = 0; j < k; ++j)
       h += fmt::format("<th title=\"{}\">{}</th>", esc(names[j].get<std::string>()), j + 1);
@@ -177,14 +175,14 @@ std::string correlation_matrix(const json* fit) {
 
 std::string fixed_parameters(const ReportData& in) {
   std::string h;
-h += "<p>Fixed parameters replayed (no fit in this run): <code>" + esc(in.params_path) +
-     "</code>. Intervals and identifiability come from the calibration that produced them.</p>";
-h += "<table><tr><th>label</th><th>class</th><th>α (N/mm²)</th><th>C1 (N/mm²)</th><th>μ</th></tr>";
-for (const auto& p : in.parameters)
-  h += "<tr>" + td(std::to_string(p.class_label), true) + td(esc(p.class_name)) +
-       td(num(p.alpha_N_per_mm2, 6), true) + td(num(p.c1_N_per_mm2, 6), true) +
-       td(num(p.mu, 6), true) + "</tr>";
-h += "</table>";
+  h += "<p>Fixed parameters replayed (no fit in this run): <code>" + esc(in.params_path) +
+       "</code>. Intervals and identifiability come from the calibration that produced them.</p>";
+  h += "<table><tr><th>label</th><th>class</th><th>α (N/mm²)</th><th>C1 (N/mm²)</th><th>μ</th></tr>";
+  for (const auto& p : in.parameters)
+    h += "<tr>" + td(std::to_string(p.class_label), true) + td(esc(p.class_name)) +
+         td(num(p.alpha_N_per_mm2, 6), true) + td(num(p.c1_N_per_mm2, 6), true) +
+         td(num(p.mu, 6), true) + "</tr>";
+  h += "</table>";
   return h;
 }
 
