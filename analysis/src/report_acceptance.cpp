@@ -13,9 +13,11 @@ using html::num;
 using html::td;
 using nlohmann::json;
 
-// When the fit started (UTC, ISO 8601): fit.json's provenance is stamped when its results
-// are assembled, after the search, so the start is that time less the solver's wall time.
-// "unknown" when either is missing or unreadable.
+// When the fit started (UTC, ISO 8601, to the second): fit.json's provenance is stamped
+// when its results are assembled — after every stage but the last, "overlaps" — so the
+// start is that stamp less the solver's wall time without that stage. Both the stamp and
+// this start are whole seconds, so the start is right within a second. "unknown" when
+// either is missing or unreadable.
 std::string fit_started_utc(const json& fit) {
   if (!fit.contains("provenance") || !fit.at("provenance").is_object() || !fit.contains("solver") ||
       !fit.at("solver").is_object())
@@ -23,9 +25,15 @@ std::string fit_started_utc(const json& fit) {
   std::tm tm{};
   std::istringstream in(fit.at("provenance").value("created_utc", std::string()));
   in >> std::get_time(&tm, "%Y-%m-%dT%H:%M:%SZ");
-  const double wall_s = fit.at("solver").value("wall_s", NAN);
-  if (in.fail() || !std::isfinite(wall_s)) return "unknown";
-  const std::time_t start = timegm(&tm) - std::time_t(std::ceil(wall_s));
+  const json& solver = fit.at("solver");
+  double wall_s = solver.contains("wall_s") && solver.at("wall_s").is_number() ? solver.at("wall_s").get<double>() : NAN;
+  if (solver.contains("stages") && solver.at("stages").is_array())
+    for (const auto& st : solver.at("stages"))
+      if (st.is_object() && st.value("stage", std::string()) == "overlaps" && st.contains("wall_s") &&
+          st.at("wall_s").is_number())
+        wall_s -= st.at("wall_s").get<double>();
+  if (in.fail() || !(wall_s >= 0)) return "unknown";
+  const std::time_t start = timegm(&tm) - std::time_t(std::floor(wall_s));
   std::tm utc{};
   gmtime_r(&start, &utc);
   return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z", utc.tm_year + 1900, utc.tm_mon + 1, utc.tm_mday,
