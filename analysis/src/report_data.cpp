@@ -73,6 +73,10 @@ RecordingSeries series_of(const ds::PredictedRecording& p, JsonView meta, std::v
   rs.measured_N = p.force_sensor_meas_N;
   rs.predicted_N = p.force_sensor_pred_N;
   rs.band95_N = p.band95_N;
+  rs.lag_ms = p.lag_ms;
+  rs.depth_offset_mm = p.depth_offset_mm;
+  rs.force_bias_N = p.force_bias_N;
+  rs.force_bias_source = p.force_bias_source;
   rs.used.resize(n);
   for (std::size_t k = 0; k < n; ++k) {
     rs.used[k] = (k < p.used_calibrate.size() && p.used_calibrate[k]) || (k < p.used_validate.size() && p.used_validate[k]);

@@ -1,8 +1,9 @@
 """Loads a report in headless Chromium and prints what a reader would see, as JSON.
 
-Usage: /usr/bin/python3 browser_check.py REPORT.html WORKDIR [--print]
+Usage: /usr/bin/python3 browser_check.py REPORT.html WORKDIR [--print | --layout ID...]
 Prints {"console_errors": [...], "dom": "...", "plots_done": bool, "screenshot": path,
-"nonblank_plot_fraction": float, "alerts": [...]}; used by the analysis tests.
+"nonblank_plot_fraction": float, "alerts": [...]}; with --print what printed_last_column
+finds, with --layout what layout() measures; used by the analysis tests.
 """
 import json
 import os
@@ -106,11 +107,69 @@ def printed_last_column(report, workdir, last="verdict", before="fixed", dpi=100
     return out
 
 
+# A4 landscape less the report's 10 mm margins (report.css @page), in CSS px (96 per inch).
+PRINTABLE_WIDTH_PX = round((297 - 2 * 10) / 25.4 * 96)
+FIRST_SCREEN = (1280, 800)  # a laptop's browser window
+
+MEASURE = """<script>
+window.addEventListener("load", () => {
+  const width = document.documentElement.clientWidth, out = {width, height: window.innerHeight, cut: [], at: {}};
+  document.querySelectorAll("table").forEach((t, i) => {
+    const r = t.getBoundingClientRect();
+    if (r.width > 0 && (r.right > width + 0.5 || r.left < -0.5 || t.scrollWidth > t.clientWidth + 1))
+      out.cut.push({index: i, id: t.id, first_row: (t.rows[0] ? t.rows[0].textContent : "").slice(0, 120),
+                    right: r.right, scroll_width: t.scrollWidth});
+  });
+  for (const id of IDS) {
+    const e = document.getElementById(id);
+    if (e) { const r = e.getBoundingClientRect(); out.at[id] = {top: r.top, bottom: r.bottom, text: e.textContent}; }
+  }
+  const pre = document.createElement("pre");
+  pre.id = "layout-check";
+  pre.textContent = JSON.stringify(out);
+  document.body.appendChild(pre);
+});
+</script>"""
+
+
+def measured(html, workdir, name, size, ids):
+    """Loads `html` with MEASURE added in a window of `size` and returns what it measured."""
+    path = os.path.join(workdir, name)
+    with open(path, "w") as f:
+        f.write(html.replace("</body>", MEASURE.replace("IDS", json.dumps(ids)) + "</body>", 1))
+    dom = chromium(["--dump-dom", "--hide-scrollbars", f"--window-size={size[0]},{size[1]}", "file://" + path],
+                   workdir).stdout
+    import html as html_lib
+    import re
+    found = re.search(r'<pre id="layout-check">(.*?)</pre>', dom, re.S)
+    return json.loads(html_lib.unescape(found.group(1))) if found else None
+
+
+def layout(report, workdir, ids):
+    """What the report's layout shows a reader: `cut`, the tables wider than the printed page
+    (the report with its print rules applied, in a window as wide as an A4 landscape page's
+    printable area: a table wider than that is cut off the PDF), and `first_screen`, for
+    each of `ids` its text and whether it lies within the first screen of a 1280×800
+    window (the report as shown on screen)."""
+    html = open(report).read()
+    assert "@media print {" in html, "the report has no print rules"
+    printed = measured(html.replace("@media print {", "@media all {"), workdir, "as_printed.html",
+                       (PRINTABLE_WIDTH_PX, 1600), [])
+    screen = measured(html, workdir, "as_shown.html", FIRST_SCREEN, ids)
+    return {"printable_width_px": PRINTABLE_WIDTH_PX, "print_width_measured": printed and printed["width"],
+            "cut": printed["cut"] if printed else None,
+            "first_screen": {i: {"text": a["text"], "inside": a["top"] >= 0 and a["bottom"] <= screen["height"]}
+                             for i, a in (screen["at"] if screen else {}).items()}}
+
+
 def main():
     report, workdir = os.path.abspath(sys.argv[1]), sys.argv[2]
     os.makedirs(workdir, exist_ok=True)
     if len(sys.argv) > 3 and sys.argv[3] == "--print":
         print(json.dumps(printed_last_column(report, workdir)))
+        return
+    if len(sys.argv) > 3 and sys.argv[3] == "--layout":
+        print(json.dumps(layout(report, workdir, sys.argv[4:])))
         return
     url = "file://" + report
     dom = chromium(["--dump-dom", url], workdir)

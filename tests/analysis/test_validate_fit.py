@@ -26,10 +26,27 @@ def fitted(tmp_path_factory):
     return d
 
 
-def gate(d, out, fit, criteria, params=None):
+def gate(d, out, fit, criteria, params=None, verification=False):
     return subprocess.run([BURRBENCH, "validate", d / "experiment.toml", "--params", params or fit.parent / "params.toml",
-                           "--criteria", criteria, "--fit", fit, "--out", out, "--no-verification"],
+                           "--criteria", criteria, "--fit", fit, "--out", out]
+                          + ([] if verification else ["--no-verification"]),
                           capture_output=True, text=True, timeout=600)
+
+
+def with_a_limited_constant(fit_file, out):
+    """fit.json as calibrate writes it when its discretization check finds compact alpha
+    limited (docs/calibration.md "Discretization check": the estimate at 2l moved by more
+    than half its 95 % interval, the interval widened by that move), written to `out`."""
+    import math
+    fit = json.loads(fit_file.read_text())
+    p = next(p for p in fit["parameters"] if (p["class_name"], p["name"]) == ("compact", "alpha"))
+    assert p["identifiable"] and p["verdict"] == "identifiable", p
+    move = 2 * math.log(p["profile_ci95_high"] / p["estimate"])
+    p["discretization"] = {"coarse_estimate": p["estimate"] * math.exp(move), "error_log": move, "limited": True,
+                           "ci95_low": p["profile_ci95_low"] * math.exp(-move),
+                           "ci95_high": p["profile_ci95_high"] * math.exp(move)}
+    out.write_text(json.dumps(fit, indent=1))
+    return out
 
 
 def test_calibrate_records_the_criteria(fitted):
@@ -50,6 +67,25 @@ def test_validate_with_the_fit_brings_its_intervals_and_the_criteria_predate_it(
     assert json.loads((out / "metrics.json").read_text())["criteria_predate_fit"] is True
     html = (out / "report.html").read_text()
     assert "CRITERIA FIXED BEFORE THE FIT" in html
+    # When: the time calibrate read the criteria (fit.json settings.criteria.recorded_utc)
+    # beside the fit's own start (its provenance stamp, taken before the last stage,
+    # "overlaps", less the solver's wall time without that stage), on the terminal, in
+    # section 13 and in section 15. Both stamps are whole seconds: the start within one.
+    import datetime
+    import math
+    fit = json.loads((fitted / "cal" / "fit.json").read_text())
+    recorded = fit["settings"]["criteria"]["recorded_utc"]
+    iso = "%Y-%m-%dT%H:%M:%SZ"
+    wall = fit["solver"]["wall_s"] - sum(s["wall_s"] for s in fit["solver"]["stages"] if s["stage"] == "overlaps")
+    start = datetime.datetime.strptime(fit["provenance"]["created_utc"], iso) - datetime.timedelta(seconds=math.floor(wall))
+    started = start.strftime(iso)
+    assert datetime.datetime.strptime(recorded, iso) <= start + datetime.timedelta(seconds=1), (recorded, started)
+    when = f"recorded {recorded}; the fit started {started}"
+    assert when in p.stdout and when in html[html.index('id="criteria-predate"'):], (when, p.stdout)
+    seeds = html[html.index('id="repro"'):]
+    assert f"<th>criteria recorded by the fit (UTC)</th><td>{recorded}</td>" in seeds
+    assert f"<th>fit started (UTC)</th><td>{started}</td>" in seeds
+    assert f"<th>criteria sha256 recorded by the fit</th><td>{fit['settings']['criteria']['sha256']}</td>" in seeds
     params = html[html.index('id="params"'):html.index('id="force"')]
     fit = json.loads((fitted / "cal" / "fit.json").read_text())
     # The fit's profile intervals, waterfall, correlations and nuisances are in the dossier.
@@ -104,14 +140,25 @@ def test_calibrate_refuses_broken_criteria_before_fitting(fitted, tmp_path):
 def test_the_dossier_draws_every_section_and_plot_and_prints_every_column(fitted, tmp_path):
     """The browser test of the whole dossier: every section's heading, a drawn canvas for
     every plot, no console error; the structured context of use, the data-quality table,
-    the residual diagnostics and the sign-off; and, printed to PDF and rendered to PNG,
-    the parameter table's last column."""
+    the residual diagnostics and the sign-off; the verdicts a reviewer must not miss — the
+    verification's and a constant limited by discretization error — in the first screen,
+    beside the gate; no table wider than the printed page; and, printed to PDF and rendered
+    to PNG, the parameter table's last column."""
     import re
     import sys
-    p = gate(fitted, tmp_path / "gate", fitted / "cal" / "fit.json", fitted / "criteria.toml")
+    cal = tmp_path / "cal"
+    cal.mkdir()
+    shutil.copy(fitted / "cal" / "params.toml", cal / "params.toml")
+    fit = with_a_limited_constant(fitted / "cal" / "fit.json", cal / "fit.json")
+    p = gate(fitted, tmp_path / "gate", fit, fitted / "criteria.toml", verification=True)
     assert p.returncode == 0, p.stdout + p.stderr
     report = tmp_path / "gate" / "report.html"
     html = report.read_text()
+    # The parameter table's verdict for the limited constant says so, beside its 2l column.
+    params = html[html.index('id="params"'):html.index('id="force"')]
+    row = params[params.index("<td>compact</td><td>alpha</td>"):]
+    row = row[:row.index("</tr>")]
+    assert "<b>limited</b>" in row and "<b>identifiable, limited by discretization error</b>" in row, row
     headings = re.findall(r'<h2 id="[a-z]+">(\d+)\. ', html)
     assert headings == [str(i) for i in range(1, 17)], headings
     # V&V 40 context from the criteria's [context]: influence high × consequence low → medium.
@@ -150,6 +197,20 @@ def test_the_dossier_draws_every_section_and_plot_and_prints_every_column(fitted
                                         capture_output=True, text=True, timeout=400, check=True).stdout)
     assert printed["found"] and printed["inside_page"], printed
     assert printed["dark_pixels"] > 20, printed  # the word "verdict" is drawn on the page
+    shown = json.loads(subprocess.run(["/usr/bin/python3", check, str(report), str(tmp_path / "layout"), "--layout",
+                                       "verdict", "verification-badge", "constants-verdict"],
+                                      capture_output=True, text=True, timeout=400, check=True).stdout)
+    # Every table within the printed page: the correlation matrix of the fit's constants and
+    # nuisances is the widest.
+    assert shown["print_width_measured"] == shown["printable_width_px"], shown
+    assert 'id="correlation-table"' in html and shown["cut"] == [], shown["cut"]
+    first = shown["first_screen"]
+    assert first.keys() == {"verdict", "verification-badge", "constants-verdict"}, first
+    assert all(v["inside"] for v in first.values()), first
+    verification = context(tmp_path / "gate")["verification"]
+    assert first["verification-badge"]["text"] == "VERIFICATION: DISCRETIZATION ERROR " + (
+        "BELOW NOISE" if verification["below_noise"] else "ABOVE NOISE"), first
+    assert "compact alpha: identifiable, limited by discretization error" in first["constants-verdict"]["text"], first
 
 
 def test_the_fit_settings_read_as_tables_not_json(fitted, tmp_path):

@@ -74,6 +74,12 @@ struct RecordingSeries {
   // few samples without contact, so the offset is 0 and the measured energy not usable).
   std::string spindle_offset_source;
   DataQuality quality;
+  // What the replay applied (data_schema::PredictedRecording): the lag and depth offset
+  // the trajectory was built with, the force bias added and where it came from ("fit",
+  // "tare" or "none").
+  double lag_ms = 0, depth_offset_mm = 0;
+  glm::dvec3 force_bias_N{0.0};
+  std::string force_bias_source = "none";
   // Half-width of the 95 % band of the predicted force (sensor frame, N)
   // from the fitted constants' covariance (delta method through the sensitivities);
   // empty without a fit.
