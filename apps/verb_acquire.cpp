@@ -82,23 +82,22 @@ class FrozenWatch {
   std::vector<bool> frozen_;
 };
 
-void run(const Options& o) {
+// Refused before the session, not after it: neither output may replace the map or tare,
+// and a recording is the one copy of a session: never replaced unless asked.
+void refuse_outputs(const Options& o, const std::filesystem::path& journal) {
   using namespace burrbench;
-  const auto map = rig::load_rig_map(o.rig);
-  const std::filesystem::path out(o.out);
-  const std::filesystem::path journal = o.journal.empty() ? std::filesystem::path(o.out + ".journal") : std::filesystem::path(o.journal);
-  // Refused before the session, not after it: neither output may replace the map or tare.
   apps::refuse_output_over_inputs(o.out, "--out", {o.rig, o.tare});
   apps::refuse_output_over_inputs(journal.string(), "--journal", {o.rig, o.tare, o.out});
-  // A recording is the one copy of a session: never replaced unless asked.
   apps::refuse_existing(o.out, "--out", o.overwrite);
   apps::check_output_location(journal.string(), "--journal");
   if (std::filesystem::exists(journal))
     throw InputError(journal.string(), "(journal)", "no journal left from an earlier session (run `burrbench recover` on it, or remove it)", "exists");
-  if (o.duration_s < 0) throw InputError("--duration", "value", "seconds ≥ 0");
-  data_schema::RecordingMeta burr;
-  o.burr.apply(burr);  // checked before the session, not after it
+}
 
+// The journal's header: the map, the burr, the tare, the clocks and the provenance.
+burrbench::rig::SessionHeader session_header(const Options& o, const burrbench::rig::RigMap& map,
+                                             const burrbench::data_schema::RecordingMeta& burr) {
+  using namespace burrbench;
   rig::SessionHeader h;
   h.rig_file = o.rig;
   h.rig_sha256 = sha256_file(o.rig);
@@ -123,10 +122,11 @@ void run(const Options& o) {
   h.session_monotonic_ns = mono.tv_sec * 1'000'000'000LL + mono.tv_nsec;
   h.command_line = invocation();
   h.software_version = software_version();
-  std::vector<std::filesystem::path> inputs{o.rig};
-  if (!o.tare.empty()) inputs.emplace_back(o.tare);
   h.created_utc = make_provenance({}).created_utc;
+  return h;
+}
 
+void catch_stop_signals() {
   struct sigaction sa {};
   sa.sa_handler = on_signal;
   sigemptyset(&sa.sa_mask);
@@ -135,8 +135,13 @@ void run(const Options& o) {
   // A file-size limit (ulimit -f) must surface as a failed journal write, which stops the
   // acquisition loudly and keeps the journal, not as a signal that kills the process.
   signal(SIGXFSZ, SIG_IGN);
+}
 
-  rig::Session session(map, journal, rig::to_json(h).dump());
+// Polls until Ctrl-C, --duration or a fatal fault, with the live line; then stops the
+// session. Returns its status after the last polls.
+burrbench::rig::SessionStatus acquire(burrbench::rig::Session& session, const burrbench::rig::RigMap& map,
+                                      const Options& o, const std::filesystem::path& journal) {
+  using namespace burrbench;
   std::cerr << fmt::format("acquiring {} device(s) into journal {} (Ctrl-C stops)\n", map.devices.size(), journal.string());
   TerminalProgress progress("acquire");
   FrozenWatch frozen(map.devices.size());
@@ -155,30 +160,40 @@ void run(const Options& o) {
   if (const auto f = session.fatal())
     throw std::runtime_error(fmt::format("ACQUISITION STOPPED: {}. The journal {} holds what was synced; "
                                          "run `burrbench recover` on it.", *f, journal.string()));
+  return status;
+}
 
-  const auto contents = rig::read_journal(journal);
-  if (contents.samples.empty()) {
-    // Nothing was acquired: no recording is written (an empty one would pass for data)
-    // and the journal, holding only events, goes. Say why, from the devices' own events.
-    std::string why = "no fault was logged";
-    for (const auto& e : contents.events)
-      if (e.kind != "start" && e.kind != "stop" && e.kind != "realtime") {
-        why = e.kind + ": " + e.detail;
-        break;
-      }
-    if (!o.keep_journal) std::filesystem::remove(journal);
-    std::cerr << fmt::format("burrbench: acquire: no device delivered a sample in {:.1f} s ({}); "
-                             "nothing was written\n", status.elapsed_s, why);
-    apps::set_exit_code(1);
-    return;
-  }
+// Nothing was acquired: no recording is written (an empty one would pass for data)
+// and the journal, holding only events, goes. Says why, from the devices' own events.
+void report_nothing_acquired(const burrbench::rig::JournalContents& contents, const burrbench::rig::SessionStatus& status,
+                             const Options& o, const std::filesystem::path& journal) {
+  using namespace burrbench;
+  std::string why = "no fault was logged";
+  for (const auto& e : contents.events)
+    if (e.kind != "start" && e.kind != "stop" && e.kind != "realtime") {
+      why = e.kind + ": " + e.detail;
+      break;
+    }
+  if (!o.keep_journal) std::filesystem::remove(journal);
+  std::cerr << fmt::format("burrbench: acquire: no device delivered a sample in {:.1f} s ({}); "
+                           "nothing was written\n", status.elapsed_s, why);
+  apps::set_exit_code(1);
+}
+
+// The recording from the journal, written to --out (the journal kept when that fails).
+burrbench::data_schema::Recording write_recording_from(const burrbench::rig::JournalContents& contents, const Options& o,
+                                                        const std::filesystem::path& journal,
+                                                        burrbench::rig::FinaliseReport& rep) {
+  using namespace burrbench;
+  const std::filesystem::path out(o.out);
   // The --out check ran before the session; a file that appeared since is not replaced.
   if (!o.overwrite && std::filesystem::exists(out))
     throw std::runtime_error(fmt::format("{} appeared during the session and is kept; the session is in the journal {}: "
                                          "run `burrbench recover {} --out OTHER.h5`", o.out, journal.string(), journal.string()));
-  rig::FinaliseReport rep;
   auto rec = rig::recording_from_journal(contents, journal.string(), &rep);
   for (const auto& p : rep.problems) std::cerr << "warning: " << p << "\n";
+  std::vector<std::filesystem::path> inputs{o.rig};
+  if (!o.tare.empty()) inputs.emplace_back(o.tare);
   rec.provenance = make_provenance(inputs);
   data_schema::validate(rec, journal.string());  // a defect is the journal's (kept for recover)
   try {
@@ -191,9 +206,15 @@ void run(const Options& o) {
                                          e.what(), journal.string(), journal.string(), o.out));
   }
   if (!o.keep_journal) std::filesystem::remove(journal);
+  return rec;
+}
 
+// What was written, the devices' table, and every record lost or thread without
+// real-time priority as a warning of its own.
+void print_session(const burrbench::rig::SessionStatus& status, const burrbench::rig::FinaliseReport& rep,
+                   const burrbench::data_schema::Recording& rec, const Options& o) {
   std::cout << fmt::format("wrote {}: {:.1f} s, {} samples ({} stale, {} with invalid values), {} events\n",
-                           out.string(), status.elapsed_s, rep.samples, rep.stale, rep.invalid, rec.events.size());
+                           o.out, status.elapsed_s, rep.samples, rep.stale, rep.invalid, rec.events.size());
   std::cout << fmt::format("{:<14} {:>9} {:>9} {:>10} {:>12} {:>9} {:>8} {:>10} {:>7} {:>7}\n", "device", "req Hz",
                            "got Hz", "samples", "jitter p99", "timeouts", "errors", "reconnects", "missed", "lost");
   for (const auto& d : status.devices)
@@ -213,6 +234,28 @@ void run(const Options& o) {
     std::cerr << fmt::format("note: {} of {} acquisition threads ran without real-time priority ({}); on a busy host "
                              "FIFO records may be lost: docs/rig.md, \"A loaded host\"\n",
                              status.realtime_denied, status.threads, status.realtime_reason);
+}
+
+void run(const Options& o) {
+  using namespace burrbench;
+  const auto map = rig::load_rig_map(o.rig);
+  const std::filesystem::path journal = o.journal.empty() ? std::filesystem::path(o.out + ".journal") : std::filesystem::path(o.journal);
+  refuse_outputs(o, journal);
+  if (o.duration_s < 0) throw InputError("--duration", "value", "seconds ≥ 0");
+  data_schema::RecordingMeta burr;
+  o.burr.apply(burr);  // checked before the session, not after it
+  const rig::SessionHeader h = session_header(o, map, burr);
+  catch_stop_signals();
+  rig::Session session(map, journal, rig::to_json(h).dump());
+  const auto status = acquire(session, map, o, journal);
+  const auto contents = rig::read_journal(journal);
+  if (contents.samples.empty()) {
+    report_nothing_acquired(contents, status, o, journal);
+    return;
+  }
+  rig::FinaliseReport rep;
+  const auto rec = write_recording_from(contents, o, journal, rep);
+  print_session(status, rep, rec, o);
 }
 
 void setup(CLI::App& root) {

@@ -157,11 +157,8 @@ void run_import(const ImportArgs& a) {
                            counts[0], counts[1], counts[2]);
 }
 
-void setup(CLI::App& root) {
-  auto* sample = root.add_subcommand("sample", "Make sample volumes: import labels or a CT, synthesise, export to NRRD");
-  sample->require_subcommand(1);
-
-  // --- import ---
+// `sample import`
+void setup_import(CLI::App* sample) {
   auto a = std::make_shared<ImportArgs>();
   auto* imp = sample->add_subcommand("import", "Import a label (+ bone fraction) volume, or segment a grey CT, into a sample file");
   imp->add_option("--labels", a->labels, "label volume (.nrrd/.nhdr/.mha/.mhd or a folder of TIFF/PNG slices)");
@@ -199,10 +196,12 @@ void setup(CLI::App& root) {
     if (o_bg->count()) a->bone_grey = *bg;
     run_import(*a);
   });
+}
 
-  // --- export-ct ---
-  // The grey volume as imported (DICOM rescaled, folded into the sample's frame; with
-  // --density in mg HA/cm³), for 3D Slicer or a check against another reader.
+// `sample export-ct`
+// The grey volume as imported (DICOM rescaled, folded into the sample's frame; with
+// --density in mg HA/cm³), for 3D Slicer or a check against another reader.
+void setup_export_ct(CLI::App* sample) {
   auto ea = std::make_shared<ImportArgs>();
   auto* ect = sample->add_subcommand("export-ct", "Write a CT (DICOM series, SkyScan folder, ISQ, NRRD, ...) as imported to a "
                                                   "float NRRD: grey values, or mg HA/cm³ with --density");
@@ -248,8 +247,10 @@ void setup(CLI::App& root) {
                              v.dims[1], v.dims[2], v.spacing_mm.x, v.spacing_mm.y, v.spacing_mm.z, v.origin_mm.x,
                              v.origin_mm.y, v.origin_mm.z, info.dump());
   });
+}
 
-  // --- synth ---
+// `sample synth`
+void setup_synth(CLI::App* sample) {
   auto ss = std::make_shared<SynthSettings>();
   auto extent = std::make_shared<std::vector<double>>(std::vector<double>{10, 10, 6});
   auto out = std::make_shared<std::string>();
@@ -272,8 +273,10 @@ void setup(CLI::App& root) {
     std::cout << fmt::format("wrote {}: {}x{}x{} voxels of {} mm; {}\n", *out, s.dims[0], s.dims[1], s.dims[2], s.voxel_mm,
                              s.segmentation_json);
   });
+}
 
-  // --- resample ---
+// `sample resample`
+void setup_resample(CLI::App* sample) {
   struct ResampleArgs {
     std::string in, out;
     int split = 0, merge = 0;
@@ -311,8 +314,10 @@ void setup(CLI::App& root) {
     std::cout << fmt::format("wrote {}: {}x{}x{} voxels of {} mm (from {} mm, {} by {})\n", ra->out, r.dims[0],
                              r.dims[1], r.dims[2], r.voxel_mm, s.voxel_mm, split ? "split" : "merged", n);
   });
+}
 
-  // --- export-nrrd ---
+// `sample export-nrrd`
+void setup_export_nrrd(CLI::App* sample) {
   auto in = std::make_shared<std::string>();
   auto prefix = std::make_shared<std::string>();
   auto* exp = sample->add_subcommand("export-nrrd", "Write PREFIX_labels.nrrd and PREFIX_fraction.nrrd for 3D Slicer");
@@ -333,6 +338,16 @@ void setup(CLI::App& root) {
     outputs.commit(*exp_overwrite);
     std::cout << fmt::format("wrote {} and {}\n", lp, fp);
   });
+}
+
+void setup(CLI::App& root) {
+  auto* sample = root.add_subcommand("sample", "Make sample volumes: import labels or a CT, synthesise, export to NRRD");
+  sample->require_subcommand(1);
+  setup_import(sample);
+  setup_export_ct(sample);
+  setup_synth(sample);
+  setup_resample(sample);
+  setup_export_nrrd(sample);
 }
 
 BURRBENCH_VERB("sample", setup);

@@ -363,6 +363,7 @@ void ReplayRecordingModel::compute(const EvalPoint& at, const std::vector<Column
   struct Deriv {
     glm::dvec3 force{0}, moment{0};
     double spindle = 0;
+    void subtract(const Deriv& d, double w) { force -= w * d.force, moment -= w * d.moment, spindle -= w * d.spindle; }
   };
   const bool wrench = channels_.torque || channels_.spindle;
   auto wrench_of = [&](std::size_t job_index, std::size_t j) {
@@ -406,16 +407,12 @@ void ReplayRecordingModel::compute(const EvalPoint& at, const std::vector<Column
           const glm::dvec3 dF = at.physics.c1[k] * (ct.dF_dC1[k] + ct.friction_N * scale);
           const glm::dvec3 dT = at.physics.c1[k] * scale * ct.moment_Nmm;
           col[j] = fixed(dF, dT, j);
-          col[j].force -= coupling * geo.force;
-          col[j].moment -= coupling * geo.moment;
-          col[j].spindle -= coupling * geo.spindle;
+          col[j].subtract(geo, coupling);
           break;
         }
         case ColumnKind::kLogMu:
           col[j] = fixed(at.physics.mu[k] * ct.dFmu_dmu[k], at.physics.mu[k] * ct.dTmu_dmu[k], j);
-          col[j].force -= coupling * geo.force;
-          col[j].moment -= coupling * geo.moment;
-          col[j].spindle -= coupling * geo.spindle;
+          col[j].subtract(geo, coupling);
           break;
         case ColumnKind::kLagMs: col[j] = central(lag_pair, steps_.lag_ms, j); break;
         case ColumnKind::kDepthMm: col[j] = central(depth_pair, steps_.depth_mm, j); break;

@@ -153,11 +153,14 @@ std::vector<std::string> optimum_doubts(const Run& run, const SearchTally& t, co
   return d;
 }
 
-void assess(Run& run) {
+namespace {
+
+// Profiles from the optimum; a profile point cheaper than it restarts the refinement
+// from there (at most kMaxRestarts times). Returns the contact checks' flags; `cheaper_left`
+// names a profile point still cheaper by more than the threshold ("" if none).
+Flags profile_until_settled(Run& run, CovarianceOutcome& cov, std::string& cheaper_left) {
   const Layout& L = *run.layout;
   Flags flags;
-  CovarianceOutcome cov;
-  std::string cheaper_left;  // a profile point still cheaper than the optimum ("" if none)
   for (;;) {
     run.ev = run.obj->evaluate(run.x, run.w_all);
     const double dof = double(run.ev.residuals_used) - double(L.size());
@@ -202,95 +205,106 @@ void assess(Run& run) {
     run.fit.iterations += previous.iterations;
   }
 
-  // "Best optimum reached by k of N" (below): ends within the profile threshold of it.
-  run.search.tolerance = run.threshold;
+  return flags;
+}
 
-  run.verdict.assign(L.size(), "");
-  std::vector<std::string> reason(L.size());
-  for (const auto& p : L.physics())
-    if (p.index >= 0 && flags.held[std::size_t(p.index)]) run.verdict[std::size_t(p.index)] = "non_identifiable";
-  if (run.opt.profiles) {
+// One physics constant's verdict from its profile, and the reason when it is not plainly
+// identifiable.
+std::pair<std::string, std::string> profile_verdict(const Run& run, const Profile& pr) {
+  const Layout& L = *run.layout;
+  const std::size_t i = pr.entry;
+  const auto* p = L.physics_at(i);
+  const double xi = run.x[i];
+  std::string v, why;
+  if (xi - L.lower(i) < kBoundLog || L.upper(i) - xi < kBoundLog) {
+    const bool up = L.upper(i) - xi < kBoundLog;
+    v = "at_bound";
+    why = fmt::format("estimate at its {} bound ({:.4g}{}): widen it ([fit.classes.{}] {})",
+                      up ? "upper" : "lower", std::exp(xi), data_schema::unit_suffix(unit_of(p->kind)), p->class_name,
+                      to_string(p->kind));
+  } else if (pr.lower.closed && pr.upper.closed) {
+    v = "identifiable";
+    // Closed, but wider than the precision the lab asked for ([fit.precision]).
+    const auto& fs = run.exp.manifest.fit;
+    const auto asked = p->kind == PhysKind::kAlpha ? fs.precision_alpha
+                       : p->kind == PhysKind::kC1  ? fs.precision_c1
+                                                    : fs.precision_mu;
+    const double half = 0.5 * (std::exp(pr.upper.crossing) - std::exp(pr.lower.crossing)) / std::exp(xi);
+    if (asked && half > *asked) {
+      v = "imprecise";
+      why = fmt::format("95 % profile interval ±{} %, wider than the ±{} % asked (fit.precision.{})",
+                        percent(100 * half), percent(100 * *asked), to_string(p->kind));
+    }
+  } else if (pr.lower.closed || pr.upper.closed) {
+    v = "practically_non_identifiable";
+    const bool up_open = !pr.upper.closed;
+    why = fmt::format("profile flat towards its {} bound: the data give only {} limit ({} {:.4g}{})",
+                      up_open ? "upper" : "lower", up_open ? "a lower" : "an upper",
+                      up_open ? ">=" : "<=",
+                      std::exp(up_open ? pr.lower.crossing : pr.upper.crossing), data_schema::unit_suffix(unit_of(p->kind)));
+  } else {
+    v = "non_identifiable";
+    why = "profile flat on both sides within the bounds";
+  }
+  // Other near-optimal ends of the global search outside the profile interval: the
+  // profile's valley does not hold every optimum of equal cost.
+  if (v == "identifiable")
+    for (const auto& e : run.search.ends)
+      if (e.usable && e.cost <= run.fit.final_cost + run.threshold &&
+          (e.end[i] < pr.lower.crossing || e.end[i] > pr.upper.crossing)) {
+        v = "non_identifiable";
+        why = fmt::format("start {} reached an equally good fit (cost {:.6g}) at {:.4g}{}, "
+                          "outside the profile interval", e.index, e.cost, std::exp(e.end[i]),
+                          data_schema::unit_suffix(unit_of(p->kind)));
+        break;
+      }
+  return {v, why};
+}
+
+// The optimum itself in doubt: no constant is called identifiable at it.
+void doubt_the_optimum(Run& run, std::vector<std::string>& reason, const std::string& cheaper_left) {
+  const Layout& L = *run.layout;
+  std::vector<std::pair<double, double>> box(L.size(), {-INFINITY, INFINITY});
+  for (const auto& pr : run.profiles)
+    box[pr.entry] = {pr.lower.closed ? pr.lower.crossing : -INFINITY, pr.upper.closed ? pr.upper.crossing : INFINITY};
+  const std::vector<std::string> doubts =
+      optimum_doubts(run, tally(run.search.ends, run.fit.final_cost, run.threshold, box), cheaper_left);
+  if (!doubts.empty()) {
+    const std::string why = fmt::format("the optimum is not confirmed: {}", fmt::join(doubts, "; "));
+    run.doubts = doubts;
+    run.warnings.push_back(fmt::format("{}: no constant is called identifiable at it, and params.toml flags them "
+                                       "all (more starts: --starts; check the registration, the sensor frame "
+                                       "and the model)", why));
     for (const auto& pr : run.profiles) {
       const std::size_t i = pr.entry;
-      const auto* p = L.physics_at(i);
-      const double xi = run.x[i];
-      std::string v, why;
-      if (xi - L.lower(i) < kBoundLog || L.upper(i) - xi < kBoundLog) {
-        const bool up = L.upper(i) - xi < kBoundLog;
-        v = "at_bound";
-        why = fmt::format("estimate at its {} bound ({:.4g}{}): widen it ([fit.classes.{}] {})",
-                          up ? "upper" : "lower", std::exp(xi), data_schema::unit_suffix(unit_of(p->kind)), p->class_name,
-                          to_string(p->kind));
-      } else if (pr.lower.closed && pr.upper.closed) {
-        v = "identifiable";
-        // Closed, but wider than the precision the lab asked for ([fit.precision]).
-        const auto& fs = run.exp.manifest.fit;
-        const auto asked = p->kind == PhysKind::kAlpha ? fs.precision_alpha
-                           : p->kind == PhysKind::kC1  ? fs.precision_c1
-                                                        : fs.precision_mu;
-        const double half = 0.5 * (std::exp(pr.upper.crossing) - std::exp(pr.lower.crossing)) / std::exp(xi);
-        if (asked && half > *asked) {
-          v = "imprecise";
-          why = fmt::format("95 % profile interval ±{} %, wider than the ±{} % asked (fit.precision.{})",
-                            percent(100 * half), percent(100 * *asked), to_string(p->kind));
-        }
-      } else if (pr.lower.closed || pr.upper.closed) {
-        v = "practically_non_identifiable";
-        const bool up_open = !pr.upper.closed;
-        why = fmt::format("profile flat towards its {} bound: the data give only {} limit ({} {:.4g}{})",
-                          up_open ? "upper" : "lower", up_open ? "a lower" : "an upper",
-                          up_open ? ">=" : "<=",
-                          std::exp(up_open ? pr.lower.crossing : pr.upper.crossing), data_schema::unit_suffix(unit_of(p->kind)));
-      } else {
-        v = "non_identifiable";
-        why = "profile flat on both sides within the bounds";
-      }
-      // Other near-optimal ends of the global search outside the profile interval: the
-      // profile's valley does not hold every optimum of equal cost.
-      if (v == "identifiable")
-        for (const auto& e : run.search.ends)
-          if (e.usable && e.cost <= run.fit.final_cost + run.threshold &&
-              (e.end[i] < pr.lower.crossing || e.end[i] > pr.upper.crossing)) {
-            v = "non_identifiable";
-            why = fmt::format("start {} reached an equally good fit (cost {:.6g}) at {:.4g}{}, "
-                              "outside the profile interval", e.index, e.cost, std::exp(e.end[i]),
-                              data_schema::unit_suffix(unit_of(p->kind)));
-            break;
-          }
-      run.verdict[i] = v;
+      if (run.verdict[i] != "identifiable" && run.verdict[i] != "imprecise") continue;
+      run.verdict[i] = "unconfirmed";
       reason[i] = why;
     }
-    held_by_bounds(run, cov, reason);
-    // The optimum itself in doubt: no constant is called identifiable at it.
-    std::vector<std::pair<double, double>> box(L.size(), {-INFINITY, INFINITY});
-    for (const auto& pr : run.profiles)
-      box[pr.entry] = {pr.lower.closed ? pr.lower.crossing : -INFINITY, pr.upper.closed ? pr.upper.crossing : INFINITY};
-    const std::vector<std::string> doubts =
-        optimum_doubts(run, tally(run.search.ends, run.fit.final_cost, run.threshold, box), cheaper_left);
-    if (!doubts.empty()) {
-      const std::string why = fmt::format("the optimum is not confirmed: {}", fmt::join(doubts, "; "));
-      run.doubts = doubts;
-      run.warnings.push_back(fmt::format("{}: no constant is called identifiable at it, and params.toml flags them "
-                                         "all (more starts: --starts; check the registration, the sensor frame "
-                                         "and the model)", why));
-      for (const auto& pr : run.profiles) {
-        const std::size_t i = pr.entry;
-        if (run.verdict[i] != "identifiable" && run.verdict[i] != "imprecise") continue;
-        run.verdict[i] = "unconfirmed";
-        reason[i] = why;
-      }
-    }
-    for (const auto& pr : run.profiles) {
-      const std::size_t i = pr.entry;
-      if (run.verdict[i] == "imprecise") {
-        // Determined, only not as finely as asked: it keeps its estimate and covariance.
-        run.imprecise_reason[i] = reason[i];
-      } else if (run.verdict[i] != "identifiable") {
-        flags.held[i] = true;
-        flags.reason[i] = reason[i];
-      }
+  }
+}
+
+// Each profiled constant's verdict; all but the identifiable and the imprecise are held.
+void profile_verdicts(Run& run, Flags& flags, const CovarianceOutcome& cov, const std::string& cheaper_left) {
+  std::vector<std::string> reason(run.layout->size());
+  for (const auto& pr : run.profiles) std::tie(run.verdict[pr.entry], reason[pr.entry]) = profile_verdict(run, pr);
+  held_by_bounds(run, cov, reason);
+  doubt_the_optimum(run, reason, cheaper_left);
+  for (const auto& pr : run.profiles) {
+    const std::size_t i = pr.entry;
+    if (run.verdict[i] == "imprecise") {
+      // Determined, only not as finely as asked: it keeps its estimate and covariance.
+      run.imprecise_reason[i] = reason[i];
+    } else if (run.verdict[i] != "identifiable") {
+      flags.held[i] = true;
+      flags.reason[i] = reason[i];
     }
   }
+}
+
+// The intervals and the fit.json tables; where the search's ends lie against them.
+void record_uncertainty(Run& run, const Flags& flags) {
+  const Layout& L = *run.layout;
   run.unc = assess_uncertainty(*run.obj, run.x, run.w_all, run.ev, flags, !run.opt.profiles,
                                run.inflation);
   // Where the search's ends lie against the optimum's 95 % intervals (profile, else
@@ -323,6 +337,22 @@ void assess(Run& run) {
   run.out.covariance = run.unc.covariance;
   run.out.correlation = run.unc.correlation;
   run.out.channel_information = run.unc.channel_information;
+}
+
+}  // namespace
+
+void assess(Run& run) {
+  const Layout& L = *run.layout;
+  CovarianceOutcome cov;
+  std::string cheaper_left;  // a profile point still cheaper than the optimum ("" if none)
+  Flags flags = profile_until_settled(run, cov, cheaper_left);
+  // "Best optimum reached by k of N" (below): ends within the profile threshold of it.
+  run.search.tolerance = run.threshold;
+  run.verdict.assign(L.size(), "");
+  for (const auto& p : L.physics())
+    if (p.index >= 0 && flags.held[std::size_t(p.index)]) run.verdict[std::size_t(p.index)] = "non_identifiable";
+  if (run.opt.profiles) profile_verdicts(run, flags, cov, cheaper_left);
+  record_uncertainty(run, flags);
 }
 
 }  // namespace burrbench::calibration::detail

@@ -48,26 +48,26 @@ nlohmann::json replay_work_json(const Run& run, std::uint64_t replays) {
   return j;
 }
 
-}  // namespace
-
 // rms(residual/σ) above which the fit is reported as limited by model error.
 constexpr double kMisfitRms = 1.2;
 
-CalibrationOutput results(Run& run) {
+void count_samples(Run& run) {
+  auto& rs = run.out.residuals_summary;
+  rs.samples_used = run.ev.samples_used;
+  rs.samples_buried = run.ev.samples_buried;
+  rs.samples_excluded = run.ev.samples_excluded;
+  rs.sigma_N = run.settings.sigma_N;
+}
+
+// The alignment's warnings (the samples it left out of use count among the excluded), and
+// a sensor zero that moved between the free stretches before and after the contact, in
+// each fitted channel that holds one bias per recording (the force, the moment).
+void warn_alignment_and_drift(Run& run) {
   const Layout& L = *run.layout;
-  auto& out = run.out;
-  const auto& ev = run.ev;
-  out.residuals_summary.samples_used = ev.samples_used;
-  out.residuals_summary.samples_buried = ev.samples_buried;
-  out.residuals_summary.samples_excluded = ev.samples_excluded;
-  out.residuals_summary.sigma_N = run.settings.sigma_N;
-  // The alignment's warnings; the samples it left out of use count among the excluded.
   for (const std::string& w : model::alignment_warnings(run.exp)) run.warnings.push_back(w);
-  // A sensor zero that moved between the free stretches before and after the contact, in
-  // each fitted channel that holds one bias per recording (the force, the moment).
   for (std::size_t r = 0; r < run.models.size(); ++r) {
     const RecordingModel& m = *run.models[r];
-    const auto& mask = ev.predictions[r].class_mask;
+    const auto& mask = run.ev.predictions[r].class_mask;
     const auto drift = zero_drift(m.t_s(), m.measured_sensor_N(), mask, run.w_all[r]);
     if (std::string w = drift ? drift->text(m.id()) : ""; !w.empty()) run.warnings.push_back(std::move(w));
     if (!L.channels().torque || m.measured_torque_Nmm().empty()) continue;
@@ -75,14 +75,18 @@ CalibrationOutput results(Run& run) {
     if (std::string w = moment ? moment->text(m.id(), kMomentChannel) : ""; !w.empty())
       run.warnings.push_back(std::move(w));
   }
-  // Readings that fit the prediction better in a turned or mirrored sensor frame.
+}
+
+// Readings that fit the prediction better in a turned or mirrored sensor frame, and
+// friction that acts against its predicted direction (a spin the other way round).
+void warn_frame_and_friction(Run& run) {
+  const auto& ev = run.ev;
   SensorFrameCheck frame;
   for (std::size_t r = 0; r < run.models.size(); ++r)
     frame.add(ev.predictions[r].force_sensor_N, run.models[r]->measured_sensor_N(), ev.predictions[r].class_mask,
               run.w_all[r]);
-  // Friction that acts against its predicted direction (a spin the other way round). Its
-  // part of the prediction comes from the fixed-geometry terms at the optimum: one plain
-  // replay per recording.
+  // Friction's part of the prediction comes from the fixed-geometry terms at the optimum:
+  // one plain replay per recording.
   FrictionDirectionCheck friction;
   const std::vector<Prediction> parts = run.obj->predict_parts(run.x);
   for (std::size_t r = 0; r < run.models.size(); ++r) {
@@ -106,35 +110,39 @@ CalibrationOutput results(Run& run) {
                                              "for reasons of its own — find a better optimum first (more starts), "
                                              "then read this: {}",
                                              fmt::join(run.doubts, "; "), w));
-  // A lag, depth offset or pose that ended at a bound: the constants were fitted with it
-  // held there.
-  const std::vector<NuisanceAtBound> pinned = nuisances_at_bounds(L, run.x);
-  for (const auto& b : pinned) run.warnings.push_back(b.text);
+}
+
+// rms(residual/σ) of the fit, and a warning when it is well above 1.
+void warn_misfit(Run& run) {
+  const Layout& L = *run.layout;
+  auto& out = run.out;
   out.residuals_summary.rms_normalised =
-      ev.residuals_used ? std::sqrt(2 * ev.cost / double(ev.residuals_used)) : NAN;
+      run.ev.residuals_used ? std::sqrt(2 * run.ev.cost / double(run.ev.residuals_used)) : NAN;
   // σ comes from the manifest or from samples without contact, never from these
   // residuals: a fit well above it is a misfit the constants absorb (model error).
-  if (out.residuals_summary.rms_normalised > kMisfitRms) {
-    // A registration taken as exact whose depth nothing corrects misfits like this when it
-    // is a few µm off along the shaft (docs/calibration.md "Registration is a measurement").
-    // The depth check, when it ran, says whether a depth offset helps.
-    std::vector<std::string> exact;
-    for (std::size_t q = 0; q < run.recs.size() && run.depth.empty(); ++q)
-      if (run.recs[q]->registration.method != "fiducials" && L.recordings()[q].depth < 0)
-        exact.push_back(run.recs[q]->id);
-    run.warnings.push_back(fmt::format(
-        "rms(residual/σ) = {:.3f} (1 expected): the model does not follow the contact samples to the noise "
-        "level; the intervals are scaled by the residual variance, but a systematic misfit biases the "
-        "constants (limited by model error; see the discretization check and `burrbench verify`){}",
-        out.residuals_summary.rms_normalised,
-        exact.empty() ? ""
-                      : fmt::format(". The registration of {} is given and taken as exact, and no depth offset is "
-                                    "fitted: one 50 µm off along the shaft misfits like this and biases the "
-                                    "constants far beyond their intervals; try [fit.nuisance] depth_offset = true",
-                                    fmt::join(exact, ", "))));
-  }
+  if (!(out.residuals_summary.rms_normalised > kMisfitRms)) return;
+  // A registration taken as exact whose depth nothing corrects misfits like this when it
+  // is a few µm off along the shaft (docs/calibration.md "Registration is a measurement").
+  // The depth check, when it ran, says whether a depth offset helps.
+  std::vector<std::string> exact;
+  for (std::size_t q = 0; q < run.recs.size() && run.depth.empty(); ++q)
+    if (run.recs[q]->registration.method != "fiducials" && L.recordings()[q].depth < 0)
+      exact.push_back(run.recs[q]->id);
+  run.warnings.push_back(fmt::format(
+      "rms(residual/σ) = {:.3f} (1 expected): the model does not follow the contact samples to the noise "
+      "level; the intervals are scaled by the residual variance, but a systematic misfit biases the "
+      "constants (limited by model error; see the discretization check and `burrbench verify`){}",
+      out.residuals_summary.rms_normalised,
+      exact.empty() ? ""
+                    : fmt::format(". The registration of {} is given and taken as exact, and no depth offset is "
+                                  "fitted: one 50 µm off along the shaft misfits like this and biases the "
+                                  "constants far beyond their intervals; try [fit.nuisance] depth_offset = true",
+                                  fmt::join(exact, ", "))));
+}
 
-  // Sensitivity Jacobians that diverged and were differenced instead (replay_model.hpp).
+// Sensitivity Jacobians that diverged and were differenced instead (replay_model.hpp):
+// warned of, and returned for fit.json's settings.derivatives.diverged.
+nlohmann::json warn_diverged_sensitivities(Run& run) {
   std::vector<std::string> diverged;
   nlohmann::json diverged_json = nlohmann::json::array();
   auto count = [&](const std::vector<std::unique_ptr<ReplayRecordingModel>>& models, double voxel_mm) {
@@ -151,7 +159,13 @@ CalibrationOutput results(Run& run) {
     run.warnings.push_back(fmt::format(
         "the forward sensitivities diverged for {}: those Jacobians were taken by finite differences of "
         "the replay instead (slower; the fit is unaffected)", fmt::join(diverged, ", ")));
+  return diverged_json;
+}
 
+// The global search's starts, the solver's figures and the fit's metrics.
+void record_solver(Run& run) {
+  const Layout& L = *run.layout;
+  auto& out = run.out;
   for (const auto& e : run.search.ends)
     out.multistart.push_back({{"index", e.index},
                               {"start", named(L, e.start)},
@@ -172,38 +186,34 @@ CalibrationOutput results(Run& run) {
   out.solver.multistart = std::uint64_t(run.starts);
   out.metrics["calibration"] = run.calibration_metrics.json();
   if (run.validation_metrics.samples > 0) out.metrics["validation"] = run.validation_metrics.json();
+}
 
-  auto& st = out.settings;
-  st["loss"] = ds::to_string(run.settings.loss);
-  st["loss_scale_sigma"] = run.settings.loss_scale;
-  st["buried"] = ds::to_string(run.settings.buried);
-  st["buried_weight"] = run.settings.buried == ds::BuriedPolicy::kDownweight ? run.settings.buried_weight : 0.0;
-  st["sigma_source"] = run.sigma_source;
-  st["quadrature"] = model::quadrature_name(run.opt.quadrature);
-  {
-    const Channels& ch = L.channels();
-    nlohmann::json c = {{"force", true}, {"torque", ch.torque}, {"spindle", ch.spindle}};
-    if (ch.torque) {
-      c["sigma_torque_Nmm"] = run.settings.sigma_torque_Nmm;
-      c["sigma_torque_source"] = run.sigma_torque_source;
-    }
-    if (ch.spindle) {
-      c["sigma_spindle_Nmm"] = run.settings.sigma_spindle_Nmm;
-      c["sigma_spindle_source"] = run.sigma_spindle_source;
-    }
-    st["channels"] = c;
+nlohmann::json channels_json(const Run& run) {
+  const Channels& ch = run.layout->channels();
+  nlohmann::json c = {{"force", true}, {"torque", ch.torque}, {"spindle", ch.spindle}};
+  if (ch.torque) {
+    c["sigma_torque_Nmm"] = run.settings.sigma_torque_Nmm;
+    c["sigma_torque_source"] = run.sigma_torque_source;
   }
-  st["residual_variance"] = run.unc.residual_variance;
-  st["noise_model"] = {
-      {"method", run.opt.noise_inflation ? "ar1_inflation" : "white"},
-      {"description", run.opt.noise_inflation
-                          ? "covariance and profile threshold x residual variance x (1+rho)/(1-rho), "
-                            "rho = lag-1 autocorrelation of the residuals (capped at 0.95, never below 0)"
-                          : "covariance and profile threshold x residual variance (residuals assumed white)"},
-      {"residual_lag1", run.ev.residual_lag1},
-      {"inflation", run.inflation},
-      {"interval_widening", std::sqrt(run.inflation)}};
-  st["parameterisation"] = "ln(alpha), ln(C1), ln(mu); bias N; lag ms; depth offset mm";
+  if (ch.spindle) {
+    c["sigma_spindle_Nmm"] = run.settings.sigma_spindle_Nmm;
+    c["sigma_spindle_source"] = run.sigma_spindle_source;
+  }
+  return c;
+}
+
+nlohmann::json noise_model_json(const Run& run) {
+  return {{"method", run.opt.noise_inflation ? "ar1_inflation" : "white"},
+          {"description", run.opt.noise_inflation
+                              ? "covariance and profile threshold x residual variance x (1+rho)/(1-rho), "
+                                "rho = lag-1 autocorrelation of the residuals (capped at 0.95, never below 0)"
+                              : "covariance and profile threshold x residual variance (residuals assumed white)"},
+          {"residual_lag1", run.ev.residual_lag1},
+          {"inflation", run.inflation},
+          {"interval_widening", std::sqrt(run.inflation)}};
+}
+
+nlohmann::json derivatives_json(const Run& run, const nlohmann::json& diverged_json) {
   nlohmann::json deriv = {{"scheme", to_string(run.opt.derivatives)}};
   if (run.opt.derivatives == Derivatives::kSensitivities) deriv["diverged"] = diverged_json;
   if (run.opt.derivatives == Derivatives::kFiniteDifferences) {
@@ -214,32 +224,30 @@ CalibrationOutput results(Run& run) {
     deriv["step_depth_mm"] = run.steps.depth_mm;
     deriv["sweeps"] = run.sweeps;
   }
-  deriv["replay_work"] = replay_work_json(run, out.solver.replays);
-  st["derivatives"] = deriv;
+  deriv["replay_work"] = replay_work_json(run, run.out.solver.replays);
+  return deriv;
+}
+
+nlohmann::json global_search_json(const Run& run) {
   const SearchTally& t = run.tally;
-  st["global_search"] = {{"starts", run.starts},
-                         {"design", "manifest start + Latin hypercube in ln(theta) over the bounds"},
-                         {"start_iterations", run.opt.start_iterations},
-                         {"solved_locally", run.search.solved},
-                         {"reached_best", run.search.reached_best},
-                         {"near_best", t.near},
-                         {"higher_optima", t.higher_optima},
-                         {"stopped_short", t.stopped_short},
-                         {"tolerance_cost", run.search.tolerance},
-                         {"noise_floor_cost", noise_floor_cost(run)},
-                         {"noise_floor", "half the used residuals less the free entries: the cost expected at the "
-                                         "true constants when the model and the noise levels are right"},
-                         {"local_function_tolerance", run.search_function_tolerance},
-                         {"seed", run.exp.manifest.fit.seed}};
-  st["profiles"] = {{"computed", run.opt.profiles},
-                    {"threshold_cost", run.threshold},
-                    {"threshold", "chi2_1(0.95)/2 x residual variance x noise-model inflation"},
-                    {"restarts_from_profile", run.restarts}};
-  st["optimum_doubts"] = run.doubts;
-  std::string reg_text;
-  st["registration"] = registration_report(run, reg_text);  // may warn
-  st["warnings"] = run.warnings;
-  st["discretization_check"] = {
+  return {{"starts", run.starts},
+          {"design", "manifest start + Latin hypercube in ln(theta) over the bounds"},
+          {"start_iterations", run.opt.start_iterations},
+          {"solved_locally", run.search.solved},
+          {"reached_best", run.search.reached_best},
+          {"near_best", t.near},
+          {"higher_optima", t.higher_optima},
+          {"stopped_short", t.stopped_short},
+          {"tolerance_cost", run.search.tolerance},
+          {"noise_floor_cost", noise_floor_cost(run)},
+          {"noise_floor", "half the used residuals less the free entries: the cost expected at the "
+                          "true constants when the model and the noise levels are right"},
+          {"local_function_tolerance", run.search_function_tolerance},
+          {"seed", run.exp.manifest.fit.seed}};
+}
+
+nlohmann::json discretization_check_json(const Run& run) {
+  return {
       {"computed", std::isfinite(run.coarse_voxel_mm)},
       {"coarse_voxel_mm", std::isfinite(run.coarse_voxel_mm) ? nlohmann::json(run.coarse_voxel_mm) : nlohmann::json(nullptr)},
       {"method", "refit from the optimum on the sample with voxels merged by 2; error of ln(theta) = "
@@ -252,6 +260,34 @@ CalibrationOutput results(Run& run) {
       {"grid_explains_the_move", run.coarse_grid_explains},
       {"refit_termination", run.coarse_termination.empty() ? nlohmann::json(nullptr) : nlohmann::json(run.coarse_termination)},
       {"refit_iterations", run.coarse_iterations}};
+}
+
+// fit.json's settings: how the fit was run and what each check found. Returns the
+// registration's lines for the summary (the registration report may warn, so it comes
+// before the warnings are copied).
+std::string record_settings(Run& run, const nlohmann::json& diverged_json) {
+  auto& st = run.out.settings;
+  st["loss"] = ds::to_string(run.settings.loss);
+  st["loss_scale_sigma"] = run.settings.loss_scale;
+  st["buried"] = ds::to_string(run.settings.buried);
+  st["buried_weight"] = run.settings.buried == ds::BuriedPolicy::kDownweight ? run.settings.buried_weight : 0.0;
+  st["sigma_source"] = run.sigma_source;
+  st["quadrature"] = model::quadrature_name(run.opt.quadrature);
+  st["channels"] = channels_json(run);
+  st["residual_variance"] = run.unc.residual_variance;
+  st["noise_model"] = noise_model_json(run);
+  st["parameterisation"] = "ln(alpha), ln(C1), ln(mu); bias N; lag ms; depth offset mm";
+  st["derivatives"] = derivatives_json(run, diverged_json);
+  st["global_search"] = global_search_json(run);
+  st["profiles"] = {{"computed", run.opt.profiles},
+                    {"threshold_cost", run.threshold},
+                    {"threshold", "chi2_1(0.95)/2 x residual variance x noise-model inflation"},
+                    {"restarts_from_profile", run.restarts}};
+  st["optimum_doubts"] = run.doubts;
+  std::string reg_text;
+  st["registration"] = registration_report(run, reg_text);  // may warn
+  st["warnings"] = run.warnings;
+  st["discretization_check"] = discretization_check_json(run);
   st["depth_check"] = run.depth.empty() ? nlohmann::json({{"computed", false}}) : run.depth;
   if (!run.depth.empty()) st["depth_check"]["computed"] = true;
   st["coarse_to_fine"] = {
@@ -260,21 +296,27 @@ CalibrationOutput results(Run& run) {
       {"coarse_cost", std::isfinite(run.coarse_cost) ? nlohmann::json(run.coarse_cost) : nlohmann::json(nullptr)}};
   st["depth_offset_bound_mm"] = 0.5 * run.exp.manifest.burr.radius_mm;
   st["threads"] = run.opt.threads;
-  // The files as they were read (hashed then), not as they are now.
-  out.provenance = make_provenance_hashed(run.exp.inputs);
-  out.experiment_path = std::filesystem::absolute(run.manifest_path).string();
-  out.experiment_sha256 = run.exp.sha256_of(run.manifest_path);
+  return reg_text;
+}
 
-  // The parameter set holds what the fit held at its optimum; the constants that are not
-  // identifiable are flagged in it (never a start value).
-  CalibrationOutput res;
+// The files as they were read (hashed then), not as they are now.
+void record_provenance(Run& run) {
+  run.out.provenance = make_provenance_hashed(run.exp.inputs);
+  run.out.experiment_path = std::filesystem::absolute(run.manifest_path).string();
+  run.out.experiment_sha256 = run.exp.sha256_of(run.manifest_path);
+}
+
+// The parameter set holds what the fit held at its optimum; the constants that are not
+// identifiable are flagged in it (never a start value).
+data_schema::ParameterSet parameter_set(const Run& run) {
+  data_schema::ParameterSet params;
   std::string notes = fmt::format("fitted by burrbench calibrate from {}", run.mfile);
-  for (const auto& p : out.parameters) {
-    auto& c = res.params.classes[p.class_id];
+  for (const auto& p : run.out.parameters) {
+    auto& c = params.classes[p.class_id];
     c.name = p.class_name;
     const double v = p.held;
     if (!p.fixed && !p.identifiable) {
-      res.params.not_identifiable[p.class_id].push_back(p.name);
+      params.not_identifiable[p.class_id].push_back(p.name);
       notes += fmt::format("; {}.{} NOT identifiable ({}): the value held at the optimum is written",
                            p.class_name, p.name, p.reason);
     }
@@ -282,9 +324,17 @@ CalibrationOutput results(Run& run) {
     else if (p.name == "c1") c.c1_N_per_mm2 = v;
     else c.mu = v;
   }
-  res.params.notes = notes;
-  res.params.provenance = out.provenance;
+  params.notes = notes;
+  params.provenance = run.out.provenance;
+  return params;
+}
 
+// The summary's head: what was fitted, the registrations, the search, the optimum, the
+// solver and the time by stage.
+std::string summary_run(const Run& run, const std::string& reg_text) {
+  const Layout& L = *run.layout;
+  const auto& ev = run.ev;
+  const auto& out = run.out;
   std::string s = fmt::format("calibrated {} recording(s), {} used samples ({} buried, {} excluded), "
                               "σ = {:.4g} N\n", run.models.size(), ev.samples_used, ev.samples_buried,
                               ev.samples_excluded, run.settings.sigma_N);
@@ -324,14 +374,20 @@ CalibrationOutput results(Run& run) {
                                      work["replay_equivalents"].get<double>())
                        : "",
                    run.fit.termination);
-  {
-    std::string t;
-    for (const auto& st : run.stages)
-      if (st["wall_s"].get<double>() >= 0.05)
-        t += fmt::format("{}{} {:.1f} s ({} replays)", t.empty() ? "" : ", ", st["stage"].get<std::string>(),
-                         st["wall_s"].get<double>(), st["replays"].get<std::uint64_t>());
-    s += "time by stage: " + t + "\n";
-  }
+  std::string t;
+  for (const auto& st : run.stages)
+    if (st["wall_s"].get<double>() >= 0.05)
+      t += fmt::format("{}{} {:.1f} s ({} replays)", t.empty() ? "" : ", ", st["stage"].get<std::string>(),
+                       st["wall_s"].get<double>(), st["replays"].get<std::uint64_t>());
+  s += "time by stage: " + t + "\n";
+  return s;
+}
+
+// The summary's estimates: the constants, what the other channels add, the nuisances.
+std::string summary_estimates(const Run& run, const std::vector<NuisanceAtBound>& pinned) {
+  const Layout& L = *run.layout;
+  const auto& out = run.out;
+  std::string s;
   for (const auto& p : out.parameters) s += data_schema::describe_fit_parameter(p, run.coarse_voxel_mm);
   if (out.channel_information.is_object()) {
     // What the moments and the spindle's load add, linearised at the optimum.
@@ -355,6 +411,13 @@ CalibrationOutput results(Run& run) {
     s += fmt::format("  {:<12} {:<12} = {:.4g} ± {:.2g} {}{}\n", n.recording_id, n.name, n.estimate, n.std_error,
                      n.unit, at_bound ? " (at its bound: see the warnings)" : "");
   }
+  return s;
+}
+
+// The summary's tail: how well the fit follows the readings, held-out figures, warnings.
+std::string summary_fit(const Run& run) {
+  const auto& out = run.out;
+  std::string s;
   s += fmt::format("fit (x, y, z together): RMSE {:.4g} N, R² {:.4f}, rms(residual/σ) {:.3f}\n",
                    run.calibration_metrics.rmse_xyz_N, run.calibration_metrics.r2_xyz, out.residuals_summary.rms_normalised);
   s += fmt::format("noise model: residual lag-1 autocorrelation {:.3f}; intervals {}\n", run.ev.residual_lag1,
@@ -377,8 +440,29 @@ CalibrationOutput results(Run& run) {
                      fig("r2_xyz", "{:.4f}"));
   }
   for (const auto& w : run.warnings) s += "warning: " + w + "\n";
-  res.summary = s;
-  res.fit = std::move(out);
+  return s;
+}
+
+}  // namespace
+
+CalibrationOutput results(Run& run) {
+  count_samples(run);
+  warn_alignment_and_drift(run);
+  warn_frame_and_friction(run);
+  // A lag, depth offset or pose that ended at a bound: the constants were fitted with it
+  // held there.
+  const std::vector<NuisanceAtBound> pinned = nuisances_at_bounds(*run.layout, run.x);
+  for (const auto& b : pinned) run.warnings.push_back(b.text);
+  warn_misfit(run);
+  const nlohmann::json diverged = warn_diverged_sensitivities(run);
+  record_solver(run);
+  const std::string reg_text = record_settings(run, diverged);
+  record_provenance(run);
+
+  CalibrationOutput res;
+  res.params = parameter_set(run);
+  res.summary = summary_run(run, reg_text) + summary_estimates(run, pinned) + summary_fit(run);
+  res.fit = std::move(run.out);
   return res;
 }
 

@@ -65,10 +65,13 @@ bool any(const std::vector<std::uint8_t>& v) {
 
 }  // namespace
 
-void select_recordings(Run& run) {
+namespace {
+
+// The recordings (and segments) that calibrate, each segment checked to hold samples;
+// returns their indices in the manifest.
+std::vector<std::size_t> calibrating_recordings(Run& run) {
   const auto& M = run.exp.manifest;
   const std::string& mfile = run.mfile;
-  model::check_each_sample_used_once_per_role(run.exp);  // a sample fitted twice: too narrow intervals
   std::vector<std::size_t> rec_index;
   for (std::size_t i = 0; i < run.exp.recordings.size(); ++i) {
     const auto& r = run.exp.recordings[i];
@@ -95,7 +98,15 @@ void select_recordings(Run& run) {
     throw InputError(mfile, "recordings",
                      "at least one recording (or segment) with role = \"calibrate\"");
 
-  // Classes present in the samples the calibrating recordings use.
+  return rec_index;
+}
+
+using ClassSpecs = std::vector<std::pair<std::uint8_t, std::pair<std::string, ds::ClassFitSpec>>>;
+
+// Classes present in the samples the calibrating recordings use, and those [fit.classes]
+// names, each with its fit spec.
+ClassSpecs present_classes(Run& run) {
+  const auto& M = run.exp.manifest;
   for (const auto* r : run.recs) {
     const auto& s = run.exp.samples.at(r->sample_id);
     std::array<bool, 256> seen{};
@@ -119,7 +130,7 @@ void select_recordings(Run& run) {
         if (auto it = s.classes.find(c.label); it != s.classes.end()) name = it->second;
       run.present.emplace(c.label, name);
     }
-  std::vector<std::pair<std::uint8_t, std::pair<std::string, ds::ClassFitSpec>>> classes;
+  ClassSpecs classes;
   for (const auto& [label, name] : run.present) {
     ds::ClassFitSpec spec = default_spec(label);
     for (const auto& c : M.fit.classes)
@@ -127,47 +138,50 @@ void select_recordings(Run& run) {
     classes.push_back({label, {name, spec}});
   }
 
-  std::vector<std::pair<std::string, double>> rec_lags;
-  for (std::size_t i : rec_index) rec_lags.emplace_back(run.exp.recordings[i].id, M.recordings[i].lag_ms);
-  run.layout = std::make_unique<Layout>(classes, rec_lags, M.fit.nuisance, 0.5 * M.burr.radius_mm,
-                                        Channels{M.fit.fit_torque, M.fit.fit_spindle});
-  // Mountings registered by fiducials (same sample, same fiducials) share a pose correction.
-  if (M.fit.nuisance.pose) {
-    std::vector<std::vector<std::size_t>> groups;
-    for (std::size_t q = 0; q < rec_index.size(); ++q) {
-      const auto& ref = M.recordings[rec_index[q]];
-      if (!ref.registration.from_fiducials()) continue;
-      bool placed = false;
-      for (auto& g : groups) {
-        const auto& first = M.recordings[rec_index[g.front()]];
-        if (first.sample == ref.sample && first.registration.fiducials_vol_mm == ref.registration.fiducials_vol_mm &&
-            first.registration.fiducials_rig_mm == ref.registration.fiducials_rig_mm) {
-          g.push_back(q);
-          placed = true;
-          break;
-        }
+  return classes;
+}
+
+// Mountings registered by fiducials (same sample, same fiducials) share a pose correction.
+void share_mountings(Run& run, const std::vector<std::size_t>& rec_index) {
+  const auto& M = run.exp.manifest;
+  std::vector<std::vector<std::size_t>> groups;
+  for (std::size_t q = 0; q < rec_index.size(); ++q) {
+    const auto& ref = M.recordings[rec_index[q]];
+    if (!ref.registration.from_fiducials()) continue;
+    bool placed = false;
+    for (auto& g : groups) {
+      const auto& first = M.recordings[rec_index[g.front()]];
+      if (first.sample == ref.sample && first.registration.fiducials_vol_mm == ref.registration.fiducials_vol_mm &&
+          first.registration.fiducials_rig_mm == ref.registration.fiducials_rig_mm) {
+        g.push_back(q);
+        placed = true;
+        break;
       }
-      if (!placed) groups.push_back({q});
     }
-    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
-      const auto& ref = M.recordings[rec_index[groups[gi].front()]];
-      const auto& fid = ref.registration.fiducials_vol_mm;
-      Mounting m;
-      m.name = ref.sample;
-      for (std::size_t gj = 0; gj < gi; ++gj)
-        if (M.recordings[rec_index[groups[gj].front()]].sample == ref.sample) m.name = fmt::format("{}#{}", ref.sample, gi);
-      for (const auto& p : fid) m.centre_vol_mm += p / double(fid.size());
-      const auto info = model::fiducial_fit_information(
-          fid, ref.registration.fiducial_error_mm.value_or(model::kDefaultFiducialErrorMm));
-      Eigen::Matrix<double, 6, 6> I;
-      for (int i = 0; i < 6; ++i)
-        for (int j = 0; j < 6; ++j) I(i, j) = info[std::size_t(6 * i + j)];
-      const Eigen::Matrix<double, 6, 6> U = Eigen::LLT<Eigen::Matrix<double, 6, 6>>(I).matrixU();  // UᵀU = I
-      for (int i = 0; i < 6; ++i)
-        for (int j = 0; j < 6; ++j) m.sqrt_information[std::size_t(6 * i + j)] = U(i, j);
-      run.layout->add_mounting(std::move(m), groups[gi]);
-    }
+    if (!placed) groups.push_back({q});
   }
+  for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+    const auto& ref = M.recordings[rec_index[groups[gi].front()]];
+    const auto& fid = ref.registration.fiducials_vol_mm;
+    Mounting m;
+    m.name = ref.sample;
+    for (std::size_t gj = 0; gj < gi; ++gj)
+      if (M.recordings[rec_index[groups[gj].front()]].sample == ref.sample) m.name = fmt::format("{}#{}", ref.sample, gi);
+    for (const auto& p : fid) m.centre_vol_mm += p / double(fid.size());
+    const auto info = model::fiducial_fit_information(
+        fid, ref.registration.fiducial_error_mm.value_or(model::kDefaultFiducialErrorMm));
+    Eigen::Matrix<double, 6, 6> I;
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 6; ++j) I(i, j) = info[std::size_t(6 * i + j)];
+    const Eigen::Matrix<double, 6, 6> U = Eigen::LLT<Eigen::Matrix<double, 6, 6>>(I).matrixU();  // UᵀU = I
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 6; ++j) m.sqrt_information[std::size_t(6 * i + j)] = U(i, j);
+    run.layout->add_mounting(std::move(m), groups[gi]);
+  }
+}
+
+// The replay pool, one model per calibrating recording, and the weights of its samples.
+void build_models(Run& run) {
   for (const auto* r : run.recs) run.used_samples.emplace(r->sample_id, &run.exp.samples.at(r->sample_id));
   // The pool copies only what the replays reach of the samples they ask for.
   run.pool = std::make_unique<ReplayPool>(run.exp.samples, run.opt.threads);
@@ -190,9 +204,12 @@ void select_recordings(Run& run) {
           if (r.use_validate[j] && !run.recs[q]->use_calibrate[j]) run.w_validate[q][j] = 1;
   }
 
-  run.settings.loss = M.fit.loss;
-  run.settings.loss_scale = M.fit.loss_scale;
-  run.settings.buried = M.fit.buried;
+}
+
+// The force's noise level: the manifest's, else from the samples without contact.
+void force_noise(Run& run) {
+  const auto& M = run.exp.manifest;
+  const std::string& mfile = run.mfile;
   if (M.sensor.sigma_N) {
     run.settings.sigma_N = *M.sensor.sigma_N;
   } else {
@@ -208,58 +225,82 @@ void select_recordings(Run& run) {
     run.settings.sigma_N = *s;
     run.sigma_source = fmt::format("estimated from {} no-contact samples (1.4826·MAD)", n_free);
   }
-  // The moment's and the spindle load's noise: the manifest's, else from the samples
-  // without predicted contact (as σ_N; the per-recording median absorbs the biases and
-  // the idle torque).
+}
+
+// The moment's and the spindle load's noise: the manifest's, else from the samples
+// without predicted contact (as σ_N; the per-recording median absorbs the biases and
+// the idle torque).
+void channel_noise(Run& run) {
+  const auto& M = run.exp.manifest;
+  const std::string& mfile = run.mfile;
   const Channels& ch = run.layout->channels();
-  if (ch.torque || ch.spindle) {
-    Objective probe(*run.layout, run.models, run.settings);
-    const auto ev0 = probe.evaluate(run.layout->initial(), run.w_all);
-    run.replays_before += probe.replays();
-    std::vector<std::vector<glm::dvec3>> qt(run.models.size());
-    std::vector<std::vector<double>> qs(run.models.size());
-    for (std::size_t r = 0; r < run.models.size(); ++r) {
-      std::vector<double> krpm;
-      for (std::size_t j = 0; j < run.models[r]->size(); ++j) {
-        if (!(run.w_all[r][j] > 0) || ev0.predictions[r].class_mask[j] != 0) continue;
-        if (ch.torque) qt[r].push_back(run.models[r]->measured_torque_Nmm()[j]);
-        // The drive's load without contact is its idle line, idle + viscous·Δkrpm, not a
-        // constant: with the speed varying, the spread about one median holds the line's
-        // slope (issue 55: 0.154 N·mm for a true 0.1). Only samples with the spindle
-        // turning are on that line.
-        if (ch.spindle && run.recs[r]->spindle_rpm.at(run.models[r]->t_s()[j]) != 0) {
-          qs[r].push_back(run.models[r]->measured_spindle_Nmm()[j]);
-          krpm.push_back(run.models[r]->spindle_krpm()[j]);
-        }
+  if (!ch.torque && !ch.spindle) return;
+  Objective probe(*run.layout, run.models, run.settings);
+  const auto ev0 = probe.evaluate(run.layout->initial(), run.w_all);
+  run.replays_before += probe.replays();
+  std::vector<std::vector<glm::dvec3>> qt(run.models.size());
+  std::vector<std::vector<double>> qs(run.models.size());
+  for (std::size_t r = 0; r < run.models.size(); ++r) {
+    std::vector<double> krpm;
+    for (std::size_t j = 0; j < run.models[r]->size(); ++j) {
+      if (!(run.w_all[r][j] > 0) || ev0.predictions[r].class_mask[j] != 0) continue;
+      if (ch.torque) qt[r].push_back(run.models[r]->measured_torque_Nmm()[j]);
+      // The drive's load without contact is its idle line, idle + viscous·Δkrpm, not a
+      // constant: with the speed varying, the spread about one median holds the line's
+      // slope (issue 55: 0.154 N·mm for a true 0.1). Only samples with the spindle
+      // turning are on that line.
+      if (ch.spindle && run.recs[r]->spindle_rpm.at(run.models[r]->t_s()[j]) != 0) {
+        qs[r].push_back(run.models[r]->measured_spindle_Nmm()[j]);
+        krpm.push_back(run.models[r]->spindle_krpm()[j]);
       }
-      if (ch.spindle) qs[r] = idle_line_residuals(krpm, qs[r]);
     }
-    auto pick = [&](const std::optional<double>& given, std::optional<double> est, std::size_t n,
-                    const char* field, double& into, std::string& source) {
-      if (given) {
-        into = *given;
-        source = std::string("manifest (") + field + ")";
-        return;
-      }
-      if (!est)
-        throw InputError(mfile, field, "a noise level, or >= 10 used samples without contact to estimate it from",
-                         fmt::format("{} such samples", n));
-      into = *est;
-      source = fmt::format("estimated from {} no-contact samples (1.4826·MAD)", n);
-    };
-    std::size_t n = 0;
-    if (ch.torque) {
-      const auto est = model::no_contact_sigma_N(qt, n);
-      pick(M.sensor.sigma_Nmm, est, n, "sensor.sigma_Nmm", run.settings.sigma_torque_Nmm, run.sigma_torque_source);
-    }
-    if (ch.spindle) {
-      const auto est = model::no_contact_sigma(qs, n);
-      pick(M.spindle.sigma_Nmm, est, n, "spindle.sigma_Nmm", run.settings.sigma_spindle_Nmm, run.sigma_spindle_source);
-      if (!M.spindle.sigma_Nmm)
-        run.sigma_spindle_source = fmt::format("estimated from {} no-contact samples with the spindle turning "
-                                               "(1.4826·MAD about each recording's idle line in the speed)", n);
-    }
+    if (ch.spindle) qs[r] = idle_line_residuals(krpm, qs[r]);
   }
+  auto pick = [&](const std::optional<double>& given, std::optional<double> est, std::size_t n,
+                  const char* field, double& into, std::string& source) {
+    if (given) {
+      into = *given;
+      source = std::string("manifest (") + field + ")";
+      return;
+    }
+    if (!est)
+      throw InputError(mfile, field, "a noise level, or >= 10 used samples without contact to estimate it from",
+                       fmt::format("{} such samples", n));
+    into = *est;
+    source = fmt::format("estimated from {} no-contact samples (1.4826·MAD)", n);
+  };
+  std::size_t n = 0;
+  if (ch.torque) {
+    const auto est = model::no_contact_sigma_N(qt, n);
+    pick(M.sensor.sigma_Nmm, est, n, "sensor.sigma_Nmm", run.settings.sigma_torque_Nmm, run.sigma_torque_source);
+  }
+  if (ch.spindle) {
+    const auto est = model::no_contact_sigma(qs, n);
+    pick(M.spindle.sigma_Nmm, est, n, "spindle.sigma_Nmm", run.settings.sigma_spindle_Nmm, run.sigma_spindle_source);
+    if (!M.spindle.sigma_Nmm)
+      run.sigma_spindle_source = fmt::format("estimated from {} no-contact samples with the spindle turning "
+                                             "(1.4826·MAD about each recording's idle line in the speed)", n);
+  }
+}
+
+}  // namespace
+
+void select_recordings(Run& run) {
+  const auto& M = run.exp.manifest;
+  model::check_each_sample_used_once_per_role(run.exp);  // a sample fitted twice: too narrow intervals
+  const std::vector<std::size_t> rec_index = calibrating_recordings(run);
+  const ClassSpecs classes = present_classes(run);
+  std::vector<std::pair<std::string, double>> rec_lags;
+  for (std::size_t i : rec_index) rec_lags.emplace_back(run.exp.recordings[i].id, M.recordings[i].lag_ms);
+  run.layout = std::make_unique<Layout>(classes, rec_lags, M.fit.nuisance, 0.5 * M.burr.radius_mm,
+                                        Channels{M.fit.fit_torque, M.fit.fit_spindle});
+  if (M.fit.nuisance.pose) share_mountings(run, rec_index);
+  build_models(run);
+  run.settings.loss = M.fit.loss;
+  run.settings.loss_scale = M.fit.loss_scale;
+  run.settings.buried = M.fit.buried;
+  force_noise(run);
+  channel_noise(run);
   run.obj = std::make_unique<Objective>(*run.layout, run.models, run.settings);
 }
 

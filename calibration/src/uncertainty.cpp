@@ -175,58 +175,82 @@ std::string bound_partner_reason(const Layout& L, const std::vector<double>& x, 
                      widen.empty() ? std::string() : ": widen " + widen);
 }
 
-UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
-                                     const SampleWeights& w, const Evaluation& at_x,
-                                     Flags initial, bool covariance_rules, double inflation) {
-  const Layout& L = obj.layout();
-  UncertaintyReport rep;
-  rep.held = initial.held;
-  rep.held.resize(L.size(), false);
-  std::vector<std::string> reason = std::move(initial.reason);
-  reason.resize(L.size());
-  auto flag = [&](int i, std::string why) {
-    if (!covariance_rules || i < 0 || rep.held[std::size_t(i)]) return false;
-    rep.held[std::size_t(i)] = true;
+namespace {
+
+// The x entries held as not identifiable and why; `rules` false: the covariance's rules
+// flag nothing (the profiles decided).
+struct HoldList {
+  std::vector<bool> held;
+  std::vector<std::string> reason;
+  bool rules;
+  bool flag(int i, std::string why) {
+    if (!rules || i < 0 || held[std::size_t(i)]) return false;
+    held[std::size_t(i)] = true;
     reason[std::size_t(i)] = std::move(why);
     return true;
-  };
-  const std::vector<bool> before_bounds = rep.held;
+  }
+};
+
+// The variance of x entry i's estimate (NaN when the covariance failed or leaves it out).
+double entry_variance(const CovarianceOutcome& cov, std::size_t i) {
+  const std::size_t a = cov.position(i), m = cov.indices.size();
+  return cov.ok && a != m ? cov.cov[a * m + a] : NAN;
+}
+
+// Rules at the bounds: an estimate at a bound, and α whose upper bound the data cannot
+// exclude. Returns the entries at their bounds.
+std::vector<std::size_t> flag_at_bounds(const Objective& obj, const std::vector<double>& x, const SampleWeights& w,
+                                        const Evaluation& at_x, double inflation, HoldList& hold) {
+  const Layout& L = obj.layout();
   std::vector<std::size_t> at_bounds;
   for (const auto& p : L.physics()) {
-    if (p.index < 0 || !covariance_rules || rep.held[std::size_t(p.index)]) continue;
+    if (p.index < 0 || !hold.rules || hold.held[std::size_t(p.index)]) continue;
     const std::size_t i = std::size_t(p.index);
     if (x[i] - L.lower(i) < 0.01 || L.upper(i) - x[i] < 0.01) {
-      flag(p.index, fmt::format("estimate at its {} bound ({:.4g}{})",
+      hold.flag(p.index, fmt::format("estimate at its {} bound ({:.4g}{})",
                                 x[i] - L.lower(i) < 0.01 ? "lower" : "upper", std::exp(x[i]),
                                 data_schema::unit_suffix(unit_of(p.kind))));
       at_bounds.push_back(i);
     } else if (p.kind == PhysKind::kAlpha && alpha_bound_not_excluded(obj, x, w, at_x, i, inflation)) {
-      flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g}{}{}): they "
+      hold.flag(p.index, fmt::format("the data cannot exclude alpha at its upper bound ({:.4g}{}{}): they "
                                 "give only a lower limit",
                                 std::exp(L.upper(i)), data_schema::unit_suffix(unit_of(p.kind)),
                                 L.upper(i) - x[i] >= std::log(1e3) ? ", next to no erosion" : ""));
     }
   }
-  // Rule 3's partners, and those of the nuisances at their bounds: the covariance with
-  // them free gives the step past the bounds and, conditioned on them (Schur complement),
-  // each constant's half-width with them held, against which that step is weighed.
+  return at_bounds;
+}
+
+// Rule 3's partners, and those of the nuisances at their bounds: the covariance with
+// them free gives the step past the bounds and, conditioned on them (Schur complement),
+// each constant's half-width with them held, against which that step is weighed.
+void flag_bound_partners(const Objective& obj, const std::vector<double>& x, const SampleWeights& w,
+                         double inflation, const std::vector<bool>& before_bounds,
+                         const std::vector<std::size_t>& at_bounds, HoldList& hold) {
+  const Layout& L = obj.layout();
   const std::vector<AtBound> at = held_at_bounds(L, x, at_bounds);
-  if (covariance_rules && !at.empty()) {
-    const CovarianceOutcome free = obj.covariance(x, w, before_bounds, inflation);
-    std::vector<AtBound> pulled;
-    const std::vector<double> step = step_past_bounds(free, at, L.size(), &pulled);
-    std::vector<std::size_t> pulled_entries;
-    for (const AtBound& b : pulled) pulled_entries.push_back(b.entry);
-    for (const auto& p : L.physics()) {
-      if (step.empty() || p.index < 0 || rep.held[std::size_t(p.index)]) continue;
-      const std::size_t i = std::size_t(p.index);
-      const double half = kZ95 * std::sqrt(conditional_variance(free, i, pulled_entries));
-      if (std::abs(step[i]) > half) flag(int(i), bound_partner_reason(L, x, i, pulled, step[i], half));
-    }
+  if (!hold.rules || at.empty()) return;
+  const CovarianceOutcome free = obj.covariance(x, w, before_bounds, inflation);
+  std::vector<AtBound> pulled;
+  const std::vector<double> step = step_past_bounds(free, at, L.size(), &pulled);
+  std::vector<std::size_t> pulled_entries;
+  for (const AtBound& b : pulled) pulled_entries.push_back(b.entry);
+  for (const auto& p : L.physics()) {
+    if (step.empty() || p.index < 0 || hold.held[std::size_t(p.index)]) continue;
+    const std::size_t i = std::size_t(p.index);
+    const double half = kZ95 * std::sqrt(conditional_variance(free, i, pulled_entries));
+    if (std::abs(step[i]) > half) hold.flag(int(i), bound_partner_reason(L, x, i, pulled, step[i], half));
   }
+}
+
+// The covariance's rules, re-applied (up to 4 rounds) until holding the flagged entries
+// flags no more: zero sensitivity, a near-null direction, an interval too wide or past a bound.
+CovarianceOutcome flag_by_covariance(const Objective& obj, const std::vector<double>& x, const SampleWeights& w,
+                                     double inflation, HoldList& hold) {
+  const Layout& L = obj.layout();
   CovarianceOutcome cov;
   for (int round = 0; round < 4; ++round) {
-    cov = obj.covariance(x, w, rep.held, inflation);
+    cov = obj.covariance(x, w, hold.held, inflation);
     bool more = false;
     const std::size_t m = cov.indices.size();
     if (m == 0) break;
@@ -236,7 +260,7 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
       const PhysicsParam* p = L.physics_at(i);
       if (!p) continue;
       if (!(cov.info_diag[a] > 0)) {
-        more |= flag(int(i), "the predicted force does not depend on it (zero sensitivity)");
+        more |= hold.flag(int(i), "the predicted force does not depend on it (zero sensitivity)");
         continue;
       }
       for (std::size_t e = 0; e < m; ++e)
@@ -245,16 +269,16 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
           for (std::size_t b = 0; b < m; ++b)
             if (b != a && std::abs(cov.eig_vectors[e][b]) > 0.2)
               partners += (partners.empty() ? "" : ", ") + L.name(cov.indices[b]);
-          more |= flag(int(i), fmt::format("lies in a near-null direction of the information "
+          more |= hold.flag(int(i), fmt::format("lies in a near-null direction of the information "
                                            "matrix{}", partners.empty() ? "" : " (with " + partners + ")"));
         }
       const double se = cov.ok ? std::sqrt(std::max(0.0, cov.cov[a * m + a])) : NAN;
       if (cov.ok && se > kMaxLogSE) {
-        more |= flag(int(i), fmt::format("95 % interval wider than a factor 10 either way "
+        more |= hold.flag(int(i), fmt::format("95 % interval wider than a factor 10 either way "
                                          "(SE of ln = {:.3g})", se));
       } else if (cov.ok && (x[i] + kZ95 * se > L.upper(i) || x[i] - kZ95 * se < L.lower(i))) {
         const bool up = x[i] + kZ95 * se > L.upper(i);
-        more |= flag(int(i), fmt::format("95 % interval reaches past its {} bound ({:.4g}{}): "
+        more |= hold.flag(int(i), fmt::format("95 % interval reaches past its {} bound ({:.4g}{}): "
                                          "the data give only a {} limit ({} {:.4g})",
                                          up ? "upper" : "lower", std::exp(up ? L.upper(i) : L.lower(i)),
                                          data_schema::unit_suffix(unit_of(p->kind)), up ? "lower" : "upper", up ? ">=" : "<=",
@@ -263,17 +287,12 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     }
     if (!more) break;
   }
-  rep.residual_variance = cov.residual_variance;
-  rep.inflation = inflation;
-  // Position of x entry i in the covariance (or npos).
-  auto pos = [&](std::size_t i) -> std::ptrdiff_t {
-    const std::size_t a = cov.position(i);
-    return a == cov.indices.size() ? -1 : std::ptrdiff_t(a);
-  };
-  const std::size_t m = cov.indices.size();
-  auto var = [&](std::ptrdiff_t a) {
-    return cov.ok && a >= 0 ? cov.cov[std::size_t(a) * m + std::size_t(a)] : NAN;
-  };
+  return cov;
+}
+
+std::vector<data_schema::FitParameter> fit_parameters(const Layout& L, const std::vector<double>& x,
+                                                      const CovarianceOutcome& cov, const HoldList& hold) {
+  std::vector<data_schema::FitParameter> out;
   for (const auto& p : L.physics()) {
     data_schema::FitParameter f;
     f.class_id = p.label;
@@ -285,21 +304,27 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
       f.estimate = p.spec.initial;
       f.held = p.spec.initial;
       f.verdict = "fixed";
-    } else if (rep.held[std::size_t(p.index)]) {
+    } else if (hold.held[std::size_t(p.index)]) {
       f.identifiable = false;
-      f.reason = reason[std::size_t(p.index)];
+      f.reason = hold.reason[std::size_t(p.index)];
       f.held = std::exp(x[std::size_t(p.index)]);
     } else {
       const double xi = x[std::size_t(p.index)];
-      const double se_log = std::sqrt(std::max(0.0, var(pos(std::size_t(p.index)))));
+      const double se_log = std::sqrt(std::max(0.0, entry_variance(cov, std::size_t(p.index))));
       f.estimate = std::exp(xi);
       f.held = f.estimate;
       f.std_error = f.estimate * se_log;  // delta method
       f.ci95_low = std::exp(xi - kZ95 * se_log);  // interval on ln θ, mapped back
       f.ci95_high = std::exp(xi + kZ95 * se_log);
     }
-    rep.parameters.push_back(std::move(f));
+    out.push_back(std::move(f));
   }
+  return out;
+}
+
+std::vector<data_schema::FitNuisance> fit_nuisances(const Layout& L, const std::vector<double>& x,
+                                                    const CovarianceOutcome& cov) {
+  std::vector<data_schema::FitNuisance> out;
   auto add_to = [&](const std::string& owner, const char* name, const char* unit, int i, double fixed_value) {
     data_schema::FitNuisance n;
     n.recording_id = owner;
@@ -308,12 +333,12 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
     n.fixed = i < 0;
     n.estimate = i < 0 ? fixed_value : x[std::size_t(i)];
     if (i >= 0) {
-      const double se = std::sqrt(std::max(0.0, var(pos(std::size_t(i)))));
+      const double se = std::sqrt(std::max(0.0, entry_variance(cov, std::size_t(i))));
       n.std_error = se;
       n.ci95_low = n.estimate - kZ95 * se;
       n.ci95_high = n.estimate + kZ95 * se;
     }
-    rep.nuisance.push_back(std::move(n));
+    out.push_back(std::move(n));
   };
   for (const auto& r : L.recordings()) {
     auto add = [&](const char* name, const char* unit, int i, double fixed_value) {
@@ -339,23 +364,50 @@ UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<dou
   static const char* kPose[6] = {"pose_rx", "pose_ry", "pose_rz", "pose_tx", "pose_ty", "pose_tz"};
   for (const auto& m : L.mountings())
     for (int k = 0; k < 6; ++k) add_to(m.name, kPose[k], k < 3 ? "rad" : "mm", m.offset + k, 0.0);
-  rep.channel_information = channel_information(L, cov);
-  // Natural-unit covariance of the identifiable free entries (delta method) and correlation.
-  if (cov.ok) {
-    std::vector<double> g(m);
-    for (std::size_t a = 0; a < m; ++a) {
-      rep.covariance.names.push_back(L.name(cov.indices[a]));
-      g[a] = L.dnatural(cov.indices[a], x[cov.indices[a]]);
-    }
-    rep.correlation.names = rep.covariance.names;
-    for (std::size_t a = 0; a < m; ++a)
-      for (std::size_t b = 0; b < m; ++b) {
-        const double c = cov.cov[a * m + b];
-        rep.covariance.matrix.push_back(g[a] * g[b] * c);
-        const double den = std::sqrt(cov.cov[a * m + a] * cov.cov[b * m + b]);
-        rep.correlation.matrix.push_back(den > 0 ? c / den : (a == b ? 1.0 : 0.0));
-      }
+  return out;
+}
+
+// Natural-unit covariance of the identifiable free entries (delta method) and correlation.
+void covariance_tables(const Layout& L, const std::vector<double>& x, const CovarianceOutcome& cov,
+                       UncertaintyReport& rep) {
+  if (!cov.ok) return;
+  const std::size_t m = cov.indices.size();
+  std::vector<double> g(m);
+  for (std::size_t a = 0; a < m; ++a) {
+    rep.covariance.names.push_back(L.name(cov.indices[a]));
+    g[a] = L.dnatural(cov.indices[a], x[cov.indices[a]]);
   }
+  rep.correlation.names = rep.covariance.names;
+  for (std::size_t a = 0; a < m; ++a)
+    for (std::size_t b = 0; b < m; ++b) {
+      const double c = cov.cov[a * m + b];
+      rep.covariance.matrix.push_back(g[a] * g[b] * c);
+      const double den = std::sqrt(cov.cov[a * m + a] * cov.cov[b * m + b]);
+      rep.correlation.matrix.push_back(den > 0 ? c / den : (a == b ? 1.0 : 0.0));
+    }
+}
+
+}  // namespace
+
+UncertaintyReport assess_uncertainty(const Objective& obj, const std::vector<double>& x,
+                                     const SampleWeights& w, const Evaluation& at_x,
+                                     Flags initial, bool covariance_rules, double inflation) {
+  const Layout& L = obj.layout();
+  HoldList hold{std::move(initial.held), std::move(initial.reason), covariance_rules};
+  hold.held.resize(L.size(), false);
+  hold.reason.resize(L.size());
+  const std::vector<bool> before_bounds = hold.held;
+  const std::vector<std::size_t> at_bounds = flag_at_bounds(obj, x, w, at_x, inflation, hold);
+  flag_bound_partners(obj, x, w, inflation, before_bounds, at_bounds, hold);
+  const CovarianceOutcome cov = flag_by_covariance(obj, x, w, inflation, hold);
+  UncertaintyReport rep;
+  rep.residual_variance = cov.residual_variance;
+  rep.inflation = inflation;
+  rep.parameters = fit_parameters(L, x, cov, hold);
+  rep.nuisance = fit_nuisances(L, x, cov);
+  rep.channel_information = channel_information(L, cov);
+  covariance_tables(L, x, cov, rep);
+  rep.held = std::move(hold.held);
   return rep;
 }
 

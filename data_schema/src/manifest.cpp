@@ -308,6 +308,191 @@ ExperimentManifest parse_manifest(std::string_view toml_text, const std::filesys
 }
 
 namespace {
+BurrConfig read_burr(TomlView& root, const std::string& file) {
+  BurrConfig b;
+  auto burr = root.table("burr");
+  b.radius_mm = burr.num("radius_mm");
+  if (burr.has("shaft_axis_rig")) {
+    const glm::dvec3 a = burr.vec3("shaft_axis_rig");
+    const double len = glm::length(a);
+    if (!(len > 1e-12)) throw InputError(file, "burr.shaft_axis_rig", "a non-zero vector", vec_text(a));
+    b.shaft_axis_rig = a / len;
+  }
+  if (burr.has("spin_sign")) b.spin_sign = int(burr.integer("spin_sign"));
+  if (burr.has("tool_offset_mm")) b.tool_offset_mm = burr.vec3("tool_offset_mm");
+  burr.done();
+  return b;
+}
+
+// [sensor] and the optional [spindle].
+void read_sensor_and_spindle(TomlView& root, ExperimentManifest& m) {
+  auto sensor = root.table("sensor");
+  m.sensor.rotation_sensor_to_rig = sensor.mat3_rows("rotation_sensor_to_rig");
+  m.sensor.measures = choice(sensor, "measures",
+                             {{"force_on_sample", SensorMeasures::kForceOnSample},
+                              {"force_on_burr", SensorMeasures::kForceOnBurr}},
+                             SensorMeasures::kForceOnSample);
+  m.sensor.sigma_N = sensor.opt_num("sigma_N");
+  if (sensor.has("origin_rig_mm")) m.sensor.origin_rig_mm = sensor.vec3("origin_rig_mm");
+  m.sensor.sigma_Nmm = sensor.opt_num("sigma_Nmm");
+  sensor.done();
+  if (auto sp = root.opt_table("spindle")) {
+    m.spindle.sigma_Nmm = sp->opt_num("sigma_Nmm");
+    sp->done();
+  }
+}
+
+// A recording's [registration]: fiducials, or one transform in either direction.
+Registration read_registration(TomlView& r, const std::string& file) {
+  Registration reg;
+  auto g = r.table("registration");
+  const bool fid = g.has("fiducials_rig_mm") || g.has("fiducials_vol_mm");
+  const int given = int(g.has("rotation") || g.has("translation_mm")) + int(g.has("vol_from_rig")) +
+                    int(g.has("rig_from_vol"));
+  if (fid && given)
+    throw InputError(file, g.field("fiducials_rig_mm"), "either a transform or fiducials, not both");
+  if (given > 1)
+    throw InputError(file, g.field("vol_from_rig"),
+                     "one transform: rotation/translation_mm, vol_from_rig or rig_from_vol");
+  if (fid) {
+    reg.fiducials_rig_mm = g.points("fiducials_rig_mm");
+    reg.fiducials_vol_mm = g.points("fiducials_vol_mm");
+    if (g.has("fiducial_error_mm")) reg.fiducial_error_mm = g.positive("fiducial_error_mm");
+  } else if (g.has("vol_from_rig") || g.has("rig_from_vol")) {
+    const bool inv = g.has("rig_from_vol");
+    auto t = g.table(inv ? "rig_from_vol" : "vol_from_rig");
+    const glm::dmat3 R = t.mat3_rows("rotation");
+    const glm::dvec3 tr = t.vec3("translation_mm");
+    t.done();
+    reg.given_as = inv ? "rig_from_vol" : "vol_from_rig";
+    // x_rig = R·x_vol + t  ⇔  x_vol = Rᵀ·x_rig − Rᵀ·t (R is checked to be a rotation later;
+    // a non-rotation stays non-orthonormal under transposition, so the check still fires).
+    reg.rotation = inv ? glm::transpose(R) : R;
+    reg.translation_mm = inv ? -(glm::transpose(R) * tr) : tr;
+  } else {
+    reg.rotation = g.mat3_rows("rotation");
+    reg.translation_mm = g.vec3("translation_mm");
+  }
+  g.done();
+  return reg;
+}
+
+std::vector<Segment> read_segments(TomlView& r) {
+  std::vector<Segment> segments;
+  for (auto& s : r.tables("segments")) {
+    Segment seg;
+    seg.start_s = s.num("start_s");
+    seg.end_s = s.num("end_s");
+    seg.use = s.opt_boolean("use").value_or(true);
+    seg.label = s.opt_str("label").value_or("");
+    if (s.has("role"))
+      seg.role = choice(s, "role", {{"calibrate", RecordingRole::kCalibrate}, {"validate", RecordingRole::kValidate}},
+                        RecordingRole::kCalibrate);
+    s.done();
+    segments.push_back(seg);
+  }
+  return segments;
+}
+
+RecordingRef read_recording(TomlView& r, const std::filesystem::path& base, const std::string& file) {
+  RecordingRef rr;
+  rr.id = r.str("id");
+  rr.path = resolve(base, r.str("path"));
+  rr.sample = r.str("sample");
+  rr.role = choice(r, "role", {{"calibrate", RecordingRole::kCalibrate}, {"validate", RecordingRole::kValidate}},
+                   RecordingRole::kCalibrate);
+  rr.lag_ms = r.opt_num("lag_ms").value_or(0.0);
+  rr.spindle_rpm = r.opt_num("spindle_rpm");
+  if (rr.spindle_rpm && !(std::abs(*rr.spindle_rpm) > 0 && std::abs(*rr.spindle_rpm) <= 1e6))
+    throw InputError(file, r.field("spindle_rpm"), "a constant spindle speed, 0 < |rpm| ≤ 1e6 (sign = spin)",
+                     fmt::format("{}", *rr.spindle_rpm));
+  if (r.has("waive")) {
+    rr.waive = r.strings("waive");
+    for (const auto& w : rr.waive)
+      if (w != "burr_radius_mm" && w != "burr_axis_rig" && w != "spin_sign")
+        throw InputError(file, r.field("waive"),
+                         "names of recording metadata the manifest overrides: \"burr_radius_mm\", "
+                         "\"burr_axis_rig\", \"spin_sign\"",
+                         "\"" + w.substr(0, 80) + "\"");
+  }
+  rr.registration = read_registration(r, file);
+  rr.segments = read_segments(r);
+  r.done();
+  return rr;
+}
+
+// [fit]: the loss, the search, the channels, the precision asked for, the classes, the nuisances.
+void read_fit(TomlView& fit, const toml::table& t, const std::string& file, FitSpec& f) {
+  f.loss = choice(fit, "loss", {{"none", LossKind::kNone}, {"huber", LossKind::kHuber}, {"cauchy", LossKind::kCauchy}},
+                  LossKind::kHuber);
+  f.loss_scale = fit.opt_num("loss_scale").value_or(3.0);
+  f.buried = choice(fit, "buried", {{"exclude", BuriedPolicy::kExclude}, {"downweight", BuriedPolicy::kDownweight}},
+                    BuriedPolicy::kExclude);
+  if (fit.has("seed")) {
+    const auto seed = fit.integer("seed");
+    if (seed < 0) throw InputError(file, "fit.seed", "an integer >= 0", std::to_string(seed));
+    f.seed = std::uint64_t(seed);
+  }
+  if (fit.has("multistart")) {
+    const auto ms = fit.integer("multistart");
+    if (ms < 1 || ms > kMaxMultistart)
+      throw InputError(file, "fit.multistart", fmt::format("1..{}", kMaxMultistart), std::to_string(ms));
+    f.multistart = int(ms);
+  }
+  if (fit.has("channels")) {
+    bool force = false;
+    for (const auto& c : fit.strings("channels")) {
+      if (c == "force") force = true;
+      else if (c == "torque") f.fit_torque = true;
+      else if (c == "spindle") f.fit_spindle = true;
+      else throw InputError(file, "fit.channels", "\"force\", \"torque\" or \"spindle\"", "\"" + c + "\"");
+    }
+    if (!force) throw InputError(file, "fit.channels", "a list holding \"force\" (always fitted)", "none");
+  }
+  if (auto pr = fit.opt_table("precision")) {
+    auto read = [&](const char* key) -> std::optional<double> {
+      const auto v = pr->opt_num(key);
+      if (v && !(*v > 0 && *v <= 10))
+        throw InputError(file, std::string("fit.precision.") + key,
+                         "a relative half-width of the 95 % interval, 0 < x <= 10 (0.05 = ±5 %)", fmt::format("{}", *v));
+      return v;
+    };
+    f.precision_alpha = read("alpha");
+    f.precision_c1 = read("c1");
+    f.precision_mu = read("mu");
+    pr->done();
+  }
+  if (auto classes = fit.opt_table("classes")) {
+    for (const auto& key : classes->keys()) {
+      auto c = classes->table(key);
+      ClassFitSpec spec;
+      spec.key = key;
+      spec.alpha = read_param(c, "alpha", true);
+      spec.c1 = read_param(c, "c1", false);
+      spec.mu = read_param(c, "mu", false);
+      c.done();
+      f.classes.push_back(spec);
+    }
+    classes->done();
+  }
+  if (auto nu = fit.opt_table("nuisance")) {
+    f.nuisance.bias = nu->opt_boolean("bias").value_or(true);
+    f.nuisance.lag = nu->opt_boolean("lag").value_or(true);
+    if (nu->has("lag_bounds_ms")) {
+      const toml::node* n = t.at_path("fit.nuisance.lag_bounds_ms").node();
+      const toml::array* a = n ? n->as_array() : nullptr;
+      if (!a || a->size() != 2 || !a->get(0)->is_number() || !a->get(1)->is_number())
+        throw InputError(file, "fit.nuisance.lag_bounds_ms", "[lower, upper] in ms");
+      f.nuisance.lag_bounds_ms = {a->get(0)->value<double>().value(), a->get(1)->value<double>().value()};
+      nu->use("lag_bounds_ms");
+    }
+    f.nuisance.depth_offset = nu->opt_boolean("depth_offset").value_or(false);
+    f.nuisance.pose = nu->opt_boolean("pose").value_or(true);
+    nu->done();
+  }
+  fit.done();
+}
+
 ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesystem::path& path) {
   const std::string file = path.string();
   TomlView root(t, file, "");
@@ -323,171 +508,10 @@ ExperimentManifest parse_manifest_table(const toml::table& t, const std::filesys
     m.samples.push_back({s.str("id"), resolve(base, s.str("path"))});
     s.done();
   }
-
-  auto burr = root.table("burr");
-  m.burr.radius_mm = burr.num("radius_mm");
-  if (burr.has("shaft_axis_rig")) {
-    const glm::dvec3 a = burr.vec3("shaft_axis_rig");
-    const double len = glm::length(a);
-    if (!(len > 1e-12)) throw InputError(file, "burr.shaft_axis_rig", "a non-zero vector", vec_text(a));
-    m.burr.shaft_axis_rig = a / len;
-  }
-  if (burr.has("spin_sign")) m.burr.spin_sign = int(burr.integer("spin_sign"));
-  if (burr.has("tool_offset_mm")) m.burr.tool_offset_mm = burr.vec3("tool_offset_mm");
-  burr.done();
-
-  auto sensor = root.table("sensor");
-  m.sensor.rotation_sensor_to_rig = sensor.mat3_rows("rotation_sensor_to_rig");
-  m.sensor.measures = choice(sensor, "measures",
-                             {{"force_on_sample", SensorMeasures::kForceOnSample},
-                              {"force_on_burr", SensorMeasures::kForceOnBurr}},
-                             SensorMeasures::kForceOnSample);
-  m.sensor.sigma_N = sensor.opt_num("sigma_N");
-  if (sensor.has("origin_rig_mm")) m.sensor.origin_rig_mm = sensor.vec3("origin_rig_mm");
-  m.sensor.sigma_Nmm = sensor.opt_num("sigma_Nmm");
-  sensor.done();
-  if (auto sp = root.opt_table("spindle")) {
-    m.spindle.sigma_Nmm = sp->opt_num("sigma_Nmm");
-    sp->done();
-  }
-
-  for (auto& r : root.tables("recordings")) {
-    RecordingRef rr;
-    rr.id = r.str("id");
-    rr.path = resolve(base, r.str("path"));
-    rr.sample = r.str("sample");
-    rr.role = choice(r, "role", {{"calibrate", RecordingRole::kCalibrate}, {"validate", RecordingRole::kValidate}},
-                     RecordingRole::kCalibrate);
-    rr.lag_ms = r.opt_num("lag_ms").value_or(0.0);
-    rr.spindle_rpm = r.opt_num("spindle_rpm");
-    if (rr.spindle_rpm && !(std::abs(*rr.spindle_rpm) > 0 && std::abs(*rr.spindle_rpm) <= 1e6))
-      throw InputError(file, r.field("spindle_rpm"), "a constant spindle speed, 0 < |rpm| ≤ 1e6 (sign = spin)",
-                       fmt::format("{}", *rr.spindle_rpm));
-    if (r.has("waive")) {
-      rr.waive = r.strings("waive");
-      for (const auto& w : rr.waive)
-        if (w != "burr_radius_mm" && w != "burr_axis_rig" && w != "spin_sign")
-          throw InputError(file, r.field("waive"),
-                           "names of recording metadata the manifest overrides: \"burr_radius_mm\", "
-                           "\"burr_axis_rig\", \"spin_sign\"",
-                           "\"" + w.substr(0, 80) + "\"");
-    }
-    auto g = r.table("registration");
-    const bool fid = g.has("fiducials_rig_mm") || g.has("fiducials_vol_mm");
-    const int given = int(g.has("rotation") || g.has("translation_mm")) + int(g.has("vol_from_rig")) +
-                      int(g.has("rig_from_vol"));
-    if (fid && given)
-      throw InputError(file, g.field("fiducials_rig_mm"), "either a transform or fiducials, not both");
-    if (given > 1)
-      throw InputError(file, g.field("vol_from_rig"),
-                       "one transform: rotation/translation_mm, vol_from_rig or rig_from_vol");
-    if (fid) {
-      rr.registration.fiducials_rig_mm = g.points("fiducials_rig_mm");
-      rr.registration.fiducials_vol_mm = g.points("fiducials_vol_mm");
-      if (g.has("fiducial_error_mm")) rr.registration.fiducial_error_mm = g.positive("fiducial_error_mm");
-    } else if (g.has("vol_from_rig") || g.has("rig_from_vol")) {
-      const bool inv = g.has("rig_from_vol");
-      auto t = g.table(inv ? "rig_from_vol" : "vol_from_rig");
-      const glm::dmat3 R = t.mat3_rows("rotation");
-      const glm::dvec3 tr = t.vec3("translation_mm");
-      t.done();
-      rr.registration.given_as = inv ? "rig_from_vol" : "vol_from_rig";
-      // x_rig = R·x_vol + t  ⇔  x_vol = Rᵀ·x_rig − Rᵀ·t (R is checked to be a rotation later;
-      // a non-rotation stays non-orthonormal under transposition, so the check still fires).
-      rr.registration.rotation = inv ? glm::transpose(R) : R;
-      rr.registration.translation_mm = inv ? -(glm::transpose(R) * tr) : tr;
-    } else {
-      rr.registration.rotation = g.mat3_rows("rotation");
-      rr.registration.translation_mm = g.vec3("translation_mm");
-    }
-    g.done();
-    for (auto& s : r.tables("segments")) {
-      Segment seg;
-      seg.start_s = s.num("start_s");
-      seg.end_s = s.num("end_s");
-      seg.use = s.opt_boolean("use").value_or(true);
-      seg.label = s.opt_str("label").value_or("");
-      if (s.has("role"))
-        seg.role = choice(s, "role", {{"calibrate", RecordingRole::kCalibrate}, {"validate", RecordingRole::kValidate}},
-                          RecordingRole::kCalibrate);
-      s.done();
-      rr.segments.push_back(seg);
-    }
-    r.done();
-    m.recordings.push_back(std::move(rr));
-  }
-
-  if (auto fit = root.opt_table("fit")) {
-    auto& f = m.fit;
-    f.loss = choice(*fit, "loss", {{"none", LossKind::kNone}, {"huber", LossKind::kHuber}, {"cauchy", LossKind::kCauchy}},
-                    LossKind::kHuber);
-    f.loss_scale = fit->opt_num("loss_scale").value_or(3.0);
-    f.buried = choice(*fit, "buried", {{"exclude", BuriedPolicy::kExclude}, {"downweight", BuriedPolicy::kDownweight}},
-                      BuriedPolicy::kExclude);
-    if (fit->has("seed")) {
-      const auto seed = fit->integer("seed");
-      if (seed < 0) throw InputError(file, "fit.seed", "an integer >= 0", std::to_string(seed));
-      f.seed = std::uint64_t(seed);
-    }
-    if (fit->has("multistart")) {
-      const auto ms = fit->integer("multistart");
-      if (ms < 1 || ms > kMaxMultistart)
-        throw InputError(file, "fit.multistart", fmt::format("1..{}", kMaxMultistart), std::to_string(ms));
-      f.multistart = int(ms);
-    }
-    if (fit->has("channels")) {
-      bool force = false;
-      for (const auto& c : fit->strings("channels")) {
-        if (c == "force") force = true;
-        else if (c == "torque") f.fit_torque = true;
-        else if (c == "spindle") f.fit_spindle = true;
-        else throw InputError(file, "fit.channels", "\"force\", \"torque\" or \"spindle\"", "\"" + c + "\"");
-      }
-      if (!force) throw InputError(file, "fit.channels", "a list holding \"force\" (always fitted)", "none");
-    }
-    if (auto pr = fit->opt_table("precision")) {
-      auto read = [&](const char* key) -> std::optional<double> {
-        const auto v = pr->opt_num(key);
-        if (v && !(*v > 0 && *v <= 10))
-          throw InputError(file, std::string("fit.precision.") + key,
-                           "a relative half-width of the 95 % interval, 0 < x <= 10 (0.05 = ±5 %)", fmt::format("{}", *v));
-        return v;
-      };
-      f.precision_alpha = read("alpha");
-      f.precision_c1 = read("c1");
-      f.precision_mu = read("mu");
-      pr->done();
-    }
-    if (auto classes = fit->opt_table("classes")) {
-      for (const auto& key : classes->keys()) {
-        auto c = classes->table(key);
-        ClassFitSpec spec;
-        spec.key = key;
-        spec.alpha = read_param(c, "alpha", true);
-        spec.c1 = read_param(c, "c1", false);
-        spec.mu = read_param(c, "mu", false);
-        c.done();
-        f.classes.push_back(spec);
-      }
-      classes->done();
-    }
-    if (auto nu = fit->opt_table("nuisance")) {
-      f.nuisance.bias = nu->opt_boolean("bias").value_or(true);
-      f.nuisance.lag = nu->opt_boolean("lag").value_or(true);
-      if (nu->has("lag_bounds_ms")) {
-        const toml::node* n = t.at_path("fit.nuisance.lag_bounds_ms").node();
-        const toml::array* a = n ? n->as_array() : nullptr;
-        if (!a || a->size() != 2 || !a->get(0)->is_number() || !a->get(1)->is_number())
-          throw InputError(file, "fit.nuisance.lag_bounds_ms", "[lower, upper] in ms");
-        f.nuisance.lag_bounds_ms = {a->get(0)->value<double>().value(), a->get(1)->value<double>().value()};
-        nu->use("lag_bounds_ms");
-      }
-      f.nuisance.depth_offset = nu->opt_boolean("depth_offset").value_or(false);
-      f.nuisance.pose = nu->opt_boolean("pose").value_or(true);
-      nu->done();
-    }
-    fit->done();
-  }
+  m.burr = read_burr(root, file);
+  read_sensor_and_spindle(root, m);
+  for (auto& r : root.tables("recordings")) m.recordings.push_back(read_recording(r, base, file));
+  if (auto fit = root.opt_table("fit")) read_fit(*fit, t, file, m.fit);
   root.done();
 
   validate(m, file);

@@ -263,17 +263,15 @@ std::vector<std::string> alignment_warnings(const Experiment& e) {
   return out;
 }
 
-AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
-                                 const data_schema::RecordingRef& ref,
-                                 const data_schema::Recording& rec, const std::string& file) {
-  AlignedRecording a;
-  a.id = ref.id;
-  a.sample_id = ref.sample;
-  a.file = ref.path;
+namespace {
 
+// The force (and the moment, when the sensor's stream carries it): the fresh rows of the
+// force stream, whose first sets the recording's t = 0. Returns the rows kept.
+std::vector<std::size_t> read_force(AlignedRecording& a, const data_schema::Recording& rec,
+                                    const std::string& file) {
   const auto& force = channel(rec, data_schema::kForce, 3, file);
   const data_schema::Stream& f_stream = *rec.stream_with(data_schema::kForce);
-  const auto f_keep = fresh(f_stream);
+  std::vector<std::size_t> f_keep = fresh(f_stream);
   if (f_keep.empty())
     throw InputError(file, "streams/" + f_stream.name, "at least one fresh sample");
   a.dropped_force_samples = f_stream.samples() - f_keep.size();
@@ -301,7 +299,10 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     for (std::size_t i : f_keep)
       a.torque_sensor_Nmm.emplace_back(tq->values[3 * i], tq->values[3 * i + 1], tq->values[3 * i + 2]);
   }
+  return f_keep;
+}
 
+void read_stage_position(AlignedRecording& a, const data_schema::Recording& rec, const std::string& file) {
   const auto& pos = channel(rec, data_schema::kPosition, 3, file);
   const data_schema::Stream& p_stream = *rec.stream_with(data_schema::kPosition);
   for (std::size_t i : fresh(p_stream)) {
@@ -311,8 +312,13 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
   }
   if (a.stage_rig_mm.t_s.empty())
     throw InputError(file, "streams/" + p_stream.name, "at least one fresh sample");
-  // The spindle speed: the recording's channel, or the manifest's constant when the rig
-  // did not log it — never both (which one would be right?).
+}
+
+// The spindle speed: the recording's channel, or the manifest's constant when the rig
+// did not log it — never both (which one would be right?).
+void read_spindle_speed(AlignedRecording& a, const data_schema::ExperimentManifest& m,
+                        const data_schema::RecordingRef& ref, const data_schema::Recording& rec,
+                        const std::string& file) {
   if (const data_schema::Stream* s_stream = rec.stream_with(data_schema::kSpindle)) {
     if (ref.spindle_rpm)
       throw InputError(m.file.string(), "recordings." + ref.id + ".spindle_rpm",
@@ -331,9 +337,11 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     throw InputError(file, "streams", "a stream with the channel spindle_rpm, or spindle_rpm = RPM for recording " +
                                           ref.id + " in the manifest (a constant speed)");
   }
+}
 
-  // The spindle's load: a torque channel, or a power channel converted through the speed
-  // at the same instant (τ = 1000·P/|ω|, N·mm from W; none where the spindle stands).
+// The spindle's load: a torque channel, or a power channel converted through the speed
+// at the same instant (τ = 1000·P/|ω|, N·mm from W; none where the spindle stands).
+void read_spindle_load(AlignedRecording& a, const data_schema::Recording& rec, const std::string& file) {
   const data_schema::Stream* tq_stream = rec.stream_with(data_schema::kSpindleTorque);
   const data_schema::Stream* pw_stream = rec.stream_with(data_schema::kSpindlePower);
   if (tq_stream && pw_stream)
@@ -354,11 +362,14 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
       a.spindle_torque_Nmm.value.push_back(v);
     }
   }
+}
 
-  // Segments: a sample is used when some use=true segment holds it and no use=false one does.
-  // Bounds are inclusive and compared in integer ns (start_s rounded to the ns), so a
-  // sample exactly on a boundary is never lost to rounding. A segment's role (default: the
-  // recording's) says whether its samples calibrate or validate.
+// Segments: a sample is used when some use=true segment holds it and no use=false one does.
+// Bounds are inclusive and compared in integer ns (start_s rounded to the ns), so a
+// sample exactly on a boundary is never lost to rounding. A segment's role (default: the
+// recording's) says whether its samples calibrate or validate.
+void mark_segments(AlignedRecording& a, const data_schema::RecordingRef& ref, const data_schema::Stream& f_stream,
+                   const std::vector<std::size_t>& f_keep) {
   const bool whole = ref.segments.empty();
   const bool cal = ref.role == data_schema::RecordingRole::kCalibrate;
   a.use_calibrate.assign(a.t_s.size(), whole && cal ? 1 : 0);
@@ -381,11 +392,12 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     }
   a.use.resize(a.t_s.size());
   for (std::size_t k = 0; k < a.t_s.size(); ++k) a.use[k] = a.use_calibrate[k] | a.use_validate[k];
+}
 
-  const std::string mfile = m.file.string();
-  std::size_t index = 0;
-  while (index < m.recordings.size() && m.recordings[index].id != ref.id) ++index;
-  const std::string reg_field = fmt::format("recordings[{}].registration", index);
+// The rig-to-volume transform: fitted to the fiducials (and checked against their error),
+// or given and checked to be a rotation.
+void register_to_volume(AlignedRecording& a, const data_schema::RecordingRef& ref, const std::string& mfile,
+                        const std::string& reg_field) {
   if (ref.registration.from_fiducials()) {
     const auto& g = ref.registration;
     a.fiducial_fit = fit_rigid(g.fiducials_rig_mm, g.fiducials_vol_mm, mfile, reg_field);
@@ -407,7 +419,14 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
     a.rig_to_vol = {ref.registration.rotation, ref.registration.translation_mm};
     a.registration.method = ref.registration.given_as;
   }
-  check_rotation(m.sensor.rotation_sensor_to_rig, mfile, "sensor.rotation_sensor_to_rig");
+}
+
+// The manifest's burr, checked against the one the rig logged, and its sensor, in the
+// recording's terms.
+void take_burr_and_sensor(AlignedRecording& a, const data_schema::ExperimentManifest& m,
+                          const data_schema::RecordingRef& ref, const data_schema::Recording& rec,
+                          const std::string& file, std::size_t index) {
+  const std::string mfile = m.file.string();
   // The burr the rig logged (radius 0, axis [0, 0, 0], spin 0: not stated) must be the one
   // the model drills with, unless the manifest waives the field.
   const auto waived = [&](const char* f) { return std::find(ref.waive.begin(), ref.waive.end(), f) != ref.waive.end(); };
@@ -445,23 +464,48 @@ AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
   a.sensor_to_rig = m.sensor.rotation_sensor_to_rig;
   a.sensor_sign = m.sensor.measures == data_schema::SensorMeasures::kForceOnSample ? -1.0 : 1.0;
   a.sensor_origin_rig_mm = m.sensor.origin_rig_mm;
+}
+
+// Predicted TRE along the burr's path (volume frame, as the fiducials).
+void path_tre(AlignedRecording& a, const data_schema::RecordingRef& ref) {
+  double ss = 0, mx = 0;
+  const auto& fv = ref.registration.fiducials_vol_mm;
+  for (const auto& p : a.stage_rig_mm.value) {
+    const double e = predicted_tre_mm(fv, a.registration.fle_mm, a.centre_vol_mm(p));
+    ss += e * e;
+    mx = std::max(mx, e);
+  }
+  a.registration.tre_path_rms_mm = std::sqrt(ss / double(std::max<std::size_t>(1, a.stage_rig_mm.value.size())));
+  a.registration.tre_path_max_mm = mx;
+}
+
+}  // namespace
+
+AlignedRecording align_recording(const data_schema::ExperimentManifest& m,
+                                 const data_schema::RecordingRef& ref,
+                                 const data_schema::Recording& rec, const std::string& file) {
+  AlignedRecording a;
+  a.id = ref.id;
+  a.sample_id = ref.sample;
+  a.file = ref.path;
+  const std::vector<std::size_t> f_keep = read_force(a, rec, file);
+  read_stage_position(a, rec, file);
+  read_spindle_speed(a, m, ref, rec, file);
+  read_spindle_load(a, rec, file);
+  mark_segments(a, ref, *rec.stream_with(data_schema::kForce), f_keep);
+
+  const std::string mfile = m.file.string();
+  std::size_t index = 0;
+  while (index < m.recordings.size() && m.recordings[index].id != ref.id) ++index;
+  register_to_volume(a, ref, mfile, fmt::format("recordings[{}].registration", index));
+  check_rotation(m.sensor.rotation_sensor_to_rig, mfile, "sensor.rotation_sensor_to_rig");
+  take_burr_and_sensor(a, m, ref, rec, file, index);
   if (!std::isfinite(ref.lag_ms))
     throw InputError(mfile, fmt::format("recordings[{}].lag_ms", index), "a finite number");
   a.lag_s = ref.lag_ms * 1e-3;
   mark_position_gaps(a);
   find_via_times(a);
-  if (a.fiducial_fit) {
-    // Predicted TRE along the burr's path (volume frame, as the fiducials).
-    double ss = 0, mx = 0;
-    const auto& fv = ref.registration.fiducials_vol_mm;
-    for (const auto& p : a.stage_rig_mm.value) {
-      const double e = predicted_tre_mm(fv, a.registration.fle_mm, a.centre_vol_mm(p));
-      ss += e * e;
-      mx = std::max(mx, e);
-    }
-    a.registration.tre_path_rms_mm = std::sqrt(ss / double(std::max<std::size_t>(1, a.stage_rig_mm.value.size())));
-    a.registration.tre_path_max_mm = mx;
-  }
+  if (a.fiducial_fit) path_tre(a, ref);
   return a;
 }
 

@@ -130,6 +130,9 @@ void TangentState::elastic_tangents(const KernelState& st, double R, bool forces
   }
 }
 
+// A hot kernel, long on purpose: it runs at every step of a sensitivity replay, for all
+// directions at once over the contact's voxels (bench/sensitivity_replay.cpp measures it).
+// NOLINTNEXTLINE(readability-function-size)
 void TangentState::differentiate(const Volume& vol, const ContactResult& c, const glm::dvec3* dp,
                                  bool eroded, glm::dvec3* dF, glm::dvec3* dT) {
   const std::size_t P = P_;

@@ -68,9 +68,7 @@ py::array_t<double> per_class(const std::array<glm::dvec3, model::kMaxClasses>& 
   return vec3_array(std::vector<glm::dvec3>(v.begin(), v.end()));
 }
 
-}  // namespace
-
-void bind_model(py::module_& m) {
+void bind_volume(py::module_& m) {
   py::class_<PyVolume, std::shared_ptr<PyVolume>>(m, "Volume",
                                                   "A CT voxel volume: class label and bone fraction per voxel.")
       .def_static(
@@ -146,6 +144,9 @@ void bind_model(py::module_& m) {
           },
           "The bone fraction per voxel now, [z, y, x].");
 
+}
+
+void bind_contact(py::module_& m) {
   m.def(
       "contact",
       [](const PyVolume& v, const py::object& params, const py::object& p_mm, const py::object& omega_rad_s,
@@ -181,7 +182,9 @@ void bind_model(py::module_& m) {
       "The contact of a burr of radius R (mm) centred at p (mm, volume frame) spinning at omega (rad/s): "
       "force (N) and moment (N*mm) on the burr, normal, depth b (mm), and the partials per class label "
       "(rows 0..7): F_e = sum C1_k dF_dC1[k], F_mu = sum mu_k dFmu_dmu[k], T = sum mu_k dTmu_dmu[k].");
+}
 
+void bind_replay(py::module_& m) {
   m.def(
       "replay",
       [](const fs::path& experiment, const py::object& params, const py::object& step_us_arg,
@@ -229,6 +232,14 @@ void bind_model(py::module_& m) {
       "{t_s, force_sensor_pred_N, ... (the prediction file's datasets), removed_mm3, steps}}; "
       "progress(fraction, line) receives the progress lines. Two recordings of one sample that removed the "
       "same bone give a UserWarning naming them, as do the alignment's warnings (force samples without a measured position, a recording that begins in bone).");
+}
+
+}  // namespace
+
+void bind_model(py::module_& m) {
+  bind_volume(m);
+  bind_contact(m);
+  bind_replay(m);
 }
 
 }  // namespace burrbench::python

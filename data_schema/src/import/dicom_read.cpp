@@ -309,18 +309,15 @@ bool looks_like_dicom(const fs::path& file) {
   return std::memcmp(magic + 128, "DICM", 4) == 0;
 }
 
-ImageVolume read_dicom(const std::vector<fs::path>& inputs, const DicomOptions& opt, const ImportLimits& lim) {
-  quiet_gdcm();
-  const std::vector<fs::path> files = expand(inputs);
-  const std::string where = inputs.size() == 1 ? inputs[0].string() : files[0].string();
-  std::vector<Slice> all;
-  all.reserve(files.size());
-  for (const auto& f : files) all.push_back(read_header(f, lim));
+namespace {
 
-  // The series.
+// The series read: the only one, or the one --dicom-series names. The other series' files
+// go to `set_aside`.
+std::vector<Slice> choose_series(std::vector<Slice>& all, const DicomOptions& opt, const std::string& where,
+                                 std::string& uid, std::vector<fs::path>& set_aside) {
   std::set<std::string> uids;
   for (const auto& s : all) uids.insert(s.series_uid);
-  std::string uid = opt.series_uid;
+  uid = opt.series_uid;
   const auto list = [&] {
     std::string l;
     for (const auto& u : uids) l += (l.empty() ? "" : "; ") + describe(all, u);
@@ -335,15 +332,17 @@ ImageVolume read_dicom(const std::vector<fs::path>& inputs, const DicomOptions& 
     throw InputError(where, "SeriesInstanceUID (0020,000E)", "the series " + uid + " given by --dicom-series among: " + list());
   }
   std::vector<Slice> slices;
-  std::vector<fs::path> set_aside;  // the other series' files, opened to learn their UIDs
   for (auto& s : all) {
     if (s.series_uid == uid) slices.push_back(std::move(s));
     else set_aside.push_back(s.file);
   }
+  return slices;
+}
+
+// Every slice like the first: size, pixel type, geometry tags, orientation, spacing.
+void check_like_first(const std::vector<Slice>& slices, const DicomOptions& opt) {
   const Slice& first = slices.front();
   const std::string f0 = first.file.string();
-
-  // Every slice like the first.
   for (const auto& s : slices) {
     const std::string f = s.file.string();
     if (s.rows != first.rows || s.columns != first.columns)
@@ -365,10 +364,22 @@ ImageVolume read_dicom(const std::vector<fs::path>& inputs, const DicomOptions& 
         throw InputError(f, "PixelSpacing (0028,0030)", "the pixel spacing of " + f0);
     }
   }
+}
 
+struct Directions {
+  glm::dvec3 row{1, 0, 0}, column{0, 1, 0}, normal{0, 0, 1};
+};
+
+// The slices' directions from the first's orientation, and the slices sorted along the
+// normal.
+Directions sort_along_normal(std::vector<Slice>& slices) {
+  const Slice& first = slices.front();
+  const std::string f0 = first.file.string();
+  Directions d;
   // Directions: row direction r (along a row, i.e. increasing column index = x index),
   // column direction c (increasing row index = y index), normal n = r × c.
-  glm::dvec3 r{1, 0, 0}, c{0, 1, 0};
+  glm::dvec3& r = d.row;
+  glm::dvec3& c = d.column;
   if (first.orientation) {
     const auto& o = *first.orientation;
     r = {o[0], o[1], o[2]};
@@ -379,53 +390,68 @@ ImageVolume read_dicom(const std::vector<fs::path>& inputs, const DicomOptions& 
     r = glm::normalize(r);
     c = glm::normalize(c);
   }
-  const glm::dvec3 n = glm::normalize(glm::cross(r, c));
+  d.normal = glm::normalize(glm::cross(r, c));
+  const glm::dvec3& n = d.normal;
   if (slices.size() > 1 && !first.position)
     throw InputError(f0, "ImagePositionPatient (0020,0032)", "a position in every slice of a series of several");
   if (first.position)
     for (auto& s : slices) s.along = glm::dot(*s.position, n);
   std::stable_sort(slices.begin(), slices.end(), [](const Slice& a, const Slice& b) { return a.along < b.along; });
+  return d;
+}
 
+// The mean gap of several slices, checked even (within opt.gap_tolerance) and stacked
+// along the normal (within opt.lateral_tolerance of a pixel); its range into `geometry`.
+double even_slice_gap(const std::vector<Slice>& slices, const glm::dvec3& n, const glm::dvec3& spacing,
+                      const DicomOptions& opt, nlohmann::json& geometry) {
+  const Slice& first = slices.front();
+  const double gap = (slices.back().along - slices.front().along) / double(slices.size() - 1);
+  double min_gap = gap, max_gap = gap, worst_dev = -1;
+  std::size_t worst = 1;
+  for (std::size_t i = 1; i < slices.size(); ++i) {
+    const double g = slices[i].along - slices[i - 1].along;
+    if (std::abs(g) <= 1e-6 * std::max(1.0, std::abs(gap)))
+      throw InputError(slices[i].file.string(), "ImagePositionPatient (0020,0032)",
+                       "one slice per position (a series with several images at one place, e.g. echoes or phases, "
+                       "needs its files listed)", "the same position as " + slices[i - 1].file.string());
+    if (std::abs(g - gap) > worst_dev) {
+      worst_dev = std::abs(g - gap);
+      worst = i;
+    }
+    min_gap = std::min(min_gap, g);
+    max_gap = std::max(max_gap, g);
+  }
+  if (max_gap - gap > opt.gap_tolerance * gap || gap - min_gap > opt.gap_tolerance * gap)
+    throw InputError(slices[worst].file.string(), "ImagePositionPatient (0020,0032)",
+                     fmt::format("evenly spaced slices (every gap within {:g} % of the mean {:.6g} mm; resample the series in "
+                                 "3D Slicer first)", 100 * opt.gap_tolerance, gap),
+                     fmt::format("gaps from {:.6g} to {:.6g} mm", min_gap, max_gap));
+  const double pixel = first.pixel_spacing ? std::min(spacing.x, spacing.y) : gap;
+  for (const auto& s : slices) {
+    const glm::dvec3 d = *s.position - *slices.front().position;
+    const glm::dvec3 lateral = d - glm::dot(d, n) * n;
+    if (glm::length(lateral) > opt.lateral_tolerance * pixel)
+      throw InputError(s.file.string(), "ImagePositionPatient (0020,0032)",
+                       fmt::format("slices stacked along the normal of ImageOrientationPatient (within {:g} of a pixel; a "
+                                   "gantry-tilted series must be resampled in 3D Slicer first)", opt.lateral_tolerance),
+                       fmt::format("a tilt of {:.3g}° ({:.4g} mm sideways over {:.4g} mm)",
+                                   std::atan2(glm::length(lateral), std::abs(glm::dot(d, n))) * 180 / M_PI,
+                                   glm::length(lateral), std::abs(glm::dot(d, n))));
+  }
+  geometry["slice_gap_mm"] = {{"mean", gap}, {"min", min_gap}, {"max", max_gap}};
+  return gap;
+}
+
+// The voxel spacing: the pixel spacing and the slices' gap (or the single slice's
+// spacing tags), unless --spacing-mm gives it. How it was found goes into `geometry`.
+glm::dvec3 voxel_spacing(const std::vector<Slice>& slices, const glm::dvec3& n, const DicomOptions& opt,
+                         const std::string& where, nlohmann::json& geometry) {
+  const Slice& first = slices.front();
+  const std::string f0 = first.file.string();
   glm::dvec3 spacing{0, 0, 0};
   if (first.pixel_spacing) spacing = {(*first.pixel_spacing)[1], (*first.pixel_spacing)[0], 0};
-  double gap = 0;
-  nlohmann::json geometry = nlohmann::json::object();
   if (slices.size() > 1) {
-    gap = (slices.back().along - slices.front().along) / double(slices.size() - 1);
-    double min_gap = gap, max_gap = gap, worst_dev = -1;
-    std::size_t worst = 1;
-    for (std::size_t i = 1; i < slices.size(); ++i) {
-      const double g = slices[i].along - slices[i - 1].along;
-      if (std::abs(g) <= 1e-6 * std::max(1.0, std::abs(gap)))
-        throw InputError(slices[i].file.string(), "ImagePositionPatient (0020,0032)",
-                         "one slice per position (a series with several images at one place, e.g. echoes or phases, "
-                         "needs its files listed)", "the same position as " + slices[i - 1].file.string());
-      if (std::abs(g - gap) > worst_dev) {
-        worst_dev = std::abs(g - gap);
-        worst = i;
-      }
-      min_gap = std::min(min_gap, g);
-      max_gap = std::max(max_gap, g);
-    }
-    if (max_gap - gap > opt.gap_tolerance * gap || gap - min_gap > opt.gap_tolerance * gap)
-      throw InputError(slices[worst].file.string(), "ImagePositionPatient (0020,0032)",
-                       fmt::format("evenly spaced slices (every gap within {:g} % of the mean {:.6g} mm; resample the series in "
-                                   "3D Slicer first)", 100 * opt.gap_tolerance, gap),
-                       fmt::format("gaps from {:.6g} to {:.6g} mm", min_gap, max_gap));
-    const double pixel = first.pixel_spacing ? std::min(spacing.x, spacing.y) : gap;
-    for (const auto& s : slices) {
-      const glm::dvec3 d = *s.position - *slices.front().position;
-      const glm::dvec3 lateral = d - glm::dot(d, n) * n;
-      if (glm::length(lateral) > opt.lateral_tolerance * pixel)
-        throw InputError(s.file.string(), "ImagePositionPatient (0020,0032)",
-                         fmt::format("slices stacked along the normal of ImageOrientationPatient (within {:g} of a pixel; a "
-                                     "gantry-tilted series must be resampled in 3D Slicer first)", opt.lateral_tolerance),
-                         fmt::format("a tilt of {:.3g}° ({:.4g} mm sideways over {:.4g} mm)",
-                                     std::atan2(glm::length(lateral), std::abs(glm::dot(d, n))) * 180 / M_PI,
-                                     glm::length(lateral), std::abs(glm::dot(d, n))));
-    }
-    spacing.z = gap;
-    geometry["slice_gap_mm"] = {{"mean", gap}, {"min", min_gap}, {"max", max_gap}};
+    spacing.z = even_slice_gap(slices, n, spacing, opt, geometry);
   } else if (first.spacing_between && *first.spacing_between > 0) {
     spacing.z = *first.spacing_between;
     geometry["slice_spacing_from"] = "SpacingBetweenSlices";
@@ -444,6 +470,50 @@ ImageVolume read_dicom(const std::vector<fs::path>& inputs, const DicomOptions& 
     throw InputError(f0, "PixelSpacing (0028,0030)", "a pixel spacing (or --spacing-mm sx,sy,sz)", "none");
   if (!(spacing.z > 0))
     throw InputError(f0, "SliceThickness (0018,0050)", "a slice spacing for a single slice (SpacingBetweenSlices, SliceThickness or --spacing-mm)", "none");
+  return spacing;
+}
+
+nlohmann::json dicom_source_info(const std::vector<Slice>& slices, const std::string& uid,
+                                 const nlohmann::json& geometry) {
+  const Slice& first = slices.front();
+  std::set<std::string> syntaxes;
+  for (const auto& s : slices) syntaxes.insert(s.transfer_syntax);
+  nlohmann::json rescale = nlohmann::json::array();
+  std::set<std::pair<double, double>> seen;
+  for (const auto& s : slices)
+    if (seen.insert({s.slope, s.intercept}).second) rescale.push_back({{"slope", s.slope}, {"intercept", s.intercept}});
+  return {{"format", "DICOM"},
+          {"series_uid", uid},
+          {"modality", first.modality},
+          {"series_description", first.description},
+          {"slices", slices.size()},
+          {"transfer_syntaxes", syntaxes},
+          {"rescale", rescale},
+          {"rescale_type", first.rescale_type},
+          {"photometric", first.photometric},
+          {"frame", first.position ? "DICOM patient (LPS), as the file states it" : "none in the file: origin 0, axes as stored"},
+          {"geometry", geometry}};
+}
+
+}  // namespace
+
+ImageVolume read_dicom(const std::vector<fs::path>& inputs, const DicomOptions& opt, const ImportLimits& lim) {
+  quiet_gdcm();
+  const std::vector<fs::path> files = expand(inputs);
+  const std::string where = inputs.size() == 1 ? inputs[0].string() : files[0].string();
+  std::vector<Slice> all;
+  all.reserve(files.size());
+  for (const auto& f : files) all.push_back(read_header(f, lim));
+
+  std::string uid;
+  std::vector<fs::path> set_aside;  // the other series' files, opened to learn their UIDs
+  std::vector<Slice> slices = choose_series(all, opt, where, uid, set_aside);
+  check_like_first(slices, opt);
+  const Directions d = sort_along_normal(slices);
+  const Slice& first = slices.front();
+  const std::string f0 = first.file.string();
+  nlohmann::json geometry = nlohmann::json::object();
+  const glm::dvec3 spacing = voxel_spacing(slices, d.normal, opt, where, geometry);
 
   ImageVolume v;
   v.dims = {first.columns, first.rows, slices.size()};
@@ -460,25 +530,9 @@ ImageVolume read_dicom(const std::vector<fs::path>& inputs, const DicomOptions& 
   }
   v.set_aside = std::move(set_aside);
   const glm::dvec3 origin = first.position ? *slices.front().position : glm::dvec3(0, 0, 0);
-  apply_axis_aligned(v, {r * spacing.x, c * spacing.y, n * spacing.z}, origin, f0, "ImageOrientationPatient (0020,0037)");
+  apply_axis_aligned(v, {d.row * spacing.x, d.column * spacing.y, d.normal * spacing.z}, origin, f0, "ImageOrientationPatient (0020,0037)");
 
-  std::set<std::string> syntaxes;
-  for (const auto& s : slices) syntaxes.insert(s.transfer_syntax);
-  nlohmann::json rescale = nlohmann::json::array();
-  std::set<std::pair<double, double>> seen;
-  for (const auto& s : slices)
-    if (seen.insert({s.slope, s.intercept}).second) rescale.push_back({{"slope", s.slope}, {"intercept", s.intercept}});
-  v.source_info = {{"format", "DICOM"},
-                   {"series_uid", uid},
-                   {"modality", first.modality},
-                   {"series_description", first.description},
-                   {"slices", slices.size()},
-                   {"transfer_syntaxes", syntaxes},
-                   {"rescale", rescale},
-                   {"rescale_type", first.rescale_type},
-                   {"photometric", first.photometric},
-                   {"frame", first.position ? "DICOM patient (LPS), as the file states it" : "none in the file: origin 0, axes as stored"},
-                   {"geometry", geometry}};
+  v.source_info = dicom_source_info(slices, uid, geometry);
   return v;
 }
 

@@ -61,6 +61,38 @@ std::vector<std::string> split_ws(const std::string& s) {
   return out;
 }
 
+struct NrrdGeometry {
+  std::array<glm::dvec3, 3> dirs{glm::dvec3{1, 0, 0}, glm::dvec3{0, 1, 0}, glm::dvec3{0, 0, 1}};
+  glm::dvec3 origin{0, 0, 0};
+};
+
+// The voxel axes (space directions, else spacings) and the origin of the header's fields.
+NrrdGeometry nrrd_geometry(std::map<std::string, std::string>& f, const std::string& file) {
+  NrrdGeometry g;
+  auto& dirs = g.dirs;
+  auto& origin = g.origin;
+  if (f.count("space directions")) {
+    if (f.count("space dimension") && trim(f["space dimension"]) != "3") throw InputError(file, "space dimension", "3", f["space dimension"]);
+    const auto toks = split_ws(f["space directions"]);
+    if (toks.size() != 3) throw InputError(file, "space directions", "three vectors (a,b,c) (no 'none' axes)", f["space directions"]);
+    for (std::size_t i = 0; i < 3; ++i) dirs[i] = parse_vector(toks[i], file, "space directions");
+    if (f.count("space origin")) origin = parse_vector(f["space origin"], file, "space origin");
+  } else if (f.count("spacings")) {
+    const auto toks = split_ws(f["spacings"]);
+    if (toks.size() != 3) throw InputError(file, "spacings", "3 spacings", f["spacings"]);
+    for (std::size_t i = 0; i < 3; ++i) {
+      auto s = to_double(toks[i]);
+      if (!s || *s <= 0) throw InputError(file, "spacings", "3 positive finite spacings", f["spacings"]);
+      dirs[i] = glm::dvec3(0);
+      dirs[i][static_cast<int>(i)] = *s;
+    }
+    if (f.count("space origin")) origin = parse_vector(f["space origin"], file, "space origin");
+  } else {
+    throw InputError(file, "space directions", "voxel spacing (space directions or spacings)", "none");
+  }
+  return g;
+}
+
 }  // namespace
 
 ImageVolume parse_nrrd(std::string_view bytes, const std::string& file, const DataFileReader& data_file,
@@ -137,28 +169,7 @@ ImageVolume parse_nrrd(std::string_view bytes, const std::string& file, const Da
     big = e == "big";
   }
 
-  // --- geometry ---
-  std::array<glm::dvec3, 3> dirs{glm::dvec3{1, 0, 0}, glm::dvec3{0, 1, 0}, glm::dvec3{0, 0, 1}};
-  glm::dvec3 origin{0, 0, 0};
-  if (f.count("space directions")) {
-    if (f.count("space dimension") && trim(f["space dimension"]) != "3") throw InputError(file, "space dimension", "3", f["space dimension"]);
-    const auto toks = split_ws(f["space directions"]);
-    if (toks.size() != 3) throw InputError(file, "space directions", "three vectors (a,b,c) (no 'none' axes)", f["space directions"]);
-    for (std::size_t i = 0; i < 3; ++i) dirs[i] = parse_vector(toks[i], file, "space directions");
-    if (f.count("space origin")) origin = parse_vector(f["space origin"], file, "space origin");
-  } else if (f.count("spacings")) {
-    const auto toks = split_ws(f["spacings"]);
-    if (toks.size() != 3) throw InputError(file, "spacings", "3 spacings", f["spacings"]);
-    for (std::size_t i = 0; i < 3; ++i) {
-      auto s = to_double(toks[i]);
-      if (!s || *s <= 0) throw InputError(file, "spacings", "3 positive finite spacings", f["spacings"]);
-      dirs[i] = glm::dvec3(0);
-      dirs[i][static_cast<int>(i)] = *s;
-    }
-    if (f.count("space origin")) origin = parse_vector(f["space origin"], file, "space origin");
-  } else {
-    throw InputError(file, "space directions", "voxel spacing (space directions or spacings)", "none");
-  }
+  const NrrdGeometry geometry = nrrd_geometry(f, file);
 
   // --- data ---
   std::string detached;
@@ -213,7 +224,7 @@ ImageVolume parse_nrrd(std::string_view bytes, const std::string& file, const Da
     }
   }
   v.values = decode_samples(data, count, type, big, data_name);
-  apply_axis_aligned(v, dirs, origin, file, "space directions");
+  apply_axis_aligned(v, geometry.dirs, geometry.origin, file, "space directions");
   return v;
 }
 
