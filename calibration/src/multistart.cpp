@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/job_queue.hpp"
 
 namespace burrbench::calibration {
@@ -54,7 +55,7 @@ const char* to_string(StartEnd::Ending e) {
     case StartEnd::Ending::kConverged: return "converged";
     case StartEnd::Ending::kStopped: return "stopped";
   }
-  return "?";
+  BURRBENCH_UNREACHABLE();
 }
 
 SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double tolerance,

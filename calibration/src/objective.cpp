@@ -30,7 +30,7 @@ struct Robust {
       case LossKind::kHuber: return s <= c2 ? s : 2 * std::sqrt(c2 * s) - c2;
       case LossKind::kCauchy: return c2 * std::log1p(s / c2);
     }
-    return s;
+    BURRBENCH_UNREACHABLE();
   }
   double drho(double s) const {
     switch (kind) {
@@ -38,7 +38,7 @@ struct Robust {
       case LossKind::kHuber: return s <= c2 ? 1 : std::sqrt(c2 / s);
       case LossKind::kCauchy: return 1 / (1 + s / c2);
     }
-    return 1;
+    BURRBENCH_UNREACHABLE();
   }
 };
 

@@ -13,7 +13,7 @@ const char* to_string(PhysKind k) {
     case PhysKind::kC1: return "c1";
     case PhysKind::kMu: return "mu";
   }
-  return "?";
+  BURRBENCH_UNREACHABLE();
 }
 
 const char* unit_of(PhysKind k) { return k == PhysKind::kMu ? "1" : "N/mm^2"; }

@@ -1,5 +1,7 @@
 #include "burrbench/data_schema/error.hpp"
 
+#include <cstdio>
+#include <cstdlib>
 #include <exception>
 
 #include <fmt/format.h>
@@ -42,6 +44,11 @@ const std::string& file_being_read() { return g_failed_reading.empty() ? g_readi
 
 void invariant_failed(const char* expr, const char* file, int line, const std::string& detail) {
   throw InvariantError(fmt::format("internal check failed: {} ({}:{}) {}", expr, file, line, detail));
+}
+
+void unreachable(const char* file, int line) noexcept {
+  std::fprintf(stderr, "burrbench: internal error: unreachable code reached (%s:%d)\n", file, line);
+  std::abort();
 }
 
 }  // namespace burrbench

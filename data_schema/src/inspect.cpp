@@ -199,7 +199,7 @@ const char* format_name(FileFormat f) {
     case FileFormat::kFit: return kFitFormat;
     case FileFormat::kPrediction: return kPredictionFormat;
   }
-  return "?";
+  BURRBENCH_UNREACHABLE();
 }
 
 FileFormat detect_format(const std::filesystem::path& path) {

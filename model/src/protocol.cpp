@@ -86,7 +86,7 @@ const char* to_string(MoveKind k) {
     case MoveKind::kRetract:
       return "retract";
   }
-  return "?";
+  BURRBENCH_UNREACHABLE();
 }
 
 Protocol parse_protocol(std::string_view text, const std::string& file) {

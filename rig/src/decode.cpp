@@ -34,7 +34,7 @@ double decode_raw(const std::uint16_t* regs, ValueType type, WordOrder order) {
     case ValueType::UInt32: return assemble32(regs[0], regs[1], order);
     case ValueType::Float32: return std::bit_cast<float>(assemble32(regs[0], regs[1], order));
   }
-  return 0;
+  BURRBENCH_UNREACHABLE();
 }
 
 std::int64_t decode_integer(const std::uint16_t* regs, ValueType type, WordOrder order) {
@@ -75,7 +75,7 @@ bool at_rail(double raw, ValueType type) {
     case ValueType::UInt32: return raw >= 4294967295.0;
     case ValueType::Float32: return false;  // NaN and ±Inf are flagged as non-finite
   }
-  return false;
+  BURRBENCH_UNREACHABLE();
 }
 
 bool decode_channel(const ChannelSpec& ch, std::span<const std::uint16_t> regs, int base,

@@ -30,7 +30,7 @@ const char* to_string(ReadStatus s) {
     case ReadStatus::Disconnected: return "disconnected";
     case ReadStatus::EarlyReply: return "early_reply";
   }
-  return "?";
+  BURRBENCH_UNREACHABLE();
 }
 
 ModbusLink::ModbusLink(const DeviceSpec& s) : settings_(s) {

@@ -29,7 +29,7 @@ const char* to_string(ValueType t) {
     case ValueType::UInt32: return "uint32";
     case ValueType::Float32: return "float32";
   }
-  return "?";
+  BURRBENCH_UNREACHABLE();
 }
 const char* to_string(WordOrder o) {
   switch (o) {
@@ -38,7 +38,7 @@ const char* to_string(WordOrder o) {
     case WordOrder::BADC: return "BADC";
     case WordOrder::DCBA: return "DCBA";
   }
-  return "?";
+  BURRBENCH_UNREACHABLE();
 }
 
 namespace {

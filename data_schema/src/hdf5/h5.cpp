@@ -75,7 +75,7 @@ const char* elem_name(Elem e) {
     case Elem::kFloat64: return "float64";
     case Elem::kFloat32: return "float32";
   }
-  return "?";
+  BURRBENCH_UNREACHABLE();
 }
 
 namespace {
@@ -88,7 +88,7 @@ hid_t native(Elem e) {
     case Elem::kFloat64: return H5T_NATIVE_DOUBLE;
     case Elem::kFloat32: return H5T_NATIVE_FLOAT;
   }
-  return -1;
+  BURRBENCH_UNREACHABLE();
 }
 
 template <class T> Elem elem_of();
@@ -106,7 +106,7 @@ hid_t file_type(Elem e) {
     case Elem::kFloat64: return H5T_IEEE_F64LE;
     case Elem::kFloat32: return H5T_IEEE_F32LE;
   }
-  return -1;
+  BURRBENCH_UNREACHABLE();
 }
 
 std::string describe_type(hid_t t) {
@@ -136,7 +136,7 @@ bool convertible(hid_t t, Elem e) {
     case Elem::kUInt16: return c == H5T_INTEGER && is_unsigned && size <= 2;
     case Elem::kUInt8: return c == H5T_INTEGER && is_unsigned && size == 1;
   }
-  return false;
+  BURRBENCH_UNREACHABLE();
 }
 
 std::string dims_text(const std::vector<hsize_t>& d) {

@@ -77,7 +77,7 @@ std::string unit_list(Quantity q) {
     case Quantity::kSpeed: return "rpm, Hz or rad/s";
     case Quantity::kPower: return "W, mW or kW";
   }
-  return {};
+  BURRBENCH_UNREACHABLE();
 }
 
 int canonical_index(const std::string& name) {

@@ -27,7 +27,7 @@ const char* to_string(VoxelType t) {
     case VoxelType::kUint16: return "uint16";
     case VoxelType::kFloat32: return "float32";
   }
-  return "?";
+  BURRBENCH_UNREACHABLE();
 }
 
 std::size_t byte_size(VoxelType t) {
@@ -37,7 +37,7 @@ std::size_t byte_size(VoxelType t) {
     case VoxelType::kUint16: return 2;
     case VoxelType::kFloat32: return 4;
   }
-  return 1;
+  BURRBENCH_UNREACHABLE();
 }
 
 bool is_cubic(const ImageVolume& v, double rel_tol) {

@@ -1,7 +1,8 @@
 #pragma once
 // Errors shared by every folder. Bad input raises InputError, whose message names the
 // file, the field and what was expected; `main` prints it as one line and exits 2.
-// Broken programmer invariants raise InvariantError through BURRBENCH_CHECK (always on).
+// Broken programmer invariants raise InvariantError through BURRBENCH_CHECK (always on);
+// code after an exhaustive enum switch is BURRBENCH_UNREACHABLE() (aborts, always on).
 #include <stdexcept>
 #include <string>
 
@@ -47,6 +48,8 @@ const std::string& file_being_read();
 
 [[noreturn]] void invariant_failed(const char* expr, const char* file, int line,
                                    const std::string& detail);
+// Prints "burrbench: internal error: unreachable code reached (FILE:LINE)" and aborts.
+[[noreturn]] void unreachable(const char* file, int line) noexcept;
 
 }  // namespace burrbench
 
@@ -54,3 +57,9 @@ const std::string& file_being_read();
   do {                                                                         \
     if (!(cond)) ::burrbench::invariant_failed(#cond, __FILE__, __LINE__, detail); \
   } while (0)
+
+// After a switch that returns for every enumerator (no `default:`, so -Wswitch names a
+// new enumerator left out). Reached only with a value outside the enum: never from a file,
+// whose enums are parsed from names and refused there (exit 2). Aborts in every build
+// rather than __builtin_unreachable(): a wrong value must not become undefined behaviour.
+#define BURRBENCH_UNREACHABLE() ::burrbench::unreachable(__FILE__, __LINE__)
