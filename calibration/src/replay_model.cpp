@@ -223,10 +223,6 @@ bool plausible_columns(const Prediction& p) {
 
 }  // namespace
 
-const char* to_string(Derivatives d) {
-  return d == Derivatives::kSensitivities ? "sensitivities" : "fd";
-}
-
 namespace {
 // A solve's last accepted point and the trials after it. The Jacobians are kept apart from
 // the values alone, so that trial points do not push out the Jacobian a later solve (the

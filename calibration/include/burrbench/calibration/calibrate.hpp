@@ -9,7 +9,7 @@
 
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/parameter_set.hpp"
-#include "burrbench/calibration/recording_model.hpp"
+#include "burrbench/calibration/derivatives.hpp"
 #include "burrbench/data_schema/cancel.hpp"
 #include "burrbench/data_schema/progress.hpp"
 #include "burrbench/model/experiment.hpp"

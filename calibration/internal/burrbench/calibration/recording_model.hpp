@@ -11,16 +11,10 @@
 
 #include <glm/glm.hpp>
 
+#include "burrbench/calibration/derivatives.hpp"
 #include "burrbench/calibration/parameters.hpp"
 
 namespace burrbench::calibration {
-
-// How the Jacobian of the replayed force is obtained.
-enum class Derivatives {
-  kSensitivities,      // forward sensitivities carried through the replay (exact, one replay)
-  kFiniteDifferences,  // central differences of whole replays (steps from cost sweeps)
-};
-const char* to_string(Derivatives d);  // "sensitivities" | "fd"
 
 // A derivative the solver asks for: d(predicted sensor force)/d(column).
 enum class ColumnKind { kLogAlpha, kLogC1, kLogMu, kLagMs, kDepthMm, kPose };
