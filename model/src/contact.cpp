@@ -18,8 +18,7 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-const LensTable& table_for(const Volume& vol, double R) {
-  detail::Scratch& s = vol.scratch();
+const LensTable& table_for(const Volume& vol, detail::Scratch& s, double R) {
   if (!s.has_table || s.table.radius() != R || s.table.voxel() != vol.voxel_mm()) {
     s.table = LensTable(R, vol.voxel_mm());
     s.has_table = true;
@@ -208,7 +207,7 @@ struct CubeQuad {
 
 // First pass: moments of all voxels within reach, collecting lens voxels in scratch.
 template <class Quad>
-void gather(const Volume& vol, const Quad& q, glm::dvec3 p, Moments& mo) {
+void gather(const Volume& vol, detail::Scratch& sc, const Quad& q, glm::dvec3 p, Moments& mo) {
   const auto& dims = vol.dims();
   const double l = vol.voxel_mm(), inv_l = 1.0 / l;
   // Voxels are placed by their index in the sample's grid (a cut volume holds rows y ≥ y_off,
@@ -241,11 +240,10 @@ void gather(const Volume& vol, const Quad& q, glm::dvec3 p, Moments& mo) {
 
   // Lens buffer: grown (rarely) so that a whole row always fits; it keeps its size
   // across calls, so steady-state evaluation does not allocate.
-  auto& lens = vol.scratch().lens;
+  auto& lens = sc.lens;
   detail::LensVoxel* first = lens.data();
   detail::LensVoxel* out = first;
   Sums S;
-  detail::Scratch& sc = vol.scratch();
   if (sc.keep_inside) {
     sc.inside_spans.clear();
     sc.inside_extra.clear();
@@ -344,7 +342,7 @@ struct CubeArea {
 };
 
 template <class Quad, class Area>
-ContactResult contact_with(const Volume& vol, const Quad& quad, const Area& area_of, glm::dvec3 p,
+ContactResult contact_with(const Volume& vol, detail::Scratch& sc, const Quad& quad, const Area& area_of, glm::dvec3 p,
                            glm::dvec3 omega, double R, const ModelParams& prm, Volume* erode_vol,
                            double dt, std::array<double, kMaxClasses>* removed,
                            std::array<double, kMaxClasses>* energy) {
@@ -352,8 +350,8 @@ ContactResult contact_with(const Volume& vol, const Quad& quad, const Area& area
   if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(omega.x + omega.y + omega.z))
     throw InputError("model", "burr state", "finite centre and angular velocity");
   Moments mo;
-  gather(vol, quad, p, mo);
-  detail::KernelState& st = vol.scratch().state;
+  gather(vol, sc, quad, p, mo);
+  detail::KernelState& st = sc.state;
   st = detail::KernelState{};
   st.p = p;
   st.radius = R;
@@ -429,7 +427,7 @@ ContactResult contact_with(const Volume& vol, const Quad& quad, const Area& area
   }
   double power = 0;
   const bool do_erode = erode_vol != nullptr && dt > 0;
-  const detail::LensVoxel* lv = vol.scratch().lens.data();
+  const detail::LensVoxel* lv = sc.lens.data();
   for (std::size_t j = 0; j < mo.lens_count; ++j) {
     const detail::LensVoxel& v = lv[j];
     const double vn = n.x * v.vx + n.y * v.vy + n.z * v.vz;
@@ -484,41 +482,61 @@ ContactResult contact_with(const Volume& vol, const Quad& quad, const Area& area
   return out;
 }
 
-ContactResult contact(const Volume& vol, glm::dvec3 p, glm::dvec3 omega, double R,
+ContactResult contact(const Volume& vol, detail::Scratch& sc, glm::dvec3 p, glm::dvec3 omega, double R,
                       const ModelParams& prm, Volume* erode_vol, double dt,
                       std::array<double, kMaxClasses>* removed,
                       std::array<double, kMaxClasses>* energy, Quadrature q) {
   if (!(R > 0) || !std::isfinite(R))
     throw InputError("model", "radius_mm", "finite burr radius > 0 mm", std::to_string(R));
   if (q == Quadrature::kCube) {
-    detail::Scratch& sc = vol.scratch();
     const CubeQuad quad{R, vol.voxel_mm(), sc.cut};
     sc.cut.resize(sc.lens.size());
-    ContactResult c = contact_with(vol, quad, CubeArea{sc.cut}, p, omega, R, prm, erode_vol, dt,
+    ContactResult c = contact_with(vol, sc, quad, CubeArea{sc.cut}, p, omega, R, prm, erode_vol, dt,
                                    removed, energy);
     sc.state.cube = true;
     return c;
   }
-  const LensTable& tab = table_for(vol, R);
-  return contact_with(vol, LensQuad{tab}, LensArea(tab), p, omega, R, prm, erode_vol, dt, removed, energy);
+  const LensTable& tab = table_for(vol, sc, R);
+  return contact_with(vol, sc, LensQuad{tab}, LensArea(tab), p, omega, R, prm, erode_vol, dt, removed, energy);
 }
 
 }  // namespace
 
+KernelScratch::KernelScratch() : s_(std::make_unique<detail::Scratch>()) {}
+KernelScratch::~KernelScratch() = default;
+KernelScratch::KernelScratch(KernelScratch&&) noexcept = default;
+KernelScratch& KernelScratch::operator=(KernelScratch&&) noexcept = default;
+
+ContactResult evaluate(const Volume& vol, KernelScratch& scratch, glm::dvec3 centre_vol_mm,
+                       glm::dvec3 omega_vol_rad_s, double radius_mm, const ModelParams& params,
+                       Quadrature q) {
+  return contact(vol, scratch.get(), centre_vol_mm, omega_vol_rad_s, radius_mm, params, nullptr, 0, nullptr,
+                 nullptr, q);
+}
+
 ContactResult evaluate(const Volume& vol, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
                        double radius_mm, const ModelParams& params, Quadrature q) {
-  return contact(vol, centre_vol_mm, omega_vol_rad_s, radius_mm, params, nullptr, 0, nullptr,
-                 nullptr, q);
+  KernelScratch scratch;
+  return evaluate(vol, scratch, centre_vol_mm, omega_vol_rad_s, radius_mm, params, q);
+}
+
+ContactResult step(Volume& vol, KernelScratch& scratch, glm::dvec3 centre_vol_mm,
+                   glm::dvec3 omega_vol_rad_s, double radius_mm, const ModelParams& params,
+                   double dt_s, std::array<double, kMaxClasses>& removed_mm3,
+                   std::array<double, kMaxClasses>* energy_mJ, Quadrature q) {
+  if (!(dt_s >= 0) || !std::isfinite(dt_s))
+    throw InputError("model", "dt_s", "finite time step >= 0 s", std::to_string(dt_s));
+  return contact(vol, scratch.get(), centre_vol_mm, omega_vol_rad_s, radius_mm, params, &vol, dt_s,
+                 &removed_mm3, energy_mJ, q);
 }
 
 ContactResult step(Volume& vol, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
                    double radius_mm, const ModelParams& params, double dt_s,
                    std::array<double, kMaxClasses>& removed_mm3,
                    std::array<double, kMaxClasses>* energy_mJ, Quadrature q) {
-  if (!(dt_s >= 0) || !std::isfinite(dt_s))
-    throw InputError("model", "dt_s", "finite time step >= 0 s", std::to_string(dt_s));
-  return contact(vol, centre_vol_mm, omega_vol_rad_s, radius_mm, params, &vol, dt_s,
-                 &removed_mm3, energy_mJ, q);
+  KernelScratch scratch;
+  return step(vol, scratch, centre_vol_mm, omega_vol_rad_s, radius_mm, params, dt_s, removed_mm3,
+              energy_mJ, q);
 }
 
 }  // namespace burrbench::model

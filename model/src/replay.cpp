@@ -93,6 +93,9 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   const double span_s = tr.t_s.back() - std::min(tr.t_s.front(), tr.vias.empty() ? INFINITY : tr.vias.front().t_s);
   if (n > 1 && span_s / h > 1e9)
     throw InputError("replay", "step_s", "at most 1e9 internal steps", fmt::format("{} s over {} s", h, span_s));
+  // The kernel's working space, this replay's own (so replays of copies, or of one volume
+  // without erosion, may run side by side): its lens table is built at the first step.
+  KernelScratch scratch;
   // Forward sensitivities: a tangent state beside the undo log (it lives for this replay).
   // It carries only the directions that do not follow exactly from others (direction_plan.hpp).
   const bool sens = opt.directions && opt.sensitivities;
@@ -114,7 +117,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
                        std::to_string(dirs.size()));
     plan = detail::plan_directions(dirs, params, vol.bone_volume_by_class(), opt.derive_directions);
     const std::size_t P = plan.carried.size();
-    tan = std::make_unique<detail::TangentState>(vol, plan.carried, params);
+    tan = std::make_unique<detail::TangentState>(vol, scratch, plan.carried, params);
     carried.dforce_N.assign(P, std::vector<glm::dvec3>(n, glm::dvec3(0)));
     reached.assign(n, 0);
     dp.assign(P, glm::dvec3(0));
@@ -156,7 +159,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
       for (std::size_t j = 0; j < m; ++j) {
         const double f = double(j) / double(m);
         const bool reported = report != kNoReport && i == 0 && j == 0;
-        ContactResult c = step(vol, a.centre + f * dpk, a.omega + f * dw, radius_mm, params, dt,
+        ContactResult c = step(vol, scratch, a.centre + f * dpk, a.omega + f * dw, radius_mm, params, dt,
                                res.removed_mm3, &res.friction_energy_mJ, opt.quadrature);
         if (sens) {
           path_at(a.index, b.index, f);
@@ -187,7 +190,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
       if (opt.cancel && k % 64 == 0) opt.cancel->check();
       if (k + 1 == n || !opt.erosion) {
         res.samples[k].contact =
-            evaluate(vol, tr.centre_vol_mm[k], tr.omega_vol_rad_s[k], radius_mm, params, opt.quadrature);
+            evaluate(vol, scratch, tr.centre_vol_mm[k], tr.omega_vol_rad_s[k], radius_mm, params, opt.quadrature);
         if (sens) {
           path_at(k, k, 0);
           tan->differentiate(vol, res.samples[k].contact, dp.data(), false, dF.data(),

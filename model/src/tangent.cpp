@@ -14,9 +14,9 @@ constexpr double kPi = std::numbers::pi;
 constexpr std::int8_t kAlpha = 0, kC1 = 1, kMu = 2, kPath = 3;
 }  // namespace
 
-TangentState::TangentState(const Volume& vol, const std::vector<Direction>& dirs,
+TangentState::TangentState(const Volume& vol, KernelScratch& scratch, const std::vector<Direction>& dirs,
                            const ModelParams& prm)
-    : vol_(vol), P_(dirs.size()), prm_(prm), nx_(vol.dims()[0]), ny_(vol.dims()[1]) {
+    : sc_(scratch.get()), P_(dirs.size()), prm_(prm), nx_(vol.dims()[0]), ny_(vol.dims()[1]) {
   BURRBENCH_CHECK(P_ <= kMaxDirections, "too many sensitivity directions");
   for (const auto& d : dirs) {
     kind_.push_back(d.kind == Direction::Kind::kLogAlpha ? kAlpha
@@ -39,10 +39,10 @@ TangentState::TangentState(const Volume& vol, const std::vector<Direction>& dirs
     }
   }
   drem_.assign(P_, std::array<double, kMaxClasses>{});
-  vol.scratch().keep_inside = true;
+  sc_.keep_inside = true;
 }
 
-TangentState::~TangentState() { vol_.scratch().keep_inside = false; }
+TangentState::~TangentState() { sc_.keep_inside = false; }
 
 double* TangentState::tangent(std::uint32_t v) {
   const std::int32_t s = slot_[v];
@@ -64,7 +64,7 @@ double* TangentState::tangent_or_new(std::uint32_t v) {
 
 // Inside voxels with a tangent (eroded earlier, now inside) add v_in·∂χ to the moments.
 void TangentState::inside_tangents(const Volume& vol, double v_in) {
-  const KernelState& st = vol.scratch().state;
+  const KernelState& st = sc_.state;
   const std::size_t P = P_;
   const double l = vol.voxel_mm();
   auto& dmass = dmass_;
@@ -76,7 +76,7 @@ void TangentState::inside_tangents(const Volume& vol, double v_in) {
   {
     const glm::dvec3 o = vol.grid_origin_mm(), p = st.p;  // as the kernel places voxels
     const double y_off = double(vol.box().lo[1]), z_off = double(vol.box().lo[2]);
-    const Scratch& sc = vol.scratch();
+    const Scratch& sc = sc_;
     auto inside = [&](std::size_t idx, std::size_t x, std::size_t row) {
       const std::int32_t s = slot_[idx];
       if (s < 0) return;
@@ -144,8 +144,8 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
     for (std::size_t j = 0; j < P; ++j) dF[j] = glm::dvec3(0);
   if (dT)
     for (std::size_t j = 0; j < P; ++j) dT[j] = glm::dvec3(0);
-  const KernelState& st = vol.scratch().state;
-  const LensTable& tab = vol.scratch().table;
+  const KernelState& st = sc_.state;
+  const LensTable& tab = sc_.table;
   if (!st.force) return;  // no bone in reach, or no normal: F ≡ 0 here
   // A class's constants act on nothing before its bone first comes within reach: their
   // directions stay exactly zero until then and are skipped (a recording in one class
@@ -164,7 +164,7 @@ void TangentState::differentiate(const Volume& vol, const ContactResult& c, cons
   const int t_last = tab.intervals() - 1;
   const double v_in = tab.inside_volume(), R = tab.radius();
   const double l = vol.voxel_mm(), l3 = l * l * l;
-  const LensVoxel* lv = vol.scratch().lens.data();
+  const LensVoxel* lv = sc_.lens.data();
   const bool moves = !path_.empty();
   // ∂p per direction, zero for the constants (they do not move the burr).
   auto& dpj = dpj_;

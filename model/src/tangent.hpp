@@ -1,8 +1,8 @@
 #pragma once
 // Tangent-linear pass of the contact kernel (forward sensitivities, sensitivity.hpp). After
 // the kernel has evaluated (and possibly eroded) at a burr position, `differentiate` uses
-// the lens voxels and the derived quantities the kernel left in the Volume's scratch
-// (KernelState) to compute ∂F/∂θ_j, and, for an erosion step, advances the voxels'
+// the lens voxels and the derived quantities the kernel left in its scratch
+// (KernelScratch: KernelState) to compute ∂F/∂θ_j, and, for an erosion step, advances the voxels'
 // tangents ∂χ/∂θ_j through χ ← max(0, χ − dt·W/(α l³)).
 #include <array>
 #include <cstdint>
@@ -17,6 +17,7 @@
 namespace burrbench::model::detail {
 
 struct KernelState;
+struct Scratch;
 
 // Σ c v vᵀ over voxels, symmetric (six sums): the tangent pass sums the geometric part of a
 // path direction's terms once and applies it to each direction's ∂p.
@@ -39,8 +40,10 @@ struct Sym3 {
 
 class TangentState {
  public:
-  // Lives for one replay of `vol`; while it does, the kernel lists the inside voxels.
-  TangentState(const Volume& vol, const std::vector<Direction>& dirs, const ModelParams& prm);
+  // Lives for one replay of `vol` whose kernel works in `scratch`; while it does, the
+  // kernel lists the inside voxels there.
+  TangentState(const Volume& vol, KernelScratch& scratch, const std::vector<Direction>& dirs,
+               const ModelParams& prm);
   ~TangentState();
   TangentState(const TangentState&) = delete;
   TangentState& operator=(const TangentState&) = delete;
@@ -65,7 +68,7 @@ class TangentState {
   void differentiate_cube(const Volume& vol, const ContactResult& c, bool eroded, glm::dvec3* dF, glm::dvec3* dT);
   double* tangent(std::uint32_t voxel);          // existing or null
   double* tangent_or_new(std::uint32_t voxel);   // allocates a zero tangent
-  const Volume& vol_;
+  Scratch& sc_;  // the kernel's, holding what its last evaluation left
   std::size_t P_;
   std::vector<std::int8_t> kind_;   // per direction: 0 ln α, 1 ln C1, 2 ln μ, 3 path
   std::vector<std::uint8_t> label_;

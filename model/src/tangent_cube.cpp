@@ -15,7 +15,7 @@ constexpr std::int8_t kAlpha = 0, kMu = 2;  // as tangent.cpp
 
 void TangentState::differentiate_cube(const Volume& vol, const ContactResult& c, bool eroded, glm::dvec3* dF,
                                       glm::dvec3* dT) {
-  const Scratch& sc = vol.scratch();
+  const Scratch& sc = sc_;
   const KernelState& st = sc.state;
   const bool forces = dF != nullptr;
   const std::vector<std::size_t>& act = act_;

@@ -6,7 +6,6 @@
 #include <string>
 
 #include "burrbench/data_schema/error.hpp"
-#include "kernel_scratch.hpp"
 
 namespace burrbench::model {
 
@@ -27,23 +26,6 @@ void check_grid(std::array<std::size_t, 3> dims, double voxel_mm, glm::dvec3 ori
     throw InputError(file, "origin_mm", "finite coordinates");
 }
 }  // namespace
-
-Volume::Volume() : scratch_(std::make_unique<detail::Scratch>()) {}
-Volume::~Volume() = default;
-Volume::Volume(Volume&&) noexcept = default;
-Volume& Volume::operator=(Volume&&) noexcept = default;
-Volume::Volume(const Volume& o)
-    : dims_(o.dims_), l_(o.l_), origin_(o.origin_), grid_origin_(o.grid_origin_), box_(o.box_),
-      outside_chi_(o.outside_chi_), labels_(o.labels_), chi_(o.chi_),
-      chi_lo_(o.chi_lo_), row_lo_(o.row_lo_), row_hi_(o.row_hi_), layer_lo_(o.layer_lo_),
-      layer_hi_(o.layer_hi_), row_label_(o.row_label_),
-      undo_(o.undo_), touched_(o.touched_), undo_on_(o.undo_on_), classes_(o.classes_),
-      sources_(o.sources_), segmentation_json_(o.segmentation_json_),
-      provenance_(o.provenance_), scratch_(std::make_unique<detail::Scratch>()) {}
-Volume& Volume::operator=(const Volume& o) {
-  if (this != &o) *this = Volume(o);
-  return *this;
-}
 
 Volume Volume::from_sample(const data_schema::SampleVolume& s) {
   return from_sample(s, VoxelBox::whole(s.dims));

@@ -100,7 +100,8 @@ TEST(Erosion, TinyDecrementsDoNotStall) {
   bm::Volume w = bm::Volume::from_sample(scenes::half_space(20, 20, 20, 0.1, {0, 0, 1}, 0.95));
   const auto prm = scenes::one_class(10.0, 0.5, 1e9);
   std::array<double, bm::kMaxClasses> rem{}, en{};
-  for (int k = 0; k < 2000; ++k) bm::step(w, {1.0, 1.0, 1.3}, {0, 300, 0}, 0.5, prm, 1e-3, rem, &en);
+  bm::KernelScratch scratch;
+  for (int k = 0; k < 2000; ++k) bm::step(w, scratch, {1.0, 1.0, 1.3}, {0, 300, 0}, 0.5, prm, 1e-3, rem, &en);
   ASSERT_GT(rem[1], 0.0);
   // χ is kept to ~2⁻⁴⁸ (float + float remainder): relative accounting error ≪ 1e-6
   EXPECT_NEAR(1e9 * rem[1] / en[1], 1.0, 1e-6);

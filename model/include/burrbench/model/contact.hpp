@@ -3,6 +3,7 @@
 // burr in a Volume. Forces are on the burr, in the volume frame, in N.
 #include <array>
 #include <cstdint>
+#include <memory>
 
 #include <glm/glm.hpp>
 
@@ -15,6 +16,25 @@ namespace burrbench::model {
 // |M₁| < kBuriedMoment·M·R → the contact normal is ill-defined ("buried"). In flat bone
 // this happens for immersion b ≳ 1.7 R (see docs/model.md).
 inline constexpr double kBuriedMoment = 0.05;
+
+namespace detail { struct Scratch; }
+
+// The kernel's working space: the lens table of the current (R, l) and the voxels its first
+// pass collects for the second. Held by whoever runs the kernel (a replay, a loop of
+// steps), not by the Volume, so a Volume is plain data that copies as such and many threads
+// may evaluate one volume, each with its own scratch. Reusing one saves rebuilding the table
+// and regrowing the voxel list; the results do not depend on it.
+class KernelScratch {
+ public:
+  KernelScratch();
+  ~KernelScratch();
+  KernelScratch(KernelScratch&&) noexcept;
+  KernelScratch& operator=(KernelScratch&&) noexcept;
+  detail::Scratch& get() { return *s_; }
+
+ private:
+  std::unique_ptr<detail::Scratch> s_;
+};
 
 struct ContactResult {
   glm::dvec3 force_N{0};  // total force on the burr, volume frame
@@ -43,12 +63,21 @@ struct ContactResult {
   std::array<glm::dvec3, kMaxClasses> friction_lever{};
 };
 
+ContactResult evaluate(const Volume&, KernelScratch&, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
+                       double radius_mm, const ModelParams&, Quadrature = Quadrature::kLens);
+// One evaluation on a scratch of its own (tests, the Python module, one-off looks).
 ContactResult evaluate(const Volume&, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
                        double radius_mm, const ModelParams&, Quadrature = Quadrature::kLens);
 
 // evaluate, then erode over dt_s with the friction power at this position (forward
 // Euler). Removed volume (mm³) and friction energy (mJ, = Σ W_i·dt, before clamping χ at 0)
 // are ADDED per class label to the arrays.
+ContactResult step(Volume&, KernelScratch&, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
+                   double radius_mm, const ModelParams&, double dt_s,
+                   std::array<double, kMaxClasses>& removed_mm3,
+                   std::array<double, kMaxClasses>* energy_mJ = nullptr,
+                   Quadrature = Quadrature::kLens);
+// One step on a scratch of its own.
 ContactResult step(Volume&, glm::dvec3 centre_vol_mm, glm::dvec3 omega_vol_rad_s,
                    double radius_mm, const ModelParams&, double dt_s,
                    std::array<double, kMaxClasses>& removed_mm3,

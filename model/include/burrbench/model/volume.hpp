@@ -5,13 +5,13 @@
 // change of each voxel after begin_undo(), so repeated replays restore the start state
 // without copying the volume. Per-row occupancy bounds let the kernel skip empty space.
 //
-// Not thread-safe: evaluate()/step() use scratch space inside the Volume. Use one Volume
-// per thread (copies are independent).
+// Plain data: the kernel's working space is the caller's (contact.hpp, KernelScratch), so
+// copies are member-wise and threads may evaluate one Volume side by side (each with its
+// own scratch); step() and the undo log change it and need it to themselves.
 #include <algorithm>
 #include <array>
 #include <cstdint>
 #include <map>
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -22,8 +22,6 @@
 #include "burrbench/model/model_params.hpp"
 
 namespace burrbench::model {
-
-namespace detail { struct Scratch; }
 
 // A box of a sample's voxel grid: indices lo ≤ i < hi per axis (x, y, z).
 struct VoxelBox {
@@ -52,13 +50,6 @@ struct VoxelBox {
 
 class Volume {
  public:
-  Volume();
-  ~Volume();
-  Volume(const Volume&);
-  Volume& operator=(const Volume&);
-  Volume(Volume&&) noexcept;
-  Volume& operator=(Volume&&) noexcept;
-
   // Labels ≥ kMaxClasses, χ outside [0,1] or NaN, bad dims/voxel size → InputError.
   // χ of label-0 voxels is taken as 0 (label 0 is empty by definition).
   static Volume from_sample(const data_schema::SampleVolume&);
@@ -128,7 +119,6 @@ class Volume {
   // Lets the kernel skip empty layers and rows above a surface without visiting them.
   std::int32_t layer_lo(std::size_t z) const { return layer_lo_[z]; }
   std::int32_t layer_hi(std::size_t z) const { return layer_hi_[z]; }
-  detail::Scratch& scratch() const { return *scratch_; }
 
  private:
   void log_first_touch(std::size_t i);
@@ -151,7 +141,6 @@ class Volume {
   std::vector<InputFile> sources_;
   std::string segmentation_json_;
   Provenance provenance_;
-  std::unique_ptr<detail::Scratch> scratch_;
 };
 
 }  // namespace burrbench::model
