@@ -1,11 +1,14 @@
 #include "bone_image.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "burrbench/data_schema/sample_volume.hpp"
 
 namespace burrbench::analysis {
 
@@ -104,17 +107,18 @@ std::vector<unsigned char> render_removed_depth_png(const SampleInfo& s) {
 std::vector<unsigned char> render_removed_class_png(const SampleInfo& s) {
   if (s.nx == 0 || s.ny == 0 || s.removed_class.size() != s.nx * s.ny) return {};
   // Fixed colours per label (BGR), so a class looks the same in every report.
-  static const cv::Vec3b kPalette[8] = {{40, 40, 40},   {60, 160, 235}, {170, 110, 40}, {80, 175, 75},
-                                        {180, 90, 200}, {60, 60, 220},  {200, 200, 60}, {140, 140, 140}};
+  static const std::array<cv::Vec3b, data_schema::kModelClassLabels> kPalette = {{{40, 40, 40},   {60, 160, 235}, {170, 110, 40}, {80, 175, 75},
+                                        {180, 90, 200}, {60, 60, 220},  {200, 200, 60}, {140, 140, 140}}};
+  auto colour_of = [&](unsigned label) { return kPalette[label % kPalette.size()]; };
   cv::Mat colour(int(s.ny), int(s.nx), CV_8UC3);
   for (std::size_t y = 0; y < s.ny; ++y)
     for (std::size_t x = 0; x < s.nx; ++x)
-      colour.at<cv::Vec3b>(int(y), int(x)) = kPalette[s.removed_class[x + s.nx * y] & 7];
+      colour.at<cv::Vec3b>(int(y), int(x)) = colour_of(s.removed_class[x + s.nx * y]);
   Framed f = framed_map(colour, s, 150);
   int row = 0;
   for (const auto& [label, name] : s.classes) {
     const int y = f.map_y + 8 + 24 * row++;
-    const auto& c = kPalette[label & 7];
+    const auto& c = colour_of(label);
     cv::rectangle(f.canvas, cv::Rect(f.legend_x, y, 18, 14), cv::Scalar(c[0], c[1], c[2]), cv::FILLED);
     f.put(name, f.legend_x + 26, y + 12, 0.45);
   }

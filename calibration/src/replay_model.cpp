@@ -10,8 +10,6 @@
 
 namespace burrbench::calibration {
 
-static_assert(kLabels == model::kMaxClasses, "calibration and model disagree on class labels");
-
 model::ModelParams to_model_params(const PhysicsValues& v) {
   model::ModelParams p;
   for (int k = 1; k < kLabels; ++k)

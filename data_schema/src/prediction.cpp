@@ -196,7 +196,7 @@ void validate_removed(const RemovedBone& s, const std::string& file) {
       throw InputError(file, fmt::format("{}/removed_depth_mm[{}]", b, i), "a finite depth >= 0 mm",
                        fmt::format("{}", s.removed_depth_mm[i]));
     if (s.removed_class[i] >= kPredictionClasses)
-      throw InputError(file, fmt::format("{}/removed_class[{}]", b, i), "a class label 0..7",
+      throw InputError(file, fmt::format("{}/removed_class[{}]", b, i), fmt::format("a class label 0..{}", kPredictionClasses - 1),
                        std::to_string(s.removed_class[i]));
   }
   if (!(s.removed_volume_mm3 >= 0 && std::isfinite(s.removed_volume_mm3)))

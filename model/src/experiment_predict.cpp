@@ -468,9 +468,6 @@ RecordingPrediction predict(const AlignedRecording& r, Volume& volume, const Mod
   return p;
 }
 
-static_assert(std::size_t(kMaxClasses) == data_schema::kPredictionClasses,
-              "the prediction file records removed volume for every model class label");
-
 void write_prediction(const std::filesystem::path& path,
                       const ExperimentPrediction& preds, const Provenance& prov, const nlohmann::json& context) {
   data_schema::Prediction file;

@@ -16,10 +16,11 @@
 #include <glm/glm.hpp>
 
 #include "burrbench/data_schema/manifest.hpp"
+#include "burrbench/model/model_params.hpp"
 
 namespace burrbench::calibration {
 
-inline constexpr int kLabels = 8;  // == model::kMaxClasses (checked in replay_model.cpp)
+inline constexpr int kLabels = model::kMaxClasses;  // the model's class labels
 using PerLabel = std::array<double, kLabels>;
 
 enum class PhysKind { kAlpha, kC1, kMu };

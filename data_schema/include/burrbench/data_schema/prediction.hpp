@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "burrbench/data_schema/provenance.hpp"
+#include "burrbench/data_schema/sample_volume.hpp"
 
 namespace burrbench::data_schema {
 
@@ -28,8 +29,8 @@ inline constexpr int kPredictionVersionMajor = 2;
 // contact quadrature of each recording's replay, the spin speed per sample and the run's
 // context (issues 56 and 58: the report reads this file alone).
 inline constexpr int kPredictionVersionMinor = 4;
-// Class labels 0..7 whose removed volume is recorded (the model's label range).
-inline constexpr std::size_t kPredictionClasses = 8;
+// Class labels whose removed volume is recorded: the model's (0..kModelClassLabels − 1).
+inline constexpr std::size_t kPredictionClasses = kModelClassLabels;
 
 // One replayed recording, n = number of force samples; every per-sample vector has n
 // entries. Index k is the force sample at t_s[k].

@@ -26,6 +26,11 @@ inline constexpr std::uint8_t kTrabecular = 2;
 // Class ids are labels of a uint8 volume: 1..255 in every format (0 is empty space). The
 // model replays fewer (model::kMaxClasses) and says so when a sample holds more.
 inline constexpr int kMaxClassId = 255;
+// How many class labels the model works with: 0..7 (0 empty), the one definition of that
+// count. model::kMaxClasses (its per-label arrays), calibration's kLabels and the prediction
+// file's per-class records (kPredictionClasses) all name this; it sits here, in the lowest
+// folder, because the prediction format needs it and data_schema uses nothing of ours.
+inline constexpr int kModelClassLabels = 8;
 
 // How χ is stored on disk: float32, or the paper's 8-bit counter χ = n/255
 // (written as round(255·χ); read back as float(n)/255.0f).

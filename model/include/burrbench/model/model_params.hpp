@@ -13,7 +13,9 @@
 
 namespace burrbench::model {
 
-inline constexpr int kMaxClasses = 8;  // labels 0..7 (0 = empty); a larger label → InputError
+// Labels 0..kMaxClasses − 1 (0 = empty); a larger label → InputError. The count is
+// data_schema's (sample_volume.hpp), so the prediction file's per-class records match.
+inline constexpr int kMaxClasses = data_schema::kModelClassLabels;
 
 struct ClassConstants {
   double alpha_N_per_mm2 = INFINITY;  // ∞ (or any non-finite / ≤ 0 is rejected): no erosion
