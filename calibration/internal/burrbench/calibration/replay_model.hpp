@@ -31,8 +31,8 @@
 namespace burrbench::calibration {
 
 // Worker threads, each with its own copy of the part of every sample its replays reach
-// (Volume is not thread-safe; model/reach.hpp); replays restore their volume through the
-// undo log. The samples must outlive the pool.
+// (a replay erodes its Volume, one replay per copy at a time; model/reach.hpp); replays
+// restore their volume through the undo log. The samples must outlive the pool.
 class ReplayPool {
  public:
   ReplayPool(const std::map<std::string, data_schema::SampleVolume>& samples, int threads);
