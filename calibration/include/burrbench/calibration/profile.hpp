@@ -56,6 +56,11 @@ struct ProfileOptions {
   std::atomic<bool>* cheaper_found = nullptr;
 };
 
+// How a profile point is re-optimised (iterations, threads, tolerance in the threshold's
+// unit); `hold` is left to the caller. Also the solve of the texture probes
+// (docs/calibration.md "Profiles on a textured cost"), which must stop as a point does.
+SolveOptions profile_point_solve(const ProfileOptions& opt, double threshold, double cost_hat);
+
 // `cost_hat`: the cost at x_hat; `hold`: entries held during the re-optimisations besides
 // `entry` (e.g. parameters already known to be non-identifiable). Thread-safe for
 // concurrent calls on one Objective.
