@@ -1,7 +1,6 @@
 #pragma once
 // The calibration driver's state and its stages (internal). calibrate() in calibrate.cpp
 // runs them in order; each stage reads what the earlier ones left in the Run.
-#include <cmath>
 #include <map>
 #include <memory>
 #include <string>
@@ -40,16 +39,6 @@ struct CoarseLevel {
   std::unique_ptr<Objective> obj;
   double voxel_mm = 0;       // the coarse voxel (the largest over the samples)
   double fine_voxel_mm = 0;
-};
-
-// The cost's texture at the optimum (stage_texture.cpp): refits from the 95 % profile's
-// distance, stopped as a profile point stops.
-inline constexpr std::size_t kTextureProbes = 4;
-struct TextureProbe {
-  std::vector<double> excess;       // each probe's end cost − the optimum's (∞: failed)
-  double allowance = 0;             // median of the excesses (negatives as 0): added to the threshold
-  std::vector<double> cheapest_at;  // the cheapest end and its cost
-  double cheapest_cost = INFINITY;
 };
 
 struct Run {
@@ -173,10 +162,6 @@ void choose_steps(Run& run);        // difference steps (finite differences only
 void global_search(Run& run);       // multistart from a Latin hypercube
 void refine(Run& run);              // the best start to convergence
 void assess(Run& run);              // profiles, verdicts, covariance (restarts refine if cheaper)
-// Refits from the optimum's 95 % ellipsoid (`held` held): how far above the optimum a
-// profile point's re-optimisation stops on this cost.
-TextureProbe probe_texture(const Run& run, const std::vector<bool>& held, const CovarianceOutcome& cov,
-                           double threshold);
 void discretization_check(Run& run);  // refit at 2l: discretization error of each estimate
 void depth_check(Run& run);         // refit with the depth offsets nothing corrects free
 void bootstrap(Run& run);

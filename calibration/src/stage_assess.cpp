@@ -178,7 +178,8 @@ Flags profile_until_settled(Run& run, CovarianceOutcome& cov, std::string& cheap
     cov = run.obj->covariance(run.x, run.w_all, flags.held, run.inflation);
     run.stage("texture", fmt::format("{} refits from the 95 % ellipsoid: where a re-optimisation stops",
                                      kTextureProbes));
-    run.texture = probe_texture(run, flags.held, cov, run.chi2_threshold);
+    run.texture = probe_texture(*run.obj, run.x, run.fit.final_cost, run.w_all, flags.held, cov, run.chi2_threshold,
+                                run.opt.threads);
     run.threshold = run.chi2_threshold + run.texture.allowance;
     // The cheapest point found away from the optimum: a texture probe's end or a profile
     // point. Cheaper by less than a quarter of the threshold is the optimum's own dip.

@@ -11,10 +11,10 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "burrbench/calibration/profile.hpp"
 #include "burrbench/model/job_queue.hpp"
-#include "pipeline.hpp"
 
-namespace burrbench::calibration::detail {
+namespace burrbench::calibration {
 namespace {
 
 // The probes' starts: on the covariance ellipsoid of Mahalanobis radius 2 (where the 95 %
@@ -27,25 +27,26 @@ double probe_sign(std::size_t k, std::size_t axis) {
 
 }  // namespace
 
-TextureProbe probe_texture(const Run& run, const std::vector<bool>& held, const CovarianceOutcome& cov,
-                           double threshold) {
+TextureProbe probe_texture(const Objective& obj, const std::vector<double>& x_hat, double cost_hat,
+                           const SampleWeights& w, const std::vector<bool>& held, const CovarianceOutcome& cov,
+                           double threshold, int threads) {
   TextureProbe t;
   const std::size_t m = cov.indices.size();
   if (!cov.ok || m == 0) return t;
-  const Layout& L = *run.layout;
+  const Layout& L = obj.layout();
   const Eigen::Map<const Eigen::MatrixXd> S(cov.cov.data(), Eigen::Index(m), Eigen::Index(m));
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(S);
   if (es.info() != Eigen::Success) return t;
   const double radius = 2.0 / std::sqrt(double(m));  // |z| = √m ⇒ Mahalanobis radius 2
   ProfileOptions po;
-  po.threads = run.opt.threads;
-  SolveOptions so = profile_point_solve(po, threshold, run.fit.final_cost);
+  po.threads = threads;
+  SolveOptions so = profile_point_solve(po, threshold, cost_hat);
   so.hold = held;
   std::vector<SolveOutcome> ends(kTextureProbes);
   std::vector<std::size_t> queue(kTextureProbes);
   std::iota(queue.begin(), queue.end(), std::size_t(0));
-  model::run_job_queue(kTextureProbes, queue, run.opt.threads, [&](std::size_t, std::size_t k) {
-    std::vector<double> x = run.x;
+  model::run_job_queue(kTextureProbes, queue, threads, [&](std::size_t, std::size_t k) {
+    std::vector<double> x = x_hat;
     for (std::size_t a = 0; a < m; ++a) {
       const double scale = radius * probe_sign(k, a) * std::sqrt(std::max(0.0, es.eigenvalues()[Eigen::Index(a)]));
       for (std::size_t b = 0; b < m; ++b) {
@@ -55,11 +56,11 @@ TextureProbe probe_texture(const Run& run, const std::vector<bool>& held, const 
     }
     for (const std::size_t e : cov.indices)
       if (std::isfinite(L.lower(e)) || std::isfinite(L.upper(e))) x[e] = std::clamp(x[e], L.lower(e), L.upper(e));
-    ends[k] = run.obj->solve(x, run.w_all, so);
+    ends[k] = obj.solve(x, w, so);
   });
   std::vector<double> above;
   for (const auto& e : ends) {
-    const double d = e.usable ? e.final_cost - run.fit.final_cost : INFINITY;
+    const double d = e.usable ? e.final_cost - cost_hat : INFINITY;
     t.excess.push_back(d);
     if (std::isfinite(d)) above.push_back(std::max(0.0, d));
     if (e.usable && e.final_cost < t.cheapest_cost) {
@@ -75,4 +76,4 @@ TextureProbe probe_texture(const Run& run, const std::vector<bool>& held, const 
   return t;
 }
 
-}  // namespace burrbench::calibration::detail
+}  // namespace burrbench::calibration
