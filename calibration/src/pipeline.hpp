@@ -15,6 +15,7 @@
 #include "burrbench/calibration/profile.hpp"
 #include "burrbench/calibration/replay_model.hpp"
 #include "burrbench/calibration/uncertainty.hpp"
+#include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/model/experiment.hpp"
 
 namespace burrbench::calibration::detail {
@@ -44,6 +45,9 @@ struct CoarseLevel {
 struct Run {
   Run(const CalibrateOptions& o, const std::filesystem::path& manifest)
       : opt(o), manifest_path(manifest), mfile(manifest.string()), exp(model::load_experiment(manifest)) {}
+  // When the fit started (UTC, ISO 8601): fit.json settings.started_utc, which the report
+  // shows beside the time the acceptance criteria were fixed.
+  std::string started_utc = make_provenance({}).created_utc;
   const CalibrateOptions& opt;
   std::filesystem::path manifest_path;
   std::string mfile;

@@ -288,6 +288,7 @@ std::string record_settings(Run& run, const nlohmann::json& diverged_json) {
                     {"texture", {{"probe_excess_cost", excess}, {"allowance_cost", run.texture.allowance}}},
                     {"restarts_from_profile", run.restarts}};
   st["optimum_doubts"] = run.doubts;
+  st["started_utc"] = run.started_utc;
   std::string reg_text;
   st["registration"] = registration_report(run, reg_text);  // may warn
   st["warnings"] = run.warnings;
