@@ -8,10 +8,6 @@
 #include "report_page.hpp"
 
 namespace burrbench::analysis {
-using html::esc;
-using html::num;
-using html::td;
-using nlohmann::json;
 
 // When the fit started (UTC, ISO 8601, to the second): settings.started_utc, which
 // calibrate records. Files before it: fit.json's provenance is stamped when its results
