@@ -8,17 +8,16 @@
 #include "report_page.hpp"
 
 namespace burrbench::analysis {
-using html::esc;
-using html::num;
-using html::td;
-using nlohmann::json;
 
-// When the fit started (UTC, ISO 8601, to the second): fit.json's provenance is stamped
-// when its results are assembled — after every stage but the last, "overlaps" — so the
-// start is that stamp less the solver's wall time without that stage. Both the stamp and
-// this start are whole seconds, so the start is right within a second. "unknown" when
-// either is missing or unreadable.
+// When the fit started (UTC, ISO 8601, to the second): settings.started_utc, which
+// calibrate records. Files before it: fit.json's provenance is stamped when its results
+// are assembled — after every stage but the last, "overlaps" — so the start is that stamp
+// less the solver's wall time without that stage, right within a second. "unknown" when
+// neither is there or readable.
 std::string fit_started_utc(const json& fit) {
+  if (fit.contains("settings") && fit.at("settings").is_object() && fit.at("settings").contains("started_utc") &&
+      fit.at("settings").at("started_utc").is_string())
+    return fit.at("settings").at("started_utc").get<std::string>();
   if (!fit.contains("provenance") || !fit.at("provenance").is_object() || !fit.contains("solver") ||
       !fit.at("solver").is_object())
     return "unknown";

@@ -5,7 +5,6 @@
 #include "report_page.hpp"
 
 namespace burrbench::analysis {
-using html::esc;
 
 std::string removed_bone_section(const ReportPage& page) {
   std::string b = "<h2 id=\"bone\">12. Removed bone</h2><p class=\"muted\">Depth map: thickness of bone "

@@ -5,6 +5,7 @@
 #include <string_view>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "burrbench/analysis/report.hpp"
 
@@ -23,3 +24,11 @@ inline std::string td(const std::string& text_already_escaped, bool numeric = fa
 }
 
 }  // namespace burrbench::analysis::html
+
+namespace burrbench::analysis {
+// The section writers' shared vocabulary (this header is private to analysis/src).
+using html::esc;
+using html::num;
+using html::td;
+using nlohmann::json;
+}  // namespace burrbench::analysis

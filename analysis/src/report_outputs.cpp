@@ -8,7 +8,6 @@
 #include "report_page.hpp"
 
 namespace burrbench::analysis {
-using nlohmann::json;
 
 namespace {
 

@@ -8,10 +8,6 @@
 #include "report_page.hpp"
 
 namespace burrbench::analysis {
-using html::esc;
-using html::num;
-using html::td;
-using nlohmann::json;
 
 bool limited_by_discretization(const json& p) {
   return p.contains("discretization") && p.at("discretization").is_object() &&

@@ -8,9 +8,6 @@
 
 namespace burrbench::analysis {
 namespace fs = std::filesystem;
-using html::esc;
-using html::td;
-using nlohmann::json;
 
 namespace {
 

@@ -4,10 +4,6 @@
 #include "report_page.hpp"
 
 namespace burrbench::analysis {
-using html::esc;
-using html::num;
-using html::td;
-using nlohmann::json;
 
 namespace {
 

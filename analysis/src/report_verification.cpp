@@ -5,10 +5,6 @@
 #include "report_page.hpp"
 
 namespace burrbench::analysis {
-using html::esc;
-using html::num;
-using html::td;
-using nlohmann::json;
 
 namespace {
 

@@ -5,10 +5,6 @@
 #include "report_html.hpp"
 
 namespace burrbench::analysis {
-using nlohmann::json;
-using html::esc;
-using html::num;
-using html::td;
 
 std::vector<double> cutting_energy_mJ(const RecordingSeries& r, bool predicted) {
   std::vector<double> e;

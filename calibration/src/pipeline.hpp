@@ -15,6 +15,7 @@
 #include "burrbench/calibration/profile.hpp"
 #include "burrbench/calibration/replay_model.hpp"
 #include "burrbench/calibration/uncertainty.hpp"
+#include "burrbench/data_schema/provenance.hpp"
 #include "burrbench/model/experiment.hpp"
 
 namespace burrbench::calibration::detail {
@@ -44,6 +45,9 @@ struct CoarseLevel {
 struct Run {
   Run(const CalibrateOptions& o, const std::filesystem::path& manifest)
       : opt(o), manifest_path(manifest), mfile(manifest.string()), exp(model::load_experiment(manifest)) {}
+  // When the fit started (UTC, ISO 8601): fit.json settings.started_utc, which the report
+  // shows beside the time the acceptance criteria were fixed.
+  std::string started_utc = make_provenance({}).created_utc;
   const CalibrateOptions& opt;
   std::filesystem::path manifest_path;
   std::string mfile;
@@ -78,7 +82,9 @@ struct Run {
 
   // assess
   Evaluation ev;
-  double threshold = 0;              // profile threshold, cost units
+  double threshold = 0;              // profile threshold, cost units: chi2_threshold + texture.allowance
+  double chi2_threshold = 0;         // χ²₁(0.95)/2 × residual_scale
+  TextureProbe texture;              // probed before the profiles (empty without them)
   double inflation = 1;              // noise-model factor (ar1_inflation, or 1)
   double residual_scale = 1;         // residual variance × inflation: the profile threshold's unit
   std::vector<Profile> profiles;     // free physics parameters that were profiled

@@ -50,13 +50,8 @@ ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double 
         if (j != i && !hold[j] && opt.valley[j] != 0)
           x[j] = std::clamp(x[j] + opt.valley[j] * move, L.lower(j), L.upper(j));
     x[i] = x_hat[i] + sign * h;
-    SolveOptions so;
-    so.max_iterations = opt.iterations;
-    so.threads = opt.threads;
+    SolveOptions so = profile_point_solve(opt, threshold, cost_hat);
     so.hold = hold;
-    // A point's cost matters to about 1 % of the threshold (the crossing is interpolated
-    // between points), not to the 1e-7 relative of a fit.
-    so.function_tolerance = std::max(so.function_tolerance, 0.01 * threshold / std::max(1.0, std::abs(cost_hat)));
     // (The solver keeps its start within 1e-6 of the range inside the bounds, so a point on
     // the bound is profiled a hair inside it.)
     const SolveOutcome r = obj.solve(x, w, so);
@@ -106,6 +101,17 @@ ProfileSide walk(const Objective& obj, const std::vector<double>& x_hat, double 
 }
 
 }  // namespace
+
+SolveOptions profile_point_solve(const ProfileOptions& opt, double threshold, double cost_hat) {
+  SolveOptions so;
+  so.max_iterations = opt.iterations;
+  so.threads = opt.threads;
+  // A point's cost matters to about 1 % of the threshold (the crossing is interpolated
+  // between points), not to the 1e-7 relative of a fit. Tighter costs wall time and does
+  // not remove the texture (docs/calibration.md "Profiles on a textured cost").
+  so.function_tolerance = std::max(so.function_tolerance, 0.01 * threshold / std::max(1.0, std::abs(cost_hat)));
+  return so;
+}
 
 Profile profile_parameter(const Objective& obj, const std::vector<double>& x_hat, double cost_hat,
                           const SampleWeights& w, std::size_t entry, double threshold,

@@ -36,9 +36,8 @@ std::vector<double> valley_slopes(const CovarianceOutcome& cov, std::size_t i, s
 }
 
 // `cov`: the covariance at run.x with only `pre` held, which the profiles start from.
-std::vector<Profile> run_profiles(Run& run, const Flags& pre, CovarianceOutcome& cov) {
+std::vector<Profile> run_profiles(Run& run, const Flags& pre, const CovarianceOutcome& cov) {
   const Layout& L = *run.layout;
-  cov = run.obj->covariance(run.x, run.w_all, pre.held, run.inflation);
   std::vector<std::size_t> entries;
   for (const auto& p : L.physics())
     if (p.index >= 0 && !pre.held[std::size_t(p.index)]) entries.push_back(std::size_t(p.index));
@@ -169,42 +168,62 @@ Flags profile_until_settled(Run& run, CovarianceOutcome& cov, std::string& cheap
     // carry less information than their count says: widen by the AR(1) factor.
     run.inflation = run.opt.noise_inflation ? ar1_inflation(run.ev.residual_lag1) : 1.0;
     run.residual_scale = s2 * run.inflation;
-    run.threshold = 0.5 * kChi2_1_95 * run.residual_scale;
+    run.chi2_threshold = 0.5 * kChi2_1_95 * run.residual_scale;
+    run.threshold = run.chi2_threshold;
+    run.texture = {};
     flags = contact_checks(*run.obj, run.x, run.w_all, run.ev);
     run.profiles.clear();
     run.warnings.clear();
     if (!run.opt.profiles) break;
-    run.stage("profiles", "re-optimising along each physics parameter");
-    run.profiles = run_profiles(run, flags, cov);
-    const Profile* cheaper = nullptr;
-    for (const auto& p : run.profiles)
-      if (p.found_lower && (!cheaper || p.lower_cost < cheaper->lower_cost)) cheaper = &p;
-    if (!cheaper || run.restarts >= kMaxRestarts) {
-      if (cheaper) {
-        run.warnings.push_back(fmt::format("a profile point is still cheaper than the optimum "
-                                           "(cost {:.6g} < {:.6g}) after {} restarts",
-                                           cheaper->lower_cost, run.fit.final_cost, run.restarts));
-        // A point cheaper by less than the profile threshold lies in the optimum's own basin
-        // (the search counts such ends as reaching it): the voxel texture of the cost, not
-        // another optimum. Only a point cheaper by more puts the optimum in doubt.
-        if (run.fit.final_cost - cheaper->lower_cost > run.threshold)
-          cheaper_left = fmt::format("a profile point of {} is cheaper than the optimum by more than the profile "
-                                     "threshold (cost {:.6g} < {:.6g} − {:.3g}) after {} restarts",
-                                     L.name(cheaper->entry), cheaper->lower_cost, run.fit.final_cost, run.threshold,
-                                     run.restarts);
-      }
+    cov = run.obj->covariance(run.x, run.w_all, flags.held, run.inflation);
+    run.stage("texture", fmt::format("{} refits from the 95 % ellipsoid: where a re-optimisation stops",
+                                     kTextureProbes));
+    run.texture = probe_texture(*run.obj, run.x, run.fit.final_cost, run.w_all, flags.held, cov, run.chi2_threshold,
+                                run.opt.threads);
+    run.threshold = run.chi2_threshold + run.texture.allowance;
+    // The cheapest point found away from the optimum: a texture probe's end or a profile
+    // point. Cheaper by less than a quarter of the threshold is the optimum's own dip.
+    std::string source;
+    const std::vector<double>* at = nullptr;
+    double cost = run.fit.final_cost - 0.25 * run.threshold;
+    if (run.texture.cheapest_cost < cost) {
+      source = "a texture probe";
+      at = &run.texture.cheapest_at;
+      cost = run.texture.cheapest_cost;
+    }
+    if (!at) {
+      run.stage("profiles", "re-optimising along each physics parameter");
+      run.profiles = run_profiles(run, flags, cov);
+      for (const auto& p : run.profiles)
+        if (p.found_lower && p.lower_cost < cost) {
+          source = fmt::format("the profile of {}", L.name(p.entry));
+          at = &p.lower_at;
+          cost = p.lower_cost;
+        }
+    }
+    if (!at) break;
+    if (run.restarts >= kMaxRestarts) {
+      run.warnings.push_back(fmt::format("{} is still cheaper than the optimum (cost {:.6g} < {:.6g}) after {} "
+                                         "restarts", source, cost, run.fit.final_cost, run.restarts));
+      // A point cheaper by less than the profile threshold lies in the optimum's own basin
+      // (the search counts such ends as reaching it): the voxel texture of the cost, not
+      // another optimum. Only a point cheaper by more puts the optimum in doubt.
+      if (run.fit.final_cost - cost > run.threshold)
+        cheaper_left = fmt::format("{} found a point cheaper than the optimum by more than the profile threshold "
+                                   "(cost {:.6g} < {:.6g} − {:.3g}) after {} restarts",
+                                   source, cost, run.fit.final_cost, run.threshold, run.restarts);
+      if (run.profiles.empty()) run.profiles = run_profiles(run, flags, cov);
       break;
     }
-    run.stage("refit", fmt::format("the profile of {} found a cheaper point (cost {:.6g} < {:.6g}): refitting "
-                                   "from there", L.name(cheaper->entry), cheaper->lower_cost, run.fit.final_cost));
-    run.x = cheaper->lower_at;
+    run.stage("refit", fmt::format("{} found a cheaper point (cost {:.6g} < {:.6g}): refitting from there", source,
+                                   cost, run.fit.final_cost));
+    run.x = *at;
     ++run.restarts;
     const auto previous = run.fit;
     refine(run);
     run.fit.initial_cost = previous.initial_cost;
     run.fit.iterations += previous.iterations;
   }
-
   return flags;
 }
 

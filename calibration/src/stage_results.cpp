@@ -279,11 +279,16 @@ std::string record_settings(Run& run, const nlohmann::json& diverged_json) {
   st["parameterisation"] = "ln(alpha), ln(C1), ln(mu); bias N; lag ms; depth offset mm";
   st["derivatives"] = derivatives_json(run, diverged_json);
   st["global_search"] = global_search_json(run);
+  nlohmann::json excess = nlohmann::json::array();
+  for (const double d : run.texture.excess) excess.push_back(std::isfinite(d) ? nlohmann::json(d) : nlohmann::json(nullptr));
   st["profiles"] = {{"computed", run.opt.profiles},
                     {"threshold_cost", run.threshold},
-                    {"threshold", "chi2_1(0.95)/2 x residual variance x noise-model inflation"},
+                    {"threshold", "chi2_1(0.95)/2 x residual variance x noise-model inflation + texture allowance"},
+                    {"chi2_threshold_cost", run.chi2_threshold},
+                    {"texture", {{"probe_excess_cost", excess}, {"allowance_cost", run.texture.allowance}}},
                     {"restarts_from_profile", run.restarts}};
   st["optimum_doubts"] = run.doubts;
+  st["started_utc"] = run.started_utc;
   std::string reg_text;
   st["registration"] = registration_report(run, reg_text);  // may warn
   st["warnings"] = run.warnings;

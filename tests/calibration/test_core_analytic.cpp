@@ -559,6 +559,35 @@ TEST(CalibrationCore, ProfileCrossingsMatchABruteForceProfile) {
   EXPECT_EQ(single, sides) << "where the covariance predicts the crossing, a side costs one point";
 }
 
+// On a smooth cost the texture probes (refits from the optimum's 95 % ellipsoid, stopped as
+// a profile point stops) come back to the optimum: no allowance, the threshold is the χ²'s
+// (docs/calibration.md "Profiles on a textured cost"). Probed from a point 5 SE off the
+// optimum, they all end below it: the cue that restarts the refinement.
+TEST(CalibrationCore, TextureProbesComeBackToASmoothOptimum) {
+  Converged c(6, true);
+  const auto& [s, obj, fit] = c;
+  ASSERT_TRUE(fit.usable);
+  const auto cov = obj.covariance(fit.x, s.w, {});
+  ASSERT_TRUE(cov.ok);
+  const double thr = 0.5 * bc::kChi2_1_95 * cov.residual_variance;
+  const auto t = bc::probe_texture(obj, fit.x, fit.final_cost, s.w, {}, cov, thr, 2);
+  ASSERT_EQ(t.excess.size(), bc::kTextureProbes);
+  for (const double d : t.excess) {
+    std::cout << "probe excess " << d << " (threshold " << thr << ")\n";
+    EXPECT_LT(std::abs(d), 0.05 * thr);
+  }
+  EXPECT_LT(t.allowance, 0.05 * thr);
+  std::vector<double> off = fit.x;
+  const std::size_t i = std::size_t(s.layout->physics().front().index);
+  off[i] += 5 * std::sqrt(cov.cov[cov.position(i) * (cov.indices.size() + 1)]);
+  const double cost_off = obj.evaluate(off, s.w).cost;
+  const auto t_off = bc::probe_texture(obj, off, cost_off, s.w, {}, cov, thr, 2);
+  for (const double d : t_off.excess) EXPECT_LT(d, -thr) << "a probe from off the optimum ends below it";
+  EXPECT_EQ(t_off.allowance, 0.0);
+  EXPECT_LT(t_off.cheapest_cost, cost_off - thr);
+  EXPECT_NEAR(t_off.cheapest_cost, fit.final_cost, 0.05 * thr);
+}
+
 // A profile started from a point that is not the optimum (compact C1 moved off it) finds
 // a cheaper point at once. With a shared flag the walk reports it and stops: the fit
 // restarts from there (assess), so the rest of the profile, and every other profile

@@ -5,6 +5,7 @@
 // units) or the bound is reached. The crossing gives the interval, which may be open on
 // one or both sides; the shape gives the verdict.
 #include <atomic>
+#include <cmath>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -55,6 +56,27 @@ struct ProfileOptions {
   // these profiles would be thrown away. Leave it null when no refit follows.
   std::atomic<bool>* cheaper_found = nullptr;
 };
+
+// How a profile point is re-optimised (iterations, threads, tolerance in the threshold's
+// unit); `hold` is left to the caller. Also the solve of the texture probes
+// (docs/calibration.md "Profiles on a textured cost"), which must stop as a point does.
+SolveOptions profile_point_solve(const ProfileOptions& opt, double threshold, double cost_hat);
+
+// The cost's texture at an optimum (docs/calibration.md "Profiles on a textured cost"):
+// refits from its 95 % ellipsoid, stopped as a profile point stops. The median excess is
+// the allowance added to the profile threshold.
+inline constexpr std::size_t kTextureProbes = 4;
+struct TextureProbe {
+  std::vector<double> excess;       // each probe's end cost − the optimum's (∞: failed)
+  double allowance = 0;             // median of the excesses (negatives as 0)
+  std::vector<double> cheapest_at;  // the cheapest end and its cost
+  double cheapest_cost = INFINITY;
+};
+// `cov`: the covariance at x_hat with `held` held (no probe without it); `threshold`: the
+// χ² threshold, which sets the probes' tolerance as it does a point's.
+TextureProbe probe_texture(const Objective& obj, const std::vector<double>& x_hat, double cost_hat,
+                           const SampleWeights& w, const std::vector<bool>& held, const CovarianceOutcome& cov,
+                           double threshold, int threads);
 
 // `cost_hat`: the cost at x_hat; `hold`: entries held during the re-optimisations besides
 // `entry` (e.g. parameters already known to be non-identifiable). Thread-safe for
