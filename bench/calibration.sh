@@ -179,7 +179,9 @@ heldout() {
     sed '/^\[fit\]/,$d' "$ms" > "$work/ho$seed/defaults.toml"  # the [fit] section is last
     for v in "$ms" "$work/ho$seed/defaults.toml"; do
       if ! "$B" calibrate --experiment "$v" --out "$work/ho$seed/out" --no-cross-validation > /dev/null 2>&1; then
-        total=$((total+6)); wrong=$((wrong+6)); rm -rf "$work/ho$seed/out"; continue  # a failed fit recovers nothing
+        # A failed fit recovers nothing: six misses, counted as outside the tolerance.
+        total=$((total+6)); wrong=$((wrong+6)); off=$((off+6)); rm -rf "$work/ho$seed/out"
+        echo "  held-out seed $seed $(basename "$v"): calibrate FAILED, 6 confidently wrong" >&2; continue
       fi
       read -r a b f c d e l o miss <<<"$($PY "$here/fit_vs_truth.py" tolerance "$work/ho$seed/out/fit.json" "$work/ho$seed/truth.toml")"
       within=$((within+a)); wrong=$((wrong+b)); off=$((off+f)); held=$((held+c)); total=$((total+d)); unid=$((unid+e))
