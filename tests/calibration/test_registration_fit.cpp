@@ -37,16 +37,19 @@ int run(const std::string& args, std::string& log, const fs::path& lf) {
   return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
-}  // namespace
-
-TEST(RegistrationFit, FiducialErrorIsFittedAndPropagated) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("bb_regfit_{}", ::getpid());
+// Calibrates the registration case (the whole reference experiment, time scale 1: 5
+// recordings, 8.4 s) with or without the lab's [fit.precision] section, and checks that no
+// constant is a confident miss: every one reported identifiable has a profile interval that
+// holds the truth and comes back within the issue's tolerances (α 10 %, C1 2 %, μ 5 %).
+void fiducial_case(const std::string& name, bool precision_section) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("bb_regfit_{}_{}", name, ::getpid());
   fs::remove_all(dir);
-  bt::RegistrationSpec s;  // the whole reference experiment (time scale 1): 5 recordings, 8.4 s
+  bt::RegistrationSpec s;
   const auto c = bt::make_registration_experiment(dir, s, cli());
   // The precision the lab asks for (the issue's tolerances): a constant whose 95 % profile
-  // interval is wider is reported "imprecise", not "identifiable".
-  {
+  // interval is wider is reported "imprecise", not "identifiable". A lab that does not know
+  // the section gets no "imprecise", and must not get a confident miss instead.
+  if (precision_section) {
     std::ofstream m(c.manifest, std::ios::app);
     m << "\n[fit.precision]\nalpha = 0.10\nc1 = 0.02\nmu = 0.05\n";
   }
@@ -57,10 +60,9 @@ TEST(RegistrationFit, FiducialErrorIsFittedAndPropagated) {
   EXPECT_NE(log.find("registration from 4 fiducials"), std::string::npos) << "the registration is shown";
   EXPECT_NE(log.find("TRE after the fit"), std::string::npos);
   const ds::FitResult fit = ds::read_fit(dir / "out" / "fit.json");
-  // No confident miss: every constant reported identifiable has a profile interval that
-  // holds the truth and comes back within the tolerance; one the data cannot resolve that
-  // finely is reported "imprecise" (trabecular μ here, which only the plunges' asymmetry
-  // and one short sweep carry: ±20 %), its interval still holding the truth.
+  // With the section, one the data cannot resolve that finely is reported "imprecise"
+  // (trabecular μ here, which only the plunges' asymmetry and one short sweep carry:
+  // ±20 %), its interval still holding the truth.
   const auto& r = s.reference;
   struct T { int label; const char* name; double v, tol; };
   for (const T& t : {T{1, "alpha", r.alpha1, 0.10}, T{1, "c1", r.c1_1, 0.02}, T{1, "mu", r.mu1, 0.05},
@@ -70,17 +72,19 @@ TEST(RegistrationFit, FiducialErrorIsFittedAndPropagated) {
     const double lo = std::isnan(p->profile_ci95_low) ? 0.0 : p->profile_ci95_low;
     const double hi = std::isnan(p->profile_ci95_high) ? INFINITY : p->profile_ci95_high;
     const double half_width = 0.5 * (hi - lo) / p->held;
-    std::printf("  %s.%s %s held %.6g (%+.2f %%) profile [%.6g, %.6g] (half-width %.1f %%)\n", p->class_name.c_str(),
-                t.name, p->verdict.c_str(), p->held, 100 * (p->held / t.v - 1), lo, hi, 100 * half_width);
+    std::printf("  %s.%s %s held %.6g (%+.2f %%) profile [%.6g, %.6g] (half-width %.1f %%)%s%s\n",
+                p->class_name.c_str(), t.name, p->verdict.c_str(), p->held, 100 * (p->held / t.v - 1), lo, hi,
+                100 * half_width, p->reason.empty() ? "" : ": ", p->reason.c_str());
     if (!p->identifiable) continue;
-    EXPECT_LE(lo, t.v) << p->class_name << "." << t.name;
-    EXPECT_GE(hi, t.v) << p->class_name << "." << t.name;
+    EXPECT_LE(lo, t.v) << p->class_name << "." << t.name << " " << p->verdict << ": interval misses the truth";
+    EXPECT_GE(hi, t.v) << p->class_name << "." << t.name << " " << p->verdict << ": interval misses the truth";
     if (p->verdict == "imprecise") {
+      EXPECT_TRUE(precision_section) << p->class_name << "." << t.name << " imprecise with no precision asked";
       EXPECT_GT(half_width, t.tol) << p->class_name << "." << t.name << ": " << p->reason;
       EXPECT_NE(p->reason.find("fit.precision." + std::string(t.name)), std::string::npos) << p->reason;
     } else {
       EXPECT_EQ(p->verdict, "identifiable");
-      EXPECT_NEAR(p->estimate / t.v, 1.0, t.tol) << p->class_name << "." << t.name;
+      EXPECT_NEAR(p->estimate / t.v, 1.0, t.tol) << p->class_name << "." << t.name << " is a confident miss";
     }
   }
   // The true pose correction: from the fitted registration to the true one, about the
@@ -148,9 +152,22 @@ TEST(RegistrationFit, FiducialErrorIsFittedAndPropagated) {
   EXPECT_NE(html.find("the registration&#39;s pose correction per sample mounting"), std::string::npos)
       << "among the nuisances applied";
   EXPECT_EQ(html.find("taken as exact in the replay"), std::string::npos);
-  EXPECT_NE(html.find("imprecise"), std::string::npos) << "the verdict reaches the report";
-  if (!HasFailure()) fs::remove_all(dir);
+  if (precision_section) {
+    EXPECT_NE(html.find("imprecise"), std::string::npos) << "the verdict reaches the report";
+  }
+  if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
+
+}  // namespace
+
+TEST(RegistrationFit, FiducialErrorIsFittedAndPropagated) { fiducial_case("precision", true); }
+
+// The same data for a lab that does not know [fit.precision] (issue 56). DISABLED_: it fails
+// today with a confident miss, for calibration/ to fix (not this test to loosen): trabecular μ
+// comes back identifiable at 0.316047 for 0.3 (+5.35 %, outside μ's 5 %), profile interval
+// [0.262915, 0.373743] (±17.5 %, holding the truth); trabecular α +5.32 % (±17.2 %) passes.
+// With the section both are "imprecise" (the test above), the same fit to the last digit.
+TEST(RegistrationFit, DISABLED_NoConfidentMissWithoutAPrecisionSection) { fiducial_case("defaults", false); }
 
 // Two exchanged fiducial rows: exit 2 with one line naming them, before any replay.
 TEST(RegistrationFit, SwappedFiducialsAreRefusedNamingThem) {
