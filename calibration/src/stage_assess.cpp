@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/model/job_queue.hpp"
 #include "pipeline.hpp"
@@ -17,6 +18,18 @@ namespace burrbench::calibration::detail {
 namespace {
 
 constexpr int kMaxRestarts = 2;
+
+// The precision a constant's 95 % profile interval must reach (half-width / estimate) to be
+// called "identifiable" when [fit.precision] asks none: the tolerances the project checks
+// its own fits against (tests' confident-miss rule): α 10 %, C1 2 %, μ 5 %.
+double default_precision(PhysKind k) {
+  switch (k) {
+    case PhysKind::kAlpha: return 0.10;
+    case PhysKind::kC1: return 0.02;
+    case PhysKind::kMu: return 0.05;
+  }
+  BURRBENCH_UNREACHABLE();
+}
 constexpr double kBoundLog = 0.01;  // within 1 % (in ln θ) of a bound = at the bound
 
 // dx_j/dx_i along the linearised profile of entry i: Σ_ji / Σ_ii (empty when the
@@ -243,16 +256,21 @@ std::pair<std::string, std::string> profile_verdict(const Run& run, const Profil
                       to_string(p->kind));
   } else if (pr.lower.closed && pr.upper.closed) {
     v = "identifiable";
-    // Closed, but wider than the precision the lab asked for ([fit.precision]).
+    // Closed, but wider than the precision the lab asked for ([fit.precision]), or, when it
+    // asked none, than the default precision: "identifiable" is read as "known to within
+    // the tolerances a lab works to", and a lab that does not know the section must not get
+    // a constant ±17 % wide under that name (docs/calibration.md "Profiles and verdicts").
     const auto& fs = run.exp.manifest.fit;
     const auto asked = p->kind == PhysKind::kAlpha ? fs.precision_alpha
                        : p->kind == PhysKind::kC1  ? fs.precision_c1
                                                     : fs.precision_mu;
+    const double wanted = asked.value_or(default_precision(p->kind));
     const double half = 0.5 * (std::exp(pr.upper.crossing) - std::exp(pr.lower.crossing)) / std::exp(xi);
-    if (asked && half > *asked) {
+    if (half > wanted) {
       v = "imprecise";
-      why = fmt::format("95 % profile interval ±{} %, wider than the ±{} % asked (fit.precision.{})",
-                        percent(100 * half), percent(100 * *asked), to_string(p->kind));
+      why = fmt::format("95 % profile interval ±{} %, wider than the ±{} % {} (fit.precision.{})",
+                        percent(100 * half), percent(100 * wanted), asked ? "asked" : "of the default precision",
+                        to_string(p->kind));
     }
   } else if (pr.lower.closed || pr.upper.closed) {
     v = "practically_non_identifiable";
