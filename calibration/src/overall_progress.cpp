@@ -6,7 +6,7 @@
 
 namespace burrbench::calibration::detail {
 
-std::map<std::string, double> planned_replays(const Run& run) {
+ReplayPlan planned_replays(const Run& run) {
   const CalibrateOptions& o = run.opt;
   const Layout& L = *run.layout;
   const double E = double(run.models.size());  // one replay per recording an evaluation
@@ -40,12 +40,14 @@ std::map<std::string, double> planned_replays(const Run& run) {
   // A fold per recording (two segments of a lone one), each a warm-started solve.
   if (o.cross_validate) p["cross_validation"] = std::max(2.0, E) * solve(11);
   p["validation"] = E;
-  return p;
+  const double refit = solve(7) + p["assess"];  // refine, then the profiles again
+  return {p, {{"refit", refit}}};
 }
 
-void OverallProgress::plan(std::map<std::string, double> replays_by_stage) {
+void OverallProgress::plan(ReplayPlan plan) {
   std::lock_guard lk(mu_);
-  planned_ = std::move(replays_by_stage);
+  planned_ = std::move(plan.stages);
+  repeats_ = std::move(plan.repeats);
 }
 
 void OverallProgress::begin(const std::string& stage) {
@@ -85,7 +87,13 @@ void OverallProgress::update(double, const std::string& line) {
 }
 
 void OverallProgress::stage(const std::string& name, const std::string& detail) {
-  const double f = fraction();
+  double f = 0;
+  {
+    std::lock_guard lk(mu_);
+    if (const auto it = repeats_.find(name); it != repeats_.end() && planned_.count(current_))
+      planned_[current_] += it->second;
+    f = fraction_locked();
+  }
   inner_->stage_at(f, name, detail);
 }
 

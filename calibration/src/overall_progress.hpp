@@ -5,7 +5,8 @@
 // of the run's replays done, done / (done + still planned), with each stage's replays
 // planned from the options and the experiment (planned_replays). A stage that needs more
 // than planned keeps the fraction rising, slower; one that needs fewer moves it on at its
-// end. Shown values never fall and reach 1 only at complete().
+// end; a repeat (ReplayPlan::repeats) adds to the plan, and holds the fraction until the
+// work catches up. Shown values never fall and reach 1 only at complete().
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -22,7 +23,14 @@ struct Run;
 // Each pipeline stage's replays (calibrate.cpp's stage names), estimated once the
 // recordings are selected: a solve costs about its iterations plus three evaluations, each
 // a replay of every recording (docs/calibration.md "Progress").
-std::map<std::string, double> planned_replays(const Run& run);
+struct ReplayPlan {
+  std::map<std::string, double> stages;  // pipeline stage → replays
+  // A stage line that starts work the plan could not foresee → the replays it adds to the
+  // pipeline stage it comes in ("refit": a profile found a cheaper point, and the refine
+  // and the profiles run again).
+  std::map<std::string, double> repeats;
+};
+ReplayPlan planned_replays(const Run& run);
 
 class OverallProgress final : public Progress {
  public:
@@ -30,7 +38,7 @@ class OverallProgress final : public Progress {
   // `replays`: the run's replays so far.
   OverallProgress(Progress* inner, std::function<std::uint64_t()> replays)
       : inner_(inner), replays_(std::move(replays)) {}
-  void plan(std::map<std::string, double> replays_by_stage);
+  void plan(ReplayPlan plan);
   void begin(const std::string& stage);  // a pipeline stage starts (after its predecessor ended)
   void end(const std::string& stage);
   void complete(const std::string& line);  // the whole run: fraction 1
@@ -48,6 +56,7 @@ class OverallProgress final : public Progress {
   std::function<std::uint64_t()> replays_;
   std::mutex mu_;  // multistart reports from its worker threads
   std::map<std::string, double> planned_;
+  std::map<std::string, double> repeats_;
   std::set<std::string> ended_;
   std::string current_;
   std::uint64_t at_begin_ = 0;  // replays when the current stage began
