@@ -10,6 +10,7 @@
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/provenance.hpp"
+#include "overall_progress.hpp"
 #include "pipeline.hpp"
 
 namespace burrbench::calibration {
@@ -100,18 +101,29 @@ std::string percent(double pct, bool sign) {
 CalibrationOutput calibrate(const std::filesystem::path& manifest_path, const CalibrateOptions& opt) {
   validate(opt);
   const auto t_start = std::chrono::steady_clock::now();
-  detail::Run run(opt, manifest_path);
+  // The stages report to the caller's sink through `overall`, which adds the run's fraction.
+  CalibrateOptions o = opt;
+  const detail::Run* live = nullptr;
+  auto replays = [&live] {
+    return !live ? 0 : live->obj ? live->replays_before + live->obj->replays() : live->replays_before;
+  };
+  detail::OverallProgress overall(opt.progress, replays);
+  if (opt.progress) o.progress = &overall;
+  detail::Run run(o, manifest_path);
+  live = &run;
   // Each stage's wall time and replays go to fit.json (solver.stages) and the summary.
-  auto stage = [&run](const char* name, void (*fn)(detail::Run&)) {
+  auto stage = [&](const char* name, void (*fn)(detail::Run&)) {
     const auto t0 = std::chrono::steady_clock::now();
-    const std::uint64_t r0 = run.obj ? run.replays_before + run.obj->replays() : run.replays_before;
+    const std::uint64_t r0 = replays();
+    overall.begin(name);
     fn(run);
-    const std::uint64_t r1 = run.obj ? run.replays_before + run.obj->replays() : run.replays_before;
+    overall.end(name);
     run.stages.push_back({{"stage", name},
                           {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()},
-                          {"replays", r1 - r0}});
+                          {"replays", replays() - r0}});
   };
   stage("select", detail::select_recordings);
+  overall.plan(detail::planned_replays(run));
   stage("steps", detail::choose_steps);
   if (opt.coarse_to_fine) {
     stage("coarse_to_fine", detail::coarse_search);
@@ -138,6 +150,7 @@ CalibrationOutput calibrate(const std::filesystem::path& manifest_path, const Ca
   res.fit.solver.wall_s = std::chrono::duration<double>(t1 - t_start).count();
   // A file replaced while the fit ran: the results would name a file they did not come from.
   check_unchanged(run.exp.inputs, "calibrate");
+  overall.complete(fmt::format("fitted: {} replays in {:.1f} s", res.fit.solver.replays, res.fit.solver.wall_s));
   return res;
 }
 

@@ -15,6 +15,14 @@ double TerminalProgress::elapsed_s(std::chrono::steady_clock::time_point now) co
   return std::chrono::duration<double>(now - start_).count();
 }
 
+std::string remaining_time(double fraction, double elapsed_s) {
+  // Below 2 % done or 1 s in, the rate is too uncertain to extrapolate.
+  if (!(fraction >= 0.02 && fraction < 1) || elapsed_s < 1) return "";
+  const double left = elapsed_s * (1 - fraction) / fraction;
+  if (left < 90) return fmt::format(", ~{:.0f} s left", left);
+  return fmt::format(", ~{:.0f} min left", left / 60);
+}
+
 void TerminalProgress::update(double fraction, const std::string& line) {
   const auto now = std::chrono::steady_clock::now();
   const auto every = tty_ ? std::chrono::milliseconds(100) : std::chrono::milliseconds(5000);
@@ -23,7 +31,8 @@ void TerminalProgress::update(double fraction, const std::string& line) {
   printed_ = true;
   std::string pct = fraction >= 0 ? fmt::format("{:5.1f}% ", 100.0 * fraction) : std::string();
   const std::string who = stage_.empty() ? label_ : fmt::format("{} [{}]", label_, stage_);
-  std::string text = fmt::format("{}: {}{} [{:.1f} s]", who, pct, line, elapsed_s(now));
+  const double el = elapsed_s(now);
+  std::string text = fmt::format("{}: {}{} [{:.1f} s{}]", who, pct, line, el, remaining_time(fraction, el));
   if (tty_) {
     fmt::print(out_, "\r\033[K{}", text);
   } else {
@@ -34,7 +43,7 @@ void TerminalProgress::update(double fraction, const std::string& line) {
 
 void TerminalProgress::stage(const std::string& name, const std::string& detail) {
   stage_ = name;
-  kept_line(detail.empty() ? name : name + ": " + detail);
+  kept_line(stage_line(name, detail));
 }
 
 void TerminalProgress::note(const std::string& line) { kept_line(line); }

@@ -33,6 +33,7 @@ def replay(experiment, params, step_us=0.0, erosion=True, threads=2, progress=No
 def calibrate(experiment, progress=None, **options):
     """Calibrates as `burrbench calibrate` (no files written): {"fit": fit.json's content,
     "params": {class: {...}}, "summary": str}. `progress(fraction, line)` receives the
-    progress lines (fraction in [0, 1], or None when not known); keyword options as in docs/python.md (threads, starts, profiles,
+    progress lines with the whole run's fraction done (in [0, 1], never falling, 1.0 on the
+    last line); keyword options as in docs/python.md (threads, starts, profiles,
     cross_validate, discretization_check, derivatives, ...)."""
     return _calibrate(_os.fspath(experiment), progress, **options)

@@ -1,6 +1,6 @@
 // calibrate(experiment, progress=None, **options): the CLI's calibration, returning the
 // fit (fit.json's content), the parameter set and the summary. Progress lines reach a
-// Python callable (fraction or None, line) — the lines `burrbench calibrate` prints.
+// Python callable (the whole run's fraction done, line) — the lines `burrbench calibrate` prints.
 // Ctrl-C (KeyboardInterrupt) or an exception from that callable stops it within a moment.
 #include <algorithm>
 #include <filesystem>
@@ -89,7 +89,7 @@ void bind_calibration(py::module_& m) {
       "Calibrates alpha, C1 and mu per bone class on an experiment manifest, as `burrbench calibrate`: "
       "{fit: fit.json's content, params: {class: {...}}, summary: str}. Options as keywords (threads, "
       "starts, profiles, cross_validate, discretization_check, derivatives, ...); progress(fraction, "
-      "line) receives the progress lines. Each of fit.json's warnings (two recordings of one sample that "
+      "line) receives the progress lines with the whole run's fraction done (0..1, 1.0 on the last). Each of fit.json's warnings (two recordings of one sample that "
       "removed the same bone, a lag at its bound, ...) gives a UserWarning, the line the CLI prints.");
 }
 

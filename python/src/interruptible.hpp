@@ -82,6 +82,9 @@ class PyProgress final : public Progress {
     return std::make_unique<PyProgress>(progress.cast<pybind11::function>(), cancel);
   }
   void update(double fraction, const std::string& line) override { call(fraction, line); }
+  void stage_at(double fraction, const std::string& name, const std::string& detail) override {
+    call(fraction, stage_line(name, detail));
+  }
   void finish(const std::string& summary_line) override { call(1.0, summary_line); }
   void rethrow() {
     if (error_) std::rethrow_exception(error_);

@@ -8,6 +8,7 @@ virtual rig played, within the calibration issue's tolerances."""
 import json
 import math
 import os
+import re
 import subprocess
 import tomllib
 
@@ -106,6 +107,58 @@ def test_demo_recovers_truth_and_writes_report(demo, tmp_path):
     outputs = [o for c in done["cells"] if c["cell_type"] == "code" for o in c["outputs"]]
     assert not [o for o in outputs if o.get("output_type") == "error"]
     assert any("image/png" in o.get("data", {}) for o in outputs)  # the force plot was drawn
+
+
+def summary_line(stdout, label):
+    """The text of the summary's line `label:` (label padded to 12)."""
+    found = [line[12:] for line in stdout.splitlines() if line.startswith(f"{label + ':':<12}")]
+    assert len(found) == 1, (label, stdout)
+    return found[0]
+
+
+def test_demo_shows_calibrate_progress_as_it_goes(demo):
+    """Not a minute of silence: calibrate's live line reaches the demo's stderr (a line every
+    5 s in a log), with the whole run's fraction, rising, and the time left."""
+    _, run = demo
+    shown = [(float(m.group(1)), m.group(0)) for m in
+             re.finditer(r"^ {6}calibrate \[[^\]]+\]: +(\d+\.\d)% .*$", run.stderr, re.M)]
+    assert len(shown) >= 3, run.stderr
+    fractions = [f for f, _ in shown]
+    assert fractions == sorted(fractions) and 0 <= fractions[0] and fractions[-1] <= 100, fractions
+    assert any(re.search(r", ~\d+ (s|min) left\]$", line) for _, line in shown), shown
+    assert re.search(r"^ {6}calibrate: done: \d+ replays", run.stderr, re.M), run.stderr
+
+
+def test_demo_summary_names_limits_verification_and_losses(demo):
+    """The summary's lines agree with the files they summarise: the constants fit.json flags
+    as limited by discretization error, the validate run's verification error against the
+    noise, and the FIFO records the acquisitions lost."""
+    out, run = demo
+    fit = json.loads((out / "fit" / "fit.json").read_text())
+    limited = summary_line(run.stdout, "limited")
+    flagged = [(p["class_name"], p["name"]) for p in fit["parameters"]
+               if (p.get("discretization") or {}).get("limited")]
+    if flagged:
+        assert limited.startswith("by discretization error: "), limited
+        for cls, name in flagged:
+            assert re.search(rf"{cls} [a-z1, ]*\b{name}\b", limited), (cls, name, limited)
+    else:
+        assert limited.startswith("none by discretization error"), limited
+    v = context(out / "validate")["verification"]
+    verify = summary_line(run.stdout, "verify")
+    assert verify.startswith(f"discretization error in force {v['largest_error_N']:.3g} N ({v['worst_recording']}) "
+                             f"against the sensor noise {v['sigma_N']:.3g} N: "), verify
+    assert verify.endswith(("below it (report section 3)" if v["below_noise"] else "above it (report section 3)"))
+    lost = {}
+    for rec in ("plunge", "sweep", "polish"):
+        for m in re.finditer(r"^warning: (\S+) lost (\d+) of", (out / f"acquire-{rec}.log").read_text(), re.M):
+            lost[m.group(1)] = lost.get(m.group(1), 0) + int(m.group(2))
+    said = summary_line(run.stdout, "lost")
+    if lost:
+        for dev, n in lost.items():
+            assert f"{dev} {n} of " in said, (lost, said)
+    else:
+        assert said == "no FIFO record lost in acquisition", said
 
 
 def test_validate_with_the_fit_replays_at_its_nuisances(demo, tmp_path):

@@ -62,3 +62,14 @@ TEST(Progress, TheDefaultStageIsAnUpdate) {
   p.stage("profiles", "");
   EXPECT_EQ(sink.seen, (std::vector<std::string>{"refine: the best start to convergence", "profiles"}));
 }
+
+// The time left is the rate so far extrapolated: none too early to tell or once done,
+// seconds below 90 s, minutes above.
+TEST(Progress, TheTimeLeftFollowsTheRateSoFar) {
+  EXPECT_EQ(burrbench::remaining_time(0.25, 10), ", ~30 s left");
+  EXPECT_EQ(burrbench::remaining_time(0.1, 60), ", ~9 min left");
+  EXPECT_EQ(burrbench::remaining_time(0.01, 60), "");  // 1 %: too early
+  EXPECT_EQ(burrbench::remaining_time(0.5, 0.5), "");  // half a second in: too early
+  EXPECT_EQ(burrbench::remaining_time(1.0, 60), "");
+  EXPECT_EQ(burrbench::remaining_time(-1, 60), "");    // no fraction
+}

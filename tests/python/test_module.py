@@ -304,7 +304,13 @@ def test_calibrate_from_python_with_progress(exp):
     lines = []
     out = burrbench.calibrate(exp / "experiment.toml", progress=lambda f, line: lines.append((f, line)),
                               starts=2, profiles=False, cross_validate=False, discretization_check=False)
-    assert lines and all(f is None or 0 <= f <= 1 for f, _ in lines)
+    # Every line carries the whole run's fraction (from its stages' planned replays): never
+    # None, in [0, 1], never falling, 1 at the end and only there.
+    fractions = [f for f, _ in lines]
+    assert lines and None not in fractions, lines[:5]
+    assert all(0 <= f <= 1 for f in fractions) and fractions == sorted(fractions), fractions
+    assert fractions[-1] == 1.0 and fractions.count(1.0) == 1 and lines[-1][1].startswith("fitted: "), lines[-3:]
+    assert len(set(fractions)) >= 5, fractions  # it moves along, not 0 then 1
     assert any("global search" in line for _, line in lines)
     fit = out["fit"]
     assert fit["format"] == "burrbench.fit"

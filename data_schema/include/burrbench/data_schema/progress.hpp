@@ -14,20 +14,33 @@ class Progress {
   virtual void update(double fraction, const std::string& line) = 0;
   // A long operation's next stage ("refine", "profiles"): what the updates after it belong
   // to. `detail` says what the stage does. By default an ordinary update.
-  virtual void stage(const std::string& name, const std::string& detail) {
-    update(-1, detail.empty() ? name : name + ": " + detail);
+  virtual void stage(const std::string& name, const std::string& detail) { update(-1, stage_line(name, detail)); }
+  // The same when `fraction` of the whole operation is done (< 0: not known): a sink that
+  // passes fractions on (the Python callback) takes it; by default the stage alone.
+  virtual void stage_at(double fraction, const std::string& name, const std::string& detail) {
+    (void)fraction;
+    stage(name, detail);
   }
   virtual void finish(const std::string& summary_line) = 0;
   // Something the user must see now (a device that stopped measuring): a line of its own,
   // kept, whatever the update rate; the stage does not change. By default an update.
   virtual void note(const std::string& line) { update(-1, line); }
+  // A stage's line: "refine: the best point so far to convergence" ("profiles" alone).
+  static std::string stage_line(const std::string& name, const std::string& detail) {
+    return detail.empty() ? name : name + ": " + detail;
+  }
 };
+
+// ", ~17 s left" (", ~4 min left" from 90 s): the time still to go at the rate so far,
+// for a status line at `fraction` done after `elapsed_s`; "" while too early to tell.
+std::string remaining_time(double fraction, double elapsed_s);
 
 // Rewrites one status line on a terminal (stderr) at most every 100 ms; when stderr is
 // not a terminal it prints a plain line at most every 5 s so logs stay readable. A stage
 // is never dropped by that limit: it gets a line of its own (kept on a terminal, above the
 // status line), and the updates after it name it ("calibrate [refine]: iter 3 …"), so a
-// glance at the screen or the log tells which fit an iteration belongs to.
+// glance at the screen or the log tells which fit an iteration belongs to. An update with a
+// fraction shows it as a percentage and the time left (remaining_time).
 class TerminalProgress final : public Progress {
  public:
   explicit TerminalProgress(std::string label, std::FILE* out = stderr);
