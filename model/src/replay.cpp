@@ -78,8 +78,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
                     Progress* progress) {
   check_trajectory(tr);
   if (!(radius_mm > 0) || !std::isfinite(radius_mm))
-    throw InputError("replay", "radius_mm", "finite burr radius > 0 mm",
-                     std::to_string(radius_mm));
+    throw InputError("replay", "radius_mm", "finite burr radius > 0 mm", std::to_string(radius_mm));
   if (!(opt.step_s >= 0) || !std::isfinite(opt.step_s))
     throw InputError("replay", "step_s", "finite step >= 0 s (0 = half the sample period)",
                      std::to_string(opt.step_s));
@@ -93,8 +92,7 @@ ReplayResult replay(Volume& vol, double radius_mm, const ModelParams& params,
   const double span_s = tr.t_s.back() - std::min(tr.t_s.front(), tr.vias.empty() ? INFINITY : tr.vias.front().t_s);
   if (n > 1 && span_s / h > 1e9)
     throw InputError("replay", "step_s", "at most 1e9 internal steps", fmt::format("{} s over {} s", h, span_s));
-  // The kernel's working space, this replay's own (so replays of copies, or of one volume
-  // without erosion, may run side by side): its lens table is built at the first step.
+  // The kernel's working space, this replay's own: replays of copies may run side by side.
   KernelScratch scratch;
   // Forward sensitivities: a tangent state beside the undo log (it lives for this replay).
   // It carries only the directions that do not follow exactly from others (direction_plan.hpp).
