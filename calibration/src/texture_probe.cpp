@@ -42,22 +42,20 @@ TextureProbe probe_texture(const Objective& obj, const std::vector<double>& x_ha
   po.threads = threads;
   SolveOptions so = profile_point_solve(po, threshold, cost_hat);
   so.hold = held;
+  t.starts.assign(kTextureProbes, x_hat);
+  for (std::size_t k = 0; k < kTextureProbes; ++k) {
+    std::vector<double>& x = t.starts[k];
+    for (std::size_t a = 0; a < m; ++a) {
+      const double scale = radius * probe_sign(k, a) * std::sqrt(std::max(0.0, es.eigenvalues()[Eigen::Index(a)]));
+      for (std::size_t b = 0; b < m; ++b) x[cov.indices[b]] += scale * es.eigenvectors()(Eigen::Index(b), Eigen::Index(a));
+    }
+    for (const std::size_t e : cov.indices) x[e] = std::clamp(x[e], L.lower(e), L.upper(e));
+  }
   std::vector<SolveOutcome> ends(kTextureProbes);
   std::vector<std::size_t> queue(kTextureProbes);
   std::iota(queue.begin(), queue.end(), std::size_t(0));
-  model::run_job_queue(kTextureProbes, queue, threads, [&](std::size_t, std::size_t k) {
-    std::vector<double> x = x_hat;
-    for (std::size_t a = 0; a < m; ++a) {
-      const double scale = radius * probe_sign(k, a) * std::sqrt(std::max(0.0, es.eigenvalues()[Eigen::Index(a)]));
-      for (std::size_t b = 0; b < m; ++b) {
-        const std::size_t e = cov.indices[b];
-        x[e] += scale * es.eigenvectors()(Eigen::Index(b), Eigen::Index(a));
-      }
-    }
-    for (const std::size_t e : cov.indices)
-      if (std::isfinite(L.lower(e)) || std::isfinite(L.upper(e))) x[e] = std::clamp(x[e], L.lower(e), L.upper(e));
-    ends[k] = obj.solve(x, w, so);
-  });
+  model::run_job_queue(kTextureProbes, queue, threads,
+                       [&](std::size_t, std::size_t k) { ends[k] = obj.solve(t.starts[k], w, so); });
   std::vector<double> above;
   for (const auto& e : ends) {
     const double d = e.usable ? e.final_cost - cost_hat : INFINITY;

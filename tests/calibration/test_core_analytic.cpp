@@ -487,6 +487,40 @@ struct Converged {
         obj(*s.layout, ptrs(s), settings(plain)),
         fit(obj.solve(s.layout->initial(), s.w, to_convergence())) {}
 };
+// dᵀ S⁻¹ d for S (m×m, row-major, positive definite) by Gaussian elimination with pivoting.
+double mahalanobis2(std::vector<double> S, const std::vector<double>& d) {
+  const std::size_t m = d.size();
+  std::vector<double> y = d;
+  for (std::size_t c = 0; c < m; ++c) {
+    std::size_t p = c;
+    for (std::size_t r = c + 1; r < m; ++r)
+      if (std::abs(S[r * m + c]) > std::abs(S[p * m + c])) p = r;
+    for (std::size_t j = 0; j < m; ++j) std::swap(S[c * m + j], S[p * m + j]);
+    std::swap(y[c], y[p]);
+    for (std::size_t r = c + 1; r < m; ++r) {
+      const double f = S[r * m + c] / S[c * m + c];
+      for (std::size_t j = c; j < m; ++j) S[r * m + j] -= f * S[c * m + j];
+      y[r] -= f * y[c];
+    }
+  }
+  for (std::size_t c = m; c-- > 0;) {
+    for (std::size_t j = c + 1; j < m; ++j) y[c] -= S[c * m + j] * y[j];
+    y[c] /= S[c * m + c];
+  }
+  double q = 0;
+  for (std::size_t a = 0; a < m; ++a) q += d[a] * y[a];
+  return q;
+}
+
+// The converged analytic fit with its covariance and the χ² profile threshold.
+struct AtOptimum {
+  Converged c;
+  bc::CovarianceOutcome cov;
+  double threshold;
+  explicit AtOptimum(unsigned seed)
+      : c(seed, true), cov(c.obj.covariance(c.fit.x, c.s.w, {})),
+        threshold(0.5 * bc::kChi2_1_95 * cov.residual_variance) {}
+};
 }  // namespace
 
 // refine runs its second pass (a fresh trust region) only after the first took a step: a
@@ -510,12 +544,12 @@ TEST(CalibrationCore, ASolveCountsTheStepsItTookNotItsStart) {
 // convergence at each trial. The walk's points (one per side where the covariance
 // predicts the crossing, closed by a short extrapolation) must land on it.
 TEST(CalibrationCore, ProfileCrossingsMatchABruteForceProfile) {
-  Converged c(6, true);
-  const auto& [s, obj, fit] = c;
+  const AtOptimum o(6);
+  const auto& [s, obj, fit] = o.c;
   ASSERT_TRUE(fit.usable);
-  const auto cov = obj.covariance(fit.x, s.w, {});
+  const auto& cov = o.cov;
   ASSERT_TRUE(cov.ok);
-  const double thr = 0.5 * bc::kChi2_1_95 * cov.residual_variance;
+  const double thr = o.threshold;
   const std::size_t n = cov.indices.size();
   int single = 0, sides = 0;
   for (const auto& p : s.layout->physics()) {
@@ -564,14 +598,23 @@ TEST(CalibrationCore, ProfileCrossingsMatchABruteForceProfile) {
 // (docs/calibration.md "Profiles on a textured cost"). Probed from a point 5 SE off the
 // optimum, they all end below it: the cue that restarts the refinement.
 TEST(CalibrationCore, TextureProbesComeBackToASmoothOptimum) {
-  Converged c(6, true);
-  const auto& [s, obj, fit] = c;
+  const AtOptimum o(6);
+  const auto& [s, obj, fit] = o.c;
   ASSERT_TRUE(fit.usable);
-  const auto cov = obj.covariance(fit.x, s.w, {});
+  const auto& cov = o.cov;
   ASSERT_TRUE(cov.ok);
-  const double thr = 0.5 * bc::kChi2_1_95 * cov.residual_variance;
+  const double thr = o.threshold;
   const auto t = bc::probe_texture(obj, fit.x, fit.final_cost, s.w, {}, cov, thr, 2);
   ASSERT_EQ(t.excess.size(), bc::kTextureProbes);
+  // Each start on the 95 % ellipsoid: Mahalanobis² 4 against the covariance (solved here by
+  // elimination, not by the eigen-decomposition the probes are built from), no two alike.
+  const std::size_t m = cov.indices.size();
+  for (std::size_t k = 0; k < t.starts.size(); ++k) {
+    std::vector<double> d(m);
+    for (std::size_t a = 0; a < m; ++a) d[a] = t.starts[k][cov.indices[a]] - fit.x[cov.indices[a]];
+    EXPECT_NEAR(mahalanobis2(cov.cov, d), 4.0, 1e-6) << "probe " << k;
+    for (std::size_t j = 0; j < k; ++j) EXPECT_NE(t.starts[j], t.starts[k]) << "probes " << j << " and " << k;
+  }
   for (const double d : t.excess) {
     std::cout << "probe excess " << d << " (threshold " << thr << ")\n";
     EXPECT_LT(std::abs(d), 0.05 * thr);

@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -87,37 +88,71 @@ bt::SessionSpec spec_from_env() {
   return s;
 }
 
+// A session made in a fresh folder (bb_session_<tag>_<pid>) and calibrated with `flags`;
+// `fit` is empty when calibrate failed (reported as a failure with its log).
+struct Calibrated {
+  fs::path dir;
+  bt::SessionCase c;
+  std::string log;
+  double wall_s = 0;
+  std::optional<ds::FitResult> fit;
+};
+
+Calibrated calibrate_session(const std::string& tag, const bt::SessionSpec& s, const std::string& flags) {
+  Calibrated r;
+  r.dir = fs::temp_directory_path() / fmt::format("bb_session_{}_{}", tag, ::getpid());
+  fs::remove_all(r.dir);
+  r.c = bt::make_session(r.dir, s);
+  const auto t0 = std::chrono::steady_clock::now();
+  const int rc = run(fmt::format("calibrate '{}' --out '{}' --no-cross-validation {}", r.c.manifest.string(),
+                                 (r.dir / "out").string(), flags), r.log, r.dir / "cal.log");
+  r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (rc != 0) ADD_FAILURE() << "calibrate exited " << rc << ":\n" << r.log;
+  else r.fit = ds::read_fit(r.dir / "out" / "fit.json");
+  return r;
+}
+
+// The bound a global optimum must reach: the cost with the six constants held at the truth
+// and every nuisance (pose, lags, biases, idle) fitted; NaN when that fit failed.
+double cost_at_truth(const Calibrated& r, const bt::SessionSpec& s) {
+  std::string log;
+  const int rc = run(fmt::format("calibrate '{}' --out '{}' --starts 1 --no-cross-validation --no-profiles "
+                                 "--no-discretization-check",
+                                 bt::with_constants_fixed(r.c.manifest, s).string(), (r.dir / "at_truth").string()),
+                     log, r.dir / "truth.log");
+  if (rc != 0) {
+    ADD_FAILURE() << "the truth-held fit exited " << rc << ":\n" << log;
+    return NAN;
+  }
+  return ds::read_fit(r.dir / "at_truth" / "fit.json").solver.final_cost;
+}
+
+void expect_global(const Calibrated& r, const bt::SessionSpec& s) {
+  const double cost = r.fit->solver.final_cost, bound = cost_at_truth(r, s);
+  std::printf("  optimum's cost %.6g, at the truth with the nuisances fitted %.6g (%+.3f %%)\n", cost, bound,
+              100 * (cost / bound - 1));
+  EXPECT_LT(cost, bound * 1.001) << "a local optimum";
+}
+
+// The folder is kept when asked (BURRBENCH_KEEP_SESSION) or when the test failed.
+void tidy(const Calibrated& r) {
+  if (keep()) std::printf("  kept %s\n", r.dir.string().c_str());
+  else if (!::testing::Test::HasFailure()) fs::remove_all(r.dir);
+}
+
 }  // namespace
 
 // The defaults on the realistic session: no constant is a confident miss, and the optimum
 // is the global one: its cost within 0.1 % of the cost at the true constants with every
 // nuisance fitted (calibrate --hold-physics-at truth.toml).
 TEST(RealisticSession, DefaultCalibrationReachesTheGlobalOptimumOrSaysItIsNotSure) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("bb_session_{}", ::getpid());
-  fs::remove_all(dir);
   const bt::SessionSpec s = spec_from_env();
-  const auto c = bt::make_session(dir, s);
-  std::string log;
-  const auto t0 = std::chrono::steady_clock::now();
-  ASSERT_EQ(run(fmt::format("calibrate '{}' --out '{}' --no-cross-validation", c.manifest.string(),
-                            (dir / "out").string()), log, dir / "cal.log"), 0) << log;
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("%s\n  default calibration: %.1f s wall\n", log.substr(log.find("calibrated")).c_str(), wall);
-  const ds::FitResult fit = ds::read_fit(dir / "out" / "fit.json");
-  EXPECT_EQ(confident_misses(fit, s), 0);
-  // The bound: the true constants held, the nuisances (pose, lags, biases, idle) fitted.
-  const fs::path held = bt::with_constants_fixed(c.manifest, s);
-  ASSERT_EQ(run(fmt::format("calibrate '{}' --out '{}' --starts 1 --no-cross-validation --no-profiles "
-                            "--no-discretization-check",
-                            held.string(), (dir / "at_truth").string()),
-                log, dir / "truth.log"), 0) << log;
-  const ds::FitResult at_truth = ds::read_fit(dir / "at_truth" / "fit.json");
-  const double cost = fit.solver.final_cost, bound = at_truth.solver.final_cost;
-  std::printf("  optimum's cost %.6g, at the truth with the nuisances fitted %.6g (%+.3f %%)\n", cost, bound,
-              100 * (cost / bound - 1));
-  EXPECT_LT(cost, bound * 1.001) << "a local optimum";
-  if (keep()) std::printf("  kept %s\n", dir.string().c_str());
-  else if (!HasFailure()) fs::remove_all(dir);
+  const Calibrated r = calibrate_session("default", s, "");
+  ASSERT_TRUE(r.fit);
+  std::printf("%s\n  default calibration: %.1f s wall\n", r.log.substr(r.log.find("calibrated")).c_str(), r.wall_s);
+  EXPECT_EQ(confident_misses(*r.fit, s), 0);
+  expect_global(r, s);
+  tidy(r);
 }
 
 // The plunges alone, seed 1: the joint hypercube's four solved starts all ended in one
@@ -125,30 +160,18 @@ TEST(RealisticSession, DefaultCalibrationReachesTheGlobalOptimumOrSaysItIsNotSur
 // refinement freed the pose, cost 4.3× the truth-held fit's). The search staged by class
 // (docs/calibration.md "Starts staged by class") reaches the global optimum.
 TEST(RealisticSession, PlungesAloneReachTheTrabecularBasin) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("bb_session_plunges_{}", ::getpid());
-  fs::remove_all(dir);
   bt::SessionSpec s;
   s.seed = 1;
   s.plunge_only = true;
-  const auto c = bt::make_session(dir, s);
-  std::string log;
-  ASSERT_EQ(run(fmt::format("calibrate '{}' --out '{}' --no-cross-validation --no-profiles --no-discretization-check",
-                            c.manifest.string(), (dir / "out").string()), log, dir / "cal.log"), 0) << log;
-  const ds::FitResult fit = ds::read_fit(dir / "out" / "fit.json");
-  ASSERT_EQ(run(fmt::format("calibrate '{}' --out '{}' --starts 1 --no-cross-validation --no-profiles "
-                            "--no-discretization-check",
-                            bt::with_constants_fixed(c.manifest, s).string(), (dir / "at_truth").string()),
-                log, dir / "truth.log"), 0) << log;
-  const double cost = fit.solver.final_cost, bound = ds::read_fit(dir / "at_truth" / "fit.json").solver.final_cost;
-  std::printf("  optimum's cost %.6g, at the truth with the nuisances fitted %.6g\n", cost, bound);
-  EXPECT_LT(cost, bound * 1.001) << "a local optimum";
+  const Calibrated r = calibrate_session("plunges", s, "--no-profiles --no-discretization-check");
+  ASSERT_TRUE(r.fit);
+  expect_global(r, s);
   for (const Truth& t : truths(s)) {
-    const auto* p = fit.parameter(std::uint8_t(t.label), t.name);
+    const auto* p = r.fit->parameter(std::uint8_t(t.label), t.name);
     ASSERT_NE(p, nullptr);
     EXPECT_NEAR(p->held / t.value - 1, 0.0, t.tolerance) << p->class_name << " " << t.name;
   }
-  if (keep()) std::printf("  kept %s\n", dir.string().c_str());
-  else if (!HasFailure()) fs::remove_all(dir);
+  tidy(r);
 }
 
 // The plunges alone, seed 3, with the profiles: the optimum is the global one, but the
@@ -158,18 +181,13 @@ TEST(RealisticSession, PlungesAloneReachTheTrabecularBasin) {
 // with the texture allowance (docs/calibration.md "Profiles on a textured cost") no
 // constant is a confident miss, and fit.json says what was added to the threshold.
 TEST(RealisticSession, PlungeProfilesHoldTheTruthOnATexturedCost) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("bb_session_texture_{}", ::getpid());
-  fs::remove_all(dir);
   bt::SessionSpec s;
   s.seed = 3;
   s.plunge_only = true;
-  const auto c = bt::make_session(dir, s);
-  std::string log;
-  ASSERT_EQ(run(fmt::format("calibrate '{}' --out '{}' --no-cross-validation --no-discretization-check",
-                            c.manifest.string(), (dir / "out").string()), log, dir / "cal.log"), 0) << log;
-  const ds::FitResult fit = ds::read_fit(dir / "out" / "fit.json");
-  EXPECT_EQ(confident_misses(fit, s), 0);
-  std::ifstream f(dir / "out" / "fit.json");
+  const Calibrated r = calibrate_session("texture", s, "--no-discretization-check");
+  ASSERT_TRUE(r.fit);
+  EXPECT_EQ(confident_misses(*r.fit, s), 0);
+  std::ifstream f(r.dir / "out" / "fit.json");
   const auto pr = nlohmann::json::parse(f)["settings"]["profiles"];
   const double chi2 = pr["chi2_threshold_cost"].get<double>(), tau = pr["texture"]["allowance_cost"].get<double>();
   std::printf("  profile threshold %.4g = chi2 %.4g + texture %.4g; probes %s\n", pr["threshold_cost"].get<double>(),
@@ -177,8 +195,7 @@ TEST(RealisticSession, PlungeProfilesHoldTheTruthOnATexturedCost) {
   EXPECT_EQ(pr["texture"]["probe_excess_cost"].size(), 4u);
   EXPECT_GT(tau, 0.25 * chi2) << "the texture this session is known for";
   EXPECT_NEAR(pr["threshold_cost"].get<double>(), chi2 + tau, 1e-9 * chi2);
-  if (keep()) std::printf("  kept %s\n", dir.string().c_str());
-  else if (!HasFailure()) fs::remove_all(dir);
+  tidy(r);
 }
 
 // One bead's rig coordinates off. By 50 µm (10× its stated error) the fiducials alone show

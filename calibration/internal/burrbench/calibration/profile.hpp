@@ -67,6 +67,7 @@ SolveOptions profile_point_solve(const ProfileOptions& opt, double threshold, do
 // the allowance added to the profile threshold.
 inline constexpr std::size_t kTextureProbes = 4;
 struct TextureProbe {
+  std::vector<std::vector<double>> starts;  // where each probe started
   std::vector<double> excess;       // each probe's end cost − the optimum's (∞: failed)
   double allowance = 0;             // median of the excesses (negatives as 0)
   std::vector<double> cheapest_at;  // the cheapest end and its cost
