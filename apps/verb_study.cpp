@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -16,6 +17,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <thread>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -158,11 +160,31 @@ fs::path write_plan(const study::StudyManifest& s, const fs::path& out) {
 // Snakemake to stop (it ends its jobs and removes their incomplete outputs) and only then
 // dies of the signal. Before, the signal stopped burrbench alone and the jobs went on
 // writing after it had exited (issue 59, N6).
+// The group gets SIGINT whichever signal came: Snakemake's SIGTERM handler (7.21,
+// Scheduler.exit_gracefully) takes the scheduler's non-reentrant lock, so a SIGTERM that
+// lands while the main thread holds that lock deadlocks Snakemake (a `study run` that never
+// ended after SIGTERM on a loaded host); its SIGINT path (KeyboardInterrupt: cancel the
+// jobs, clean up) takes no lock.
 std::atomic<pid_t> g_child_group{0};
 std::atomic<int> g_forwarded{0};
 void forward_signal(int sig) {
   g_forwarded = sig;
-  if (const pid_t g = g_child_group.load(); g > 0) ::kill(-g, sig);
+  if (const pid_t g = g_child_group.load(); g > 0) ::kill(-g, SIGINT);
+}
+
+// Waits for the child; once a signal was forwarded, sends SIGINT again to its group every
+// kResendS seconds until it ends: a job Snakemake had started as the first one arrived
+// would otherwise run to its end before Snakemake can exit.
+int wait_child(pid_t pid) {
+  constexpr int kPollMs = 100, kResendS = 10;
+  int status = 0, polls_since_signal = 0;
+  for (;;) {
+    const pid_t r = ::waitpid(pid, &status, WNOHANG);
+    if (r == pid) return status;
+    if (r < 0 && errno != EINTR) throw std::runtime_error(std::string("waitpid: ") + std::strerror(errno));
+    if (g_forwarded.load() && ++polls_since_signal % (kResendS * 1000 / kPollMs) == 0) ::kill(-pid, SIGINT);
+    std::this_thread::sleep_for(std::chrono::milliseconds(kPollMs));
+  }
 }
 
 int run_process(const std::vector<std::string>& argv) {
@@ -198,9 +220,7 @@ int run_process(const std::vector<std::string>& argv) {
   ::setpgid(pid, pid);  // as the child does: whichever runs first
   g_child_group = pid;
   ::sigprocmask(SIG_SETMASK, &prev, nullptr);
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) throw std::runtime_error(std::string("waitpid: ") + std::strerror(errno));
+  const int status = wait_child(pid);
   g_child_group = 0;
   sigaction(SIGINT, &old_int, nullptr);
   sigaction(SIGTERM, &old_term, nullptr);

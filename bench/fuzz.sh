@@ -7,7 +7,8 @@
 # sets, fit results (JSON), acceptance criteria, density phantoms, sensor loads, register
 # maps, tare files, protocols, acquisition journals (as `recover` reads them) and the HDF5
 # readers (recording, sample, prediction) through an in-memory file image.
-# Usage: bench/fuzz.sh [SECONDS]      (default 60 per target; env FUZZ_SECONDS also works)
+# Usage: bench/fuzz.sh [SECONDS]      (default 60 per target; env FUZZ_SECONDS also works;
+# env FUZZ_JOBS runs that many targets at once, default 1)
 # `make fuzz` runs it (`make bench` does not). Env FUZZ_TARGETS (space-separated) runs a
 # subset. A non-number $1 is ignored. The fuzz build lives in its own dir (env
 # FUZZ_BUILD, default build-fuzz). Seeds are written here (the binary ones by
@@ -231,13 +232,11 @@ rm -rf "$bin"
 # Inputs up to 64 KiB; the binary formats' seeds are larger (HDF5 files of a few streams,
 # journals of 4 KiB blocks): 512 KiB for those.
 max_len() { case $1 in fuzz_*_h5 | fuzz_journal) echo 524288 ;; *) echo 65536 ;; esac; }
-printf '%-20s | %-28s | %-22s | %s\n' "target" "executions in ${secs} s" "finding" "ok?"
-status=0
-for t in "${targets[@]}"; do
-  d=$work/$t
+# One target: its libFuzzer run, then its line of the table in $work/<target>/result.
+fuzz_one() {
+  local t=$1 d=$work/$1 lsan="" rc execs rate figure
   mkdir -p "$d/corpus" "$d/artifacts" "$d/seeds"
   # libhdf5's own leaks on corrupt object headers are not findings (fuzz/lsan_hdf5.supp).
-  lsan=""
   [[ $t != fuzz_*_h5 ]] || lsan=suppressions=$here/fuzz/lsan_hdf5.supp
   set +e
   ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=0:quarantine_size_mb=8 LSAN_OPTIONS=$lsan \
@@ -245,14 +244,35 @@ for t in "${targets[@]}"; do
     -print_final_stats=1 -artifact_prefix="$d/artifacts/" "$d/corpus" "$d/seeds" >"$d/log" 2>&1
   rc=$?
   set -e
-  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$d/log" | grep -o '[0-9]*$' | tail -1)
-  rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$d/log" | grep -o '[0-9]*$' | tail -1)
+  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$d/log" | grep -o '[0-9]*$' | tail -1 || true)
+  rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$d/log" | grep -o '[0-9]*$' | tail -1 || true)
   figure="${execs:-?} (${rate:-?}/s)"
   if [[ $rc -eq 0 ]] && ! grep -q 'ERROR: \|runtime error:' "$d/log"; then
-    printf '%-20s | %-28s | %-22s | %s\n' "$t" "$figure" "none" "ok"
+    printf '%-20s | %-28s | %-22s | %s\n' "$t" "$figure" "none" "ok" >"$d/result"
   else
-    status=1
-    printf '%-20s | %-28s | %-22s | %s\n' "$t" "$figure" "FINDING (see $d/log)" "NO"
+    printf '%-20s | %-28s | %-22s | %s\n' "$t" "$figure" "FINDING (see $d/log)" "NO" >"$d/result"
   fi
+}
+
+# FUZZ_JOBS targets at a time (default 1): 20 targets of 600 s are 3.3 h one after another,
+# 1.7 h two at a time on two cores. Each line is printed as its target ends.
+jobs=${FUZZ_JOBS:-1}
+[[ $jobs =~ ^[1-9][0-9]*$ ]] || { echo "fuzz.sh: FUZZ_JOBS: expected a whole number >= 1, got '$jobs'" >&2; exit 2; }
+printf '%-20s | %-28s | %-22s | %s\n' "target" "executions in ${secs} s" "finding" "ok?"
+declare -A running=()  # pid -> target
+finish_one() {  # waits for any running target, prints its line
+  local pid
+  wait -n -p pid "${!running[@]}" || true
+  cat "$work/${running[$pid]}/result"
+  unset "running[$pid]"
+}
+for t in "${targets[@]}"; do
+  rm -f "$work/$t/result"
+  while ((${#running[@]} >= jobs)); do finish_one; done
+  fuzz_one "$t" &
+  running[$!]=$t
 done
+while ((${#running[@]} > 0)); do finish_one; done
+status=0
+for t in "${targets[@]}"; do grep -q '| ok$' "$work/$t/result" 2>/dev/null || status=1; done
 exit $status

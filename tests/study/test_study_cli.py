@@ -405,7 +405,13 @@ def test_sigterm_stops_snakemake_and_its_jobs_too(made, tmp_path):
         time.sleep(0.2)  # until Snakemake runs
     time.sleep(2.0)  # and its first jobs have started
     p.terminate()
-    p.wait(timeout=120)
+    try:
+        p.wait(timeout=120)
+    except subprocess.TimeoutExpired:  # say what still ran, and where it waited, before failing
+        ps = subprocess.run(["ps", "-eo", "pid,pgid,stat,wchan:24,etime,args"], capture_output=True, text=True).stdout
+        stuck = "\n".join(ln for ln in ps.splitlines() if str(out) in ln or ln.lstrip().startswith("PID"))
+        subprocess.run(["pkill", "-KILL", "-f", str(out)])
+        pytest.fail(f"study run did not end within 120 s of SIGTERM\n{stuck}\n{(tmp_path / 'run.log').read_text()}")
     log.close()
     err = (tmp_path / "run.log").read_text()
     assert p.returncode != 0, err
