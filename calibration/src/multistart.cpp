@@ -58,6 +58,13 @@ const char* to_string(StartEnd::Ending e) {
   BURRBENCH_UNREACHABLE();
 }
 
+void sort_ends(std::vector<StartEnd>& ends) {
+  std::stable_sort(ends.begin(), ends.end(), [](const StartEnd& a, const StartEnd& b) {
+    if (a.usable != b.usable) return a.usable;
+    return a.cost < b.cost;
+  });
+}
+
 SearchTally tally(const std::vector<StartEnd>& ends, double best_cost, double tolerance,
                   const std::vector<std::pair<double, double>>& box) {
   SearchTally t;
@@ -182,8 +189,7 @@ MultistartOutcome multistart(const Objective& obj, const std::vector<std::vector
     e.usable = true;
     report("local solve", e.cost);
   });
-  std::stable_sort(out.ends.begin(), out.ends.end(),
-                   [](const StartEnd& a, const StartEnd& b) { return a.cost < b.cost; });
+  sort_ends(out.ends);
   const double best = out.ends.empty() ? INFINITY : out.ends.front().cost;
   out.reached_best = tally(out.ends, best, tolerance).reached;
   return out;

@@ -93,6 +93,10 @@ struct Run {
   std::map<std::size_t, std::string> imprecise_reason;  // x entry → why "imprecise"
   std::vector<std::string> warnings;
   SearchTally tally;  // the search's ends against the optimum and its intervals
+  // The cost the search's ends are measured against: the optimum's, or, when the search held
+  // the registration's pose (stage_search.cpp), its own best end's — the refinement frees
+  // the pose and lowers the cost below every end, which no start could have reached.
+  double search_reference_cost = 0;
   // Why the optimum is not confirmed (optimum_doubts): its constants are "unconfirmed".
   std::vector<std::string> doubts;
 

@@ -365,7 +365,9 @@ void record_uncertainty(Run& run, const Flags& flags) {
     const double lo = prof ? fp.profile_ci95_low : fp.ci95_low, hi = prof ? fp.profile_ci95_high : fp.ci95_high;
     box[i] = {lo > 0 ? std::log(lo) : -INFINITY, hi > 0 ? std::log(hi) : INFINITY};
   }
-  run.tally = tally(run.search.ends, run.fit.final_cost, run.threshold, box);
+  run.search_reference_cost = !L.mountings().empty() && !run.search.ends.empty() ? run.search.ends.front().cost
+                                                                                  : run.fit.final_cost;
+  run.tally = tally(run.search.ends, run.search_reference_cost, run.threshold, box);
   run.search.reached_best = run.tally.reached;
   if (auto w = lone_optimum_warning(run.tally, run.starts, run.search.solved); !w.empty())
     run.warnings.push_back(std::move(w));

@@ -175,7 +175,7 @@ void record_solver(Run& run) {
                               {"iterations", e.iterations},
                               {"termination", e.termination},
                               {"ending", to_string(e.ending)},
-                              {"reached_best", reaches_best(e, run.fit.final_cost, run.search.tolerance)}});
+                              {"reached_best", reaches_best(e, run.search_reference_cost, run.search.tolerance)}});
 
   out.solver.iterations = run.fit.iterations;
   out.solver.initial_cost = run.fit.initial_cost;
@@ -358,6 +358,10 @@ std::string summary_run(const Run& run, const std::string& reg_text) {
                    run.search.reached_best, run.starts,
                    run.tally.near > 0 ? fmt::format(", {} more ended inside its 95 % intervals", run.tally.near) : "",
                    run.search.solved, run.tally.higher_optima, run.tally.stopped_short);
+  if (!L.mountings().empty())
+    s += fmt::format("  (the search held the registration as given; its best end, cost {:.6g}, is what the "
+                     "refinement took, with the pose free, to the optimum)\n",
+                     run.search_reference_cost);
   {
     const double floor = noise_floor_cost(run);
     const double rms = out.residuals_summary.rms_normalised;

@@ -94,10 +94,7 @@ void search_by_class(Run& run, const MultistartOptions& mo, double residuals) {
     }
     run.search.solved += more.solved;
     run.starts += int(points.size());
-    std::stable_sort(run.search.ends.begin(), run.search.ends.end(), [](const StartEnd& a, const StartEnd& b) {
-      if (a.usable != b.usable) return a.usable;
-      return a.cost < b.cost;
-    });
+    sort_ends(run.search.ends);
   }
 }
 

@@ -35,6 +35,9 @@ struct StartEnd {
 };
 const char* to_string(StartEnd::Ending e);  // "screened", "converged", "stopped"
 
+// Usable ends first, each group by cost (stable): the order of MultistartOutcome::ends.
+void sort_ends(std::vector<StartEnd>& ends);
+
 // The ends of a search measured against its best optimum (cost `best_cost`; ends within
 // `tolerance` of it reach it). An end above it whose every entry lies inside `box` (per x
 // entry, the optimum's 95 % interval [lo, hi]; ±∞ where open or not a physics constant;
