@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <string_view>
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
@@ -19,8 +20,26 @@ namespace burrbench::data_schema::import {
 namespace {
 using namespace detail;
 
-cv::Mat read_slice(const std::filesystem::path& p) {
+// The decoders a slice may reach: OpenCV picks its decoder by the file's content, not its
+// name, and would hand any other signature to one of a dozen more (a file with "DICM" at
+// byte 128 reached GDCM, whose assert aborts the process: fuzz_slices, issue 59). BMP is
+// SkyScan's own slice format.
+bool slice_signature_ok(const std::filesystem::path& p, bool bmp) {
+  std::ifstream in(p, std::ios::binary);
+  char m[8] = {};
+  in.read(m, sizeof m);
+  const std::string_view s(m, static_cast<std::size_t>(in.gcount()));
+  const auto starts = [&](std::string_view magic) { return s.substr(0, magic.size()) == magic; };
+  using namespace std::string_view_literals;
+  return starts("\x89PNG\r\n\x1a\n"sv) || starts("II*\0"sv) || starts("MM\0*"sv) || starts("II+\0"sv) ||
+         starts("MM\0+"sv) || (bmp && starts("BM"sv));
+}
+
+cv::Mat read_slice(const std::filesystem::path& p, bool bmp) {
   const ReadingFile reading(p.string());  // names it if memory runs out
+  if (!slice_signature_ok(p, bmp))
+    throw InputError(p.string(), "image", bmp ? "a BMP, TIFF or PNG file" : "a TIFF or PNG file",
+                     "a file whose first bytes are neither's signature");
   try {
     const QuietStderr quiet;
     // imread returns the first page of a multi-page TIFF: the other slices would vanish.
@@ -41,13 +60,13 @@ namespace {
 
 // Slices (already in z order) → volume; every slice like the first.
 ImageVolume stack_from_files(const std::filesystem::path& folder, const std::vector<std::string>& names,
-                             const ImportLimits& lim, const char* what) {
+                             const ImportLimits& lim, const char* what, bool bmp) {
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   ImageVolume v;
   int depth = -1;
   for (std::size_t z = 0; z < names.size(); ++z) {
     const auto p = folder / names[z];
-    cv::Mat m = read_slice(p);
+    cv::Mat m = read_slice(p, bmp);
     v.files.push_back(p);
     if (m.empty()) throw InputError(p.string(), "image", fmt::format("a readable 8/16-bit {}", what), "an unreadable or corrupt file");
     if (m.channels() != 1) throw InputError(p.string(), "channels", "1 (greyscale)", std::to_string(m.channels()));
@@ -87,7 +106,7 @@ ImageVolume read_slice_stack(const std::filesystem::path& folder, glm::dvec3 spa
   }
   if (names.empty()) throw InputError(folder.string(), "<folder>", "at least one .tif/.tiff/.png slice", "none");
   std::sort(names.begin(), names.end(), natural_less);
-  ImageVolume v = stack_from_files(folder, names, lim, "TIFF or PNG");
+  ImageVolume v = stack_from_files(folder, names, lim, "TIFF or PNG", false);
   v.spacing_mm = spacing_mm;
   v.origin_mm = origin_mm;
   return v;
@@ -235,7 +254,7 @@ ImageVolume read_skyscan(const std::filesystem::path& folder, const ImportLimits
                      fmt::format("slices {}..{} in the folder", found.front().first, found.back().first));
   std::vector<std::string> names;
   for (const auto& f : found) names.push_back(f.second);
-  ImageVolume v = stack_from_files(folder, names, lim, "BMP, TIFF or PNG slice");
+  ImageVolume v = stack_from_files(folder, names, lim, "BMP, TIFF or PNG slice", true);
   const auto width = log_number(s, log, R, "Result Image Width (pixels)"), height = log_number(s, log, R, "Result Image Height (pixels)");
   if ((width && *width != double(v.dims[0])) || (height && *height != double(v.dims[1])))
     throw InputError(lf, "[Reconstruction] Result Image Width/Height (pixels)", fmt::format("the slices' {}x{}", v.dims[0], v.dims[1]),
