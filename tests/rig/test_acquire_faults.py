@@ -106,10 +106,22 @@ def test_a_busy_spell_is_one_event_with_its_count(tmp_path):
     # the count and the span; the samples before and after are kept, the gap recorded.
     rec, ft, _ = run_faulty(tmp_path, ["--busy-at-s", "0.6", "--busy-for-s", "1.2"], 2.6)
     busy = rh.events(rec, "exception", "ft_sensor")
-    assert 1 <= len(busy) <= 3, busy
+    assert 1 <= len(busy) <= 12, busy  # not one per poll
     counts = [int(m.group(1)) for e in busy for m in [re.match(r"(\d+) in a row over ([\d.]+) ms", e[3])] if m]
     assert len(counts) == len(busy), busy
-    assert 150 <= sum(counts) <= 320, counts  # 1.2 s at 250 polls/s (the shared host may miss a few)
+    # A run ends at a good poll, a fault of another kind (on a loaded host, a reply later
+    # than the 50 ms timeout: issue 59 saw the spell cut into 5 runs that way) or after 1 s:
+    # between two busy events there is one of those.
+    others = [e[0] for e in rec["_events"] if e[2] == "ft_sensor" and e[1] != "exception"]
+    for a, b in zip(busy, busy[1:]):
+        first = a[0]
+        last = int(re.search(r"last at t = (\d+) ns", a[3]).group(1))
+        cut = (last - first >= 900_000_000 or any(last < t < b[0] for t in others)
+               or np.any((ft["t_ns"] > last) & (ft["t_ns"] < b[0])))
+        assert cut, ("two busy events with nothing between them", a, b)
+    # 1.2 s at 250 polls/s is 300 busy replies, fewer when the host (or the virtual rig on
+    # it) is slow; each one counted once.
+    assert 60 <= sum(counts) <= 320, counts
     assert "the first: " in busy[0][3] and "busy" in busy[0][3].lower(), busy[0]
     t = ft["t_ns"]
     end = int(re.search(r"last at t = (\d+) ns", busy[-1][3]).group(1))

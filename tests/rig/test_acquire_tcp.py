@@ -32,9 +32,12 @@ def test_every_served_value_is_recorded_exactly(tmp_path):
         "ft_sensor": (9, 180), "stage": (1, 0), "spindle": (2, 0), "constants": (9, 400)})
     # Every device sample was read, unless the host stalled both processes for longer
     # than a device period (bench/rig.sh measures such stalls): that loss is a gap event.
+    # How many that is depends on the host: beside two busy processes and the rest of the
+    # suite (load 6-7) the Python rig answered 4 devices late enough to lose 28 of 107
+    # force samples (issue 59); latest mode promises the gap events, not a rate.
     for name in ("ft_sensor", "stage", "spindle"):
         lost = rh.assert_losses_recorded(rec, name)
-        assert lost <= 0.05 * np.ptp(rec[name]["device_counter"]), (name, lost)
+        assert lost <= 0.5 * np.ptp(rec[name]["device_counter"]), (name, lost)
     rh.assert_ramp_exact(ft)
     np.testing.assert_array_equal(np.rint(stage["channels"]["position_mm"] * 1000).astype(np.int64),
                                   rh.ramp_position_um(stage["device_counter"]))
