@@ -61,6 +61,7 @@ LiveModel::LiveModel(data_schema::ExperimentManifest manifest, const std::string
     if (n.force_bias_N) {
       bias_N_ = *n.force_bias_N;
       bias_known_ = true;
+      bias_source_ = "the fit's bias";
     }
   }
 }
@@ -77,8 +78,11 @@ void LiveModel::start(const model::AlignedRecording& r) {
 }
 
 void LiveModel::tare(const LivePoint& p, const glm::dvec3& raw) {
+  // As `rig tare` does, the session is taken to begin with the burr in air: the model is
+  // not asked, since a registration that is off puts it in bone from the start, and that
+  // is what the alarms are for.
+  (void)p;
   if (bias_known_ && sigma_N_ > 0) return;
-  if (glm::length(p.predicted_N) != 0.0) return;  // only where the model sees no bone
   free_.push_back(raw);
   if (free_.size() < std::max<std::size_t>(2, settings_.tare_samples)) return;
   glm::dvec3 mean(0);
@@ -87,6 +91,7 @@ void LiveModel::tare(const LivePoint& p, const glm::dvec3& raw) {
   if (!bias_known_) {
     bias_N_ = mean;
     bias_known_ = true;
+    bias_source_ = fmt::format("the mean of the session's first {} force samples", free_.size());
   }
   if (!(sigma_N_ > 0)) {
     double ss = 0;  // pooled over the three axes, about each axis's own mean
@@ -95,7 +100,7 @@ void LiveModel::tare(const LivePoint& p, const glm::dvec3& raw) {
       ss += glm::dot(d, d);
     }
     sigma_N_ = std::sqrt(ss / (3.0 * double(free_.size() - 1)));
-    sigma_source_ = fmt::format("the sensor's noise over {} samples without predicted contact", free_.size());
+    sigma_source_ = fmt::format("the spread of the session's first {} force samples", free_.size());
   }
   free_.clear();
 }
@@ -109,6 +114,11 @@ LiveStep LiveModel::advance(const data_schema::Recording& rec, std::size_t max_s
   const model::AlignedRecording r = model::align_recording(manifest_, ref_, rec, ref_.path.string() + " (journal)");
   if (r.t_s.size() < 3) return out;
   if (!replay_) start(r);
+  if (!bias_known_ && rec.meta.bias.size() >= 3) {
+    bias_N_ = {rec.meta.bias[0], rec.meta.bias[1], rec.meta.bias[2]};
+    bias_known_ = true;
+    bias_source_ = "the session's tare (acquire --tare)";
+  }
   model::PredictOptions po;
   po.fit = fit_ ? &*fit_ : nullptr;
   model::Trajectory tr = model::prediction_trajectory(r, po);

@@ -63,7 +63,7 @@ json batch(const LiveStep& st, const LiveModel& live, std::size_t every, double 
                    p.predicted_N.y, p.predicted_N.z, p.depth_b_mm, p.centre_vol_mm.x, p.centre_vol_mm.y,
                    p.centre_vol_mm.z});
   }
-  return {{"type", "batch"}, {"points", pts}, {"sigma_N", live.sigma_N()}, {"behind_s", behind_s},
+  return {{"type", "batch"}, {"points", pts}, {"sigma_N", live.band_known() ? live.sigma_N() : 0.0}, {"behind_s", behind_s},
           {"every", every}, {"sigma_source", live.sigma_source()}};
 }
 
@@ -72,7 +72,7 @@ struct Loop {
   LiveModel& live;
   Feed& feed;
   WatchSummary sum;
-  bool told_behind = false;
+  bool told_behind = false, told_band = false;
   std::size_t waiting = 0;  // force samples recorded, not replayed yet
 
   void say(const std::string& line) const {
@@ -107,6 +107,12 @@ struct Loop {
       if (every == 1 && told_behind) say("watch: caught up with the journal");
       told_behind = every > 1;
       if (!st.points.empty()) feed.publish(batch(st, live, every, behind_s).dump());
+      if (live.band_known() && !told_band) {
+        told_band = true;
+        say(fmt::format("watch: alarms armed (by t = {:.3f} s): sigma {:.3g} N ({}), bias [{:.3g}, {:.3g}, {:.3g}] N ({})",
+                        st.replayed_to_s, live.sigma_N(), live.sigma_source(), live.bias_N().x, live.bias_N().y,
+                        live.bias_N().z, live.bias_source()));
+      }
       for (const Alarm& a : st.alarms) {
         ++sum.alarms;
         say(fmt::format("ALARM t = {:.3f} s: {}", a.t_s, a.message));

@@ -25,7 +25,7 @@ namespace burrbench::watch {
 struct LiveSettings {
   double step_s = 0;              // 0: half the median interval of the first force samples
   double sigma_N = 0;             // the band's σ per axis; 0: the fit's, else the live tare's
-  std::size_t tare_samples = 50;  // force samples without predicted contact the tare takes
+  std::size_t tare_samples = 50;  // the session's first force samples the live tare takes (burr in air)
   AlarmSettings alarms;
 };
 
@@ -63,7 +63,10 @@ class LiveModel {
   const glm::dvec3& bias_N() const { return bias_N_; }
   double step_s() const;                            // 0 until chosen
   std::size_t replayed() const;
-  std::string sigma_source() const { return sigma_source_; }
+  const std::string& sigma_source() const { return sigma_source_; }
+  const std::string& bias_source() const { return bias_source_; }
+  // The band is known once σ and the bias are: until then no alarm can fire.
+  bool band_known() const { return bias_known_ && sigma_N_ > 0; }
 
  private:
   void start(const model::AlignedRecording& r);
@@ -78,11 +81,11 @@ class LiveModel {
   std::unique_ptr<IncrementalReplay> replay_;
   AlarmMonitor alarms_;
   double sigma_N_ = 0;
-  std::string sigma_source_;
+  std::string sigma_source_, bias_source_;
   glm::dvec3 bias_N_{0};
   bool bias_known_ = false;
   std::size_t judged_ = 0;  // samples the tare and the alarms have seen
-  std::vector<glm::dvec3> free_;  // measured forces without predicted contact (the tare)
+  std::vector<glm::dvec3> free_;  // the live tare's measured forces
 };
 
 }  // namespace burrbench::watch
