@@ -4,12 +4,13 @@
 (function () {
   const token = new URLSearchParams(location.search).get("token") || "";
   const MAX_POINTS = 60000;  // the plots keep the newest points of a long session
-  const t = [], meas = [[], [], []], pred = [[], [], []], res = [[], [], []], bandHi = [], bandLo = [];
+  const idx = [], t = [], meas = [[], [], []], pred = [[], [], []], res = [[], [], []], bandHi = [], bandLo = [];
   const path = [];
   let top = null, k = 5, sigma = 0, dirty = false, lastWall = 0;
   // What a test (or a curious operator, in the console) can read.
   const stats = window.watchStats = { batches: 0, points: 0, latency_ms: [], median_latency_ms: null,
-                                      alarms: [], events: 0, ended: false, connected: false };
+                                      alarms: [], events: 0, ended: false, connected: false,
+                                      predicted_in_contact: 0, measured_in_contact: 0 };
   const colors = ["#1f77b4", "#2ca02c", "#d62728"];
   const axes = ["x", "y", "z"];
   const width = Math.min(900, window.innerWidth - 420);
@@ -78,13 +79,17 @@
   function onBatch(m) {
     sigma = m.sigma_N || 0; stats.behind = m.behind_s;
     for (const p of m.points) {
-      // A revised sample (the previous batch's last) replaces it.
-      if (t.length && p[1] <= t[t.length - 1]) {
-        if (p[1] < t[t.length - 1]) continue;
-        t.pop(); bandHi.pop(); bandLo.pop(); path.pop();
+      // A revised sample (the previous batch's last, by its index) replaces it.
+      if (idx.length && p[0] <= idx[idx.length - 1]) {
+        if (p[0] < idx[idx.length - 1]) continue;
+        idx.pop(); t.pop(); bandHi.pop(); bandLo.pop(); path.pop();
         for (let i = 0; i < 3; ++i) { meas[i].pop(); pred[i].pop(); res[i].pop(); }
-      } else stats.points++;
-      t.push(p[1]);
+      } else {
+        stats.points++;
+        if (Math.hypot(p[6], p[7], p[8]) > 0) stats.predicted_in_contact++;
+        if (sigma > 0 && Math.hypot(p[3], p[4], p[5]) > k * sigma) stats.measured_in_contact++;
+      }
+      idx.push(p[0]); t.push(p[1]);
       for (let i = 0; i < 3; ++i) { meas[i].push(p[3 + i]); pred[i].push(p[6 + i]); res[i].push(p[3 + i] - p[6 + i]); }
       bandHi.push(sigma > 0 ? k * sigma : null); bandLo.push(sigma > 0 ? -k * sigma : null);
       path.push([p[10], p[11]]);
@@ -92,7 +97,7 @@
     }
     if (t.length > MAX_POINTS) {
       const n = t.length - MAX_POINTS;
-      for (const a of [t, bandHi, bandLo, path, ...meas, ...pred, ...res]) a.splice(0, n);
+      for (const a of [idx, t, bandHi, bandLo, path, ...meas, ...pred, ...res]) a.splice(0, n);
     }
     stats.batches++;
     dirty = true;
