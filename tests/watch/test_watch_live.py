@@ -5,6 +5,7 @@ DevTools protocol) opens the page and reads what it drew (window.watchStats)."""
 import asyncio
 import json
 import os
+import socket
 import subprocess
 import sys
 import time
@@ -154,8 +155,24 @@ def first_contact_s(rec, tare=50, k=5):
     return (t[k_first] - t[0]) / 1e9
 
 
+def non_loopback_address():
+    """This host's address on its default route (no packet is sent), or None."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        try:
+            s.connect(("10.255.255.255", 1))
+            a = s.getsockname()[0]
+        except OSError:
+            return None
+    return None if a.startswith("127.") else a
+
+
 def token_checks(url):
     base, token = url.split("?token=")
+    # Bound to 127.0.0.1: another host (here: this host's own network address) cannot connect.
+    port = int(base.rsplit(":", 1)[1].strip("/"))
+    if (addr := non_loopback_address()) is not None:
+        with pytest.raises(ConnectionRefusedError):
+            socket.create_connection((addr, port), timeout=5).close()
     assert get(base)[0] == 403                               # no token
     assert get(base + "?token=" + "0" * len(token))[0] == 403  # a wrong one
     assert get(base + "events")[0] == 403

@@ -6,7 +6,7 @@
   const MAX_POINTS = 60000;  // the plots keep the newest points of a long session
   const idx = [], t = [], meas = [[], [], []], pred = [[], [], []], res = [[], [], []], bandHi = [], bandLo = [];
   const path = [];
-  let top = null, k = 5, sigma = 0, dirty = false, lastWall = 0;
+  let top = null, k = 5, sigma = 0, dirty = false, fresh = false, lastWall = 0;
   // What a test (or a curious operator, in the console) can read.
   const stats = window.watchStats = { batches: 0, points: 0, latency_ms: [], median_latency_ms: null,
                                       alarms: [], events: 0, ended: false, connected: false,
@@ -43,7 +43,7 @@
     const img = g.createImageData(top.nx, top.ny);
     for (let y = 0; y < top.ny; ++y)
       for (let x = 0; x < top.nx; ++x) {
-        const v = 255 - top.values[x + top.nx * y], o = 4 * (x + top.nx * (top.ny - 1 - y));
+        const v = 255 - Math.round(0.4 * top.values[x + top.nx * y]), o = 4 * (x + top.nx * (top.ny - 1 - y));
         img.data[o] = img.data[o + 1] = img.data[o + 2] = v; img.data[o + 3] = 255;
       }
     const off = document.createElement("canvas"); off.width = top.nx; off.height = top.ny;
@@ -67,13 +67,15 @@
     forcePlot.setData([t, ...meas, ...pred]);
     resPlot.setData([t, ...res, bandHi, bandLo]);
     drawTop();
-    // From the sample's acquisition to its point drawn (same host clock).
+    // From the newest sample's acquisition to its point drawn (same host clock); only
+    // after a batch: a redraw for the end of the session has no new sample.
     const lat = Date.now() - lastWall;
-    stats.latency_ms.push(lat);
+    if (fresh) stats.latency_ms.push(lat);
+    fresh = false;
     const sorted = stats.latency_ms.slice().sort((a, b) => a - b);
     stats.median_latency_ms = sorted[Math.floor(sorted.length / 2)];
     statusEl.textContent = `${stats.points} samples, t = ${t.length ? t[t.length - 1].toFixed(2) : 0} s, σ = ${sigma.toPrecision(3)} N, ` +
-      `latency ${lat} ms (median ${stats.median_latency_ms} ms)` + (stats.behind > 0.5 ? `, ${stats.behind.toFixed(1)} s behind (display thinned)` : "") +
+      `latency ${Math.round(stats.latency_ms[stats.latency_ms.length - 1] || 0)} ms (median ${Math.round(stats.median_latency_ms)} ms)` + (stats.behind > 0.5 ? `, ${stats.behind.toFixed(1)} s behind (display thinned)` : "") +
       (stats.ended ? " — session ended" : "");
   }
   function onBatch(m) {
@@ -101,6 +103,7 @@
     }
     stats.batches++;
     dirty = true;
+    fresh = m.points.length > 0;
     requestAnimationFrame(redraw);
   }
   const es = new EventSource("events?token=" + encodeURIComponent(token));
