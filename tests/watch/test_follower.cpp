@@ -125,3 +125,36 @@ TEST(WatchFollower, NotAJournalIsBadInput) {
   bw::JournalFollower f(p);
   EXPECT_THROW(f.poll(), burrbench::InputError);
 }
+
+TEST(WatchFollower, ReadsTheLastBlocksOfAJournalRemovedBeforeItsLastPoll) {
+  // acquire writes its last blocks and the end record, the recording, and removes the
+  // journal, possibly all between two polls: the follower's open file still holds them.
+  burrbench::test::TempDir dir("bb-watch");
+  const fs::path journal = dir / "r.h5.journal";
+  const std::string map_text = read_file(fs::path(BURRBENCH_SOURCE_DIR) / "examples/rigs/virtual.toml");
+  const br::RigMap map = br::parse_rig_map(map_text, "virtual.toml");
+  br::JournalWriter w(journal, header_json(map_text));
+  bw::JournalFollower f(journal);
+  auto append = [&](int n, std::int64_t t0) {
+    for (int i = 0; i < n; ++i) {
+      br::JournalSample s;
+      s.device = 0;
+      s.t_send_ns = t0 + i * 1'000'000LL;
+      s.t_recv_ns = s.t_send_ns + 100'000;
+      s.counter = i;
+      s.regs.assign(std::size_t(map.devices[0].sample_registers()), 0);
+      w.append(s);
+    }
+  };
+  append(100, 1'100'000'000LL);
+  w.sync();
+  EXPECT_EQ(f.poll().samples, 100u);
+  append(300, 1'300'000'000LL);
+  w.finish();
+  fs::remove(journal);
+  const auto u = f.poll();
+  EXPECT_TRUE(u.ended);
+  EXPECT_EQ(u.samples, 400u);
+  ASSERT_TRUE(u.recording.has_value());
+  EXPECT_TRUE(f.poll().ended);
+}

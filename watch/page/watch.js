@@ -6,6 +6,9 @@
   const MAX_POINTS = 60000;  // the plots keep the newest points of a long session
   const idx = [], t = [], meas = [[], [], []], pred = [[], [], []], res = [[], [], []], bandHi = [], bandLo = [];
   const path = [];
+  // Moments and spindle load, where the recording logs them (null where it does not).
+  const tmeas = [[], [], []], tpred = [[], [], []], smeas = [], spred = [];
+  let wrenchShown = false;
   let top = null, k = 5, sigma = 0, dirty = false, fresh = false, lastWall = 0;
   // What a test (or a curious operator, in the console) can read.
   const stats = window.watchStats = { batches: 0, points: 0, latency_ms: [], median_latency_ms: null,
@@ -26,6 +29,15 @@
                                         [series("+kσ", "#888", true), series("−kσ", "#888", true)]) },
     [t, ...res, bandHi, bandLo], document.getElementById("residual"));
 
+  const momentPlot = new uPlot({ width: Math.min(700, width), height: 220, scales: { x: { time: false } },
+    axes: [{ label: "t (s)" }, { label: "N·mm" }],
+    series: [{ label: "t (s)" }].concat(axes.map((a, i) => series("M" + a + " measured", colors[i], false)),
+                                        axes.map((a, i) => series("M" + a + " predicted", colors[i], true))) },
+    [t, ...tmeas, ...tpred], document.getElementById("moment"));
+  const spindlePlot = new uPlot({ width: 480, height: 220, scales: { x: { time: false } },
+    axes: [{ label: "t (s)" }, { label: "N·mm" }],
+    series: [{ label: "t (s)" }, series("measured", "#9467bd", false), series("predicted", "#9467bd", true)] },
+    [t, smeas, spred], document.getElementById("spindle"));
   const statusEl = document.getElementById("status"), alarmEl = document.getElementById("alarm");
   const eventsEl = document.getElementById("events");
   function line(text, cls) {
@@ -66,6 +78,10 @@
     dirty = false;
     forcePlot.setData([t, ...meas, ...pred]);
     resPlot.setData([t, ...res, bandHi, bandLo]);
+    if (wrenchShown) {
+      momentPlot.setData([t, ...tmeas, ...tpred]);
+      spindlePlot.setData([t, smeas, spred]);
+    }
     drawTop();
     // From the newest sample's acquisition to its point drawn (same host clock); only
     // after a batch: a redraw for the end of the session has no new sample.
@@ -84,7 +100,8 @@
       // A revised sample (the previous batch's last, by its index) replaces it.
       if (idx.length && p[0] <= idx[idx.length - 1]) {
         if (p[0] < idx[idx.length - 1]) continue;
-        idx.pop(); t.pop(); bandHi.pop(); bandLo.pop(); path.pop();
+        idx.pop(); t.pop(); bandHi.pop(); bandLo.pop(); path.pop(); smeas.pop(); spred.pop();
+        for (let i = 0; i < 3; ++i) { tmeas[i].pop(); tpred[i].pop(); }
         for (let i = 0; i < 3; ++i) { meas[i].pop(); pred[i].pop(); res[i].pop(); }
       } else {
         stats.points++;
@@ -95,11 +112,17 @@
       for (let i = 0; i < 3; ++i) { meas[i].push(p[3 + i]); pred[i].push(p[6 + i]); res[i].push(p[3 + i] - p[6 + i]); }
       bandHi.push(sigma > 0 ? k * sigma : null); bandLo.push(sigma > 0 ? -k * sigma : null);
       path.push([p[10], p[11]]);
+      for (let i = 0; i < 3; ++i) { tmeas[i].push(p[13 + i]); tpred[i].push(p[16 + i]); }
+      smeas.push(p[19]); spred.push(p[20]);
+      if (!wrenchShown && (p[13] !== null || p[19] !== null)) {
+        wrenchShown = true;
+        document.getElementById("wrench").style.display = "";
+      }
       lastWall = p[2];
     }
     if (t.length > MAX_POINTS) {
       const n = t.length - MAX_POINTS;
-      for (const a of [idx, t, bandHi, bandLo, path, ...meas, ...pred, ...res]) a.splice(0, n);
+      for (const a of [idx, t, bandHi, bandLo, path, smeas, spred, ...meas, ...pred, ...res, ...tmeas, ...tpred]) a.splice(0, n);
     }
     stats.batches++;
     dirty = true;

@@ -1,6 +1,12 @@
 #include "burrbench/watch/follower.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <system_error>
+
+#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/rig/finalise.hpp"
@@ -10,25 +16,39 @@ namespace fs = std::filesystem;
 
 JournalFollower::JournalFollower(fs::path journal) : path_(std::move(journal)) {}
 
+JournalFollower::~JournalFollower() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
 FollowUpdate JournalFollower::poll() {
   FollowUpdate u;
-  std::error_code ec;
-  const auto size = fs::file_size(path_, ec);
-  if (ec) {
-    // acquire removes its journal once the recording is written: after an end record
-    // that is the normal end; before one, the session ended without us seeing its end.
-    u.ended = seen_;
+  if (ended_) {  // read whole after its end once already: nothing more can come
+    u.present = u.ended = true;
     return u;
   }
+  if (fd_ < 0) {
+    fd_ = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd_ < 0) {
+      u.ended = seen_;
+      return u;
+    }
+  }
+  // acquire removes its journal once the recording is written: the open descriptor still
+  // reads all of it, once more, and that is the end.
+  std::error_code ec;
+  const bool removed = !fs::exists(path_, ec);
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0) return u;
   rig::JournalContents j;
   try {
-    j = rig::read_journal(path_);
-  } catch (const InputError&) {
+    j = rig::read_journal(fmt::format("/proc/self/fd/{}", fd_));
+  } catch (const InputError& e) {
     // The writer makes its two header blocks durable before anything else: until they
     // are there, the journal is still being created.
-    if (size < 2 * rig::kJournalBlockSize) return u;
-    throw;
+    if (std::size_t(st.st_size) < 2 * rig::kJournalBlockSize && !removed) return u;
+    throw InputError(path_.string(), "(journal)", "a burrbench acquisition journal", e.what());
   }
+  if (removed) ended_ = true;
   seen_ = true;
   u.present = true;
   ended_ = ended_ || j.clean_end;

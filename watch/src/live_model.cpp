@@ -63,6 +63,8 @@ LiveModel::LiveModel(data_schema::ExperimentManifest manifest, const std::string
       bias_known_ = true;
       bias_source_ = "the fit's bias";
     }
+    torque_bias_Nmm_ = n.torque_bias_Nmm;
+    spindle_idle_Nmm_ = n.spindle_idle_Nmm;
   }
 }
 
@@ -103,6 +105,30 @@ void LiveModel::tare(const LivePoint& p, const glm::dvec3& raw) {
     sigma_source_ = fmt::format("the spread of the session's first {} force samples", free_.size());
   }
   free_.clear();
+}
+
+void LiveModel::wrench(const model::AlignedRecording& r, const model::ContactResult& c, const model::Trajectory& tr,
+                       const model::PoseCorrection* pose, bool fresh, LivePoint& p) {
+  const std::size_t k = p.index;
+  const bool torque = k < r.torque_sensor_Nmm.size(), spindle = !r.spindle_torque_Nmm.t_s.empty();
+  const double load_Nmm = spindle ? r.spindle_torque_Nmm.at(p.t_s) : NAN;
+  if (fresh && offsets_n_ < settings_.tare_samples) {
+    ++offsets_n_;
+    if (torque) torque_sum_Nmm_ += r.torque_sensor_Nmm[k];
+    if (spindle) spindle_sum_Nmm_ += load_Nmm;
+    if (offsets_n_ == settings_.tare_samples) {
+      if (torque && !torque_bias_Nmm_) torque_bias_Nmm_ = torque_sum_Nmm_ / double(offsets_n_);
+      if (spindle && !spindle_idle_Nmm_) spindle_idle_Nmm_ = spindle_sum_Nmm_ / double(offsets_n_);
+    }
+  }
+  if (torque) {
+    p.torque_measured_Nmm = r.torque_sensor_Nmm[k] - torque_bias_Nmm_.value_or(glm::dvec3(0));
+    p.torque_predicted_Nmm = r.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[k], pose);
+  }
+  if (spindle) {
+    p.spindle_measured_Nmm = load_Nmm - spindle_idle_Nmm_.value_or(0.0);
+    p.spindle_predicted_Nmm = model::spindle_torque_Nmm(c.moment_Nmm, tr.omega_vol_rad_s[k]);
+  }
 }
 
 LiveStep LiveModel::advance(const data_schema::Recording& rec, std::size_t max_samples) {
@@ -157,6 +183,7 @@ LiveStep LiveModel::advance(const data_schema::Recording& rec, std::size_t max_s
     // A revised sample (the previous chunk's last) was already tared and judged.
     const bool fresh = k >= judged_;
     if (fresh) tare(p, r.force_sensor_N[k]);
+    wrench(r, c, tr, pose, fresh, p);
     p.measured_N = r.force_sensor_N[k] - bias_N_;
     if (fresh) {
       judged_ = k + 1;

@@ -61,7 +61,9 @@ json batch(const LiveStep& st, const LiveModel& live, std::size_t every, double 
     if (i + 1 != st.points.size() && p.index % every != 0) continue;
     pts.push_back({p.index, p.t_s, p.wall_ms, p.measured_N.x, p.measured_N.y, p.measured_N.z, p.predicted_N.x,
                    p.predicted_N.y, p.predicted_N.z, p.depth_b_mm, p.centre_vol_mm.x, p.centre_vol_mm.y,
-                   p.centre_vol_mm.z});
+                   p.centre_vol_mm.z, p.torque_measured_Nmm.x, p.torque_measured_Nmm.y, p.torque_measured_Nmm.z,
+                   p.torque_predicted_Nmm.x, p.torque_predicted_Nmm.y, p.torque_predicted_Nmm.z,
+                   p.spindle_measured_Nmm, p.spindle_predicted_Nmm});  // NaN (not logged) → null
   }
   return {{"type", "batch"}, {"points", pts}, {"sigma_N", live.band_known() ? live.sigma_N() : 0.0}, {"behind_s", behind_s},
           {"every", every}, {"sigma_source", live.sigma_source()}};

@@ -2,7 +2,8 @@
 // Follows an acquisition journal while `burrbench acquire` writes it. Read-only: the file
 // is opened for reading only, never locked, and each poll reads it afresh through the
 // same reader `recover` uses (rig::read_journal), so the writer never waits for the
-// watcher. The writer appends whole 4096-byte blocks (one page) and never rewrites
+// watcher. The follower keeps the file open, so when acquire removes the journal after
+// writing the recording, the last poll still reads all of it. The writer appends whole 4096-byte blocks (one page) and never rewrites
 // them, so a poll sees whole blocks plus at most a torn tail, which it ignores.
 #include <cstddef>
 #include <filesystem>
@@ -28,6 +29,9 @@ struct FollowUpdate {
 class JournalFollower {
  public:
   explicit JournalFollower(std::filesystem::path journal);
+  ~JournalFollower();
+  JournalFollower(const JournalFollower&) = delete;
+  JournalFollower& operator=(const JournalFollower&) = delete;
   // Reads the journal as it is now. InputError when the file is not a journal (once it is
   // two blocks long, i.e. past the header the writer makes durable before anything else).
   FollowUpdate poll();
@@ -35,6 +39,7 @@ class JournalFollower {
 
  private:
   std::filesystem::path path_;
+  int fd_ = -1;  // the journal, opened for reading at the first poll that finds it
   bool seen_ = false, ended_ = false;
   std::size_t events_seen_ = 0, corrupt_seen_ = 0;
 };

@@ -3,6 +3,7 @@
 // batch replay would: model::align_recording, the fit's lag, depth offset and pose),
 // replays the force samples whose burr position the stage has already logged, and gives
 // what the page and the alarms need per sample.
+#include <cmath>
 #include <cstddef>
 #include <memory>
 #include <optional>
@@ -36,6 +37,10 @@ struct LivePoint {
   glm::dvec3 measured_N{0}, predicted_N{0};  // sensor frame; measured minus the bias
   double depth_b_mm = 0;
   glm::dvec3 centre_vol_mm{0};
+  // Where logged (else NaN): the moment at the sensor (N·mm, sensor frame; measured minus
+  // its bias) and the spindle's load torque (N·mm, braking; measured minus its idle load).
+  glm::dvec3 torque_measured_Nmm{NAN}, torque_predicted_Nmm{NAN};
+  double spindle_measured_Nmm = NAN, spindle_predicted_Nmm = NAN;
 };
 
 struct LiveStep {
@@ -71,6 +76,10 @@ class LiveModel {
  private:
   void start(const model::AlignedRecording& r);
   void tare(const LivePoint& p, const glm::dvec3& raw_measured_N);
+  // The moment's bias and the spindle's idle load: the fit's, else the mean of the
+  // session's first tare_samples samples (the burr spinning in air).
+  void wrench(const model::AlignedRecording& r, const model::ContactResult& c, const model::Trajectory& tr,
+              const model::PoseCorrection* pose, bool fresh, LivePoint& p);
 
   data_schema::ExperimentManifest manifest_;
   data_schema::RecordingRef ref_;
@@ -85,6 +94,11 @@ class LiveModel {
   glm::dvec3 bias_N_{0};
   bool bias_known_ = false;
   std::size_t judged_ = 0;  // samples the tare and the alarms have seen
+  std::optional<glm::dvec3> torque_bias_Nmm_;
+  std::optional<double> spindle_idle_Nmm_;
+  glm::dvec3 torque_sum_Nmm_{0};
+  double spindle_sum_Nmm_ = 0;
+  std::size_t offsets_n_ = 0;
   std::vector<glm::dvec3> free_;  // the live tare's measured forces
 };
 
