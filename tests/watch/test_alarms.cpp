@@ -1,9 +1,11 @@
-// The alarms as pure functions and a small state machine: closed-form cases.
+// The alarms as pure functions and a small state machine, and the display's thinning
+// rule: closed-form cases.
 #include <gtest/gtest.h>
 
 #include <string>
 
 #include "burrbench/watch/alarms.hpp"
+#include "burrbench/watch/session.hpp"
 
 namespace bw = burrbench::watch;
 
@@ -107,4 +109,12 @@ TEST(WatchAlarms, SettingsValidated) {
   s = {};
   s.contact_hold_ms = -1;
   EXPECT_NE(s.invalid().find("contact_hold_ms"), std::string::npos);
+}
+
+
+TEST(WatchDisplay, ThinnedOnlyWhenBehindByMoreThanHalfASecond) {
+  EXPECT_EQ(bw::display_every(0.0), 1u);
+  EXPECT_EQ(bw::display_every(0.5), 1u);
+  EXPECT_EQ(bw::display_every(0.6), 2u);   // ⌈1.2⌉
+  EXPECT_EQ(bw::display_every(3.2), 7u);   // ⌈6.4⌉
 }

@@ -25,6 +25,10 @@ std::string WatchSummary::text() const {
                      ended ? "; the session ended" : "");
 }
 
+std::size_t display_every(double behind_s) {
+  return behind_s > 0.5 ? std::size_t(std::ceil(2 * behind_s)) : 1;
+}
+
 namespace {
 
 // Most of what a page needs once: the sample's top view (the largest bone fraction down
@@ -102,7 +106,7 @@ struct Loop {
       const double behind_s = st.recorded_to_s - st.replayed_to_s;
       sum.max_behind_s = std::max(sum.max_behind_s, behind_s);
       // Behind by more than half a second: the page gets every n-th point until caught up.
-      const std::size_t every = behind_s > 0.5 ? std::size_t(std::ceil(2 * behind_s)) : 1;
+      const std::size_t every = display_every(behind_s);
       if (every > 1 && !told_behind)
         say(fmt::format("watch: the replay is {:.1f} s behind the journal; the page shows every {}th sample until it "
                         "catches up (every sample is replayed)", behind_s, every));
@@ -153,7 +157,7 @@ WatchSummary run_watch(const WatchOptions& opt) {
   JournalFollower follower(o.journal);
   Loop loop{o, live, feed, {}};
   const auto started = Clock::now();
-  bool present = false;
+  bool present = false, told_slow = false;
   // The newest recording read: acquire removes its journal once done, and what was not
   // replayed by then is replayed from here.
   std::optional<data_schema::Recording> rec;
@@ -161,6 +165,7 @@ WatchSummary run_watch(const WatchOptions& opt) {
     const auto tick = Clock::now();
     if (o.stop && o.stop->load()) break;
     FollowUpdate u = follower.poll();
+    const double read_ms = std::chrono::duration<double, std::milli>(Clock::now() - tick).count();
     present = present || u.present;
     if (!present && std::chrono::duration<double>(tick - started).count() > o.wait_journal_s)
       throw InputError(o.journal.string(), "(journal)", fmt::format("a journal that acquire writes, within {:g} s", o.wait_journal_s),
@@ -175,7 +180,16 @@ WatchSummary run_watch(const WatchOptions& opt) {
       loop.say("watch: the session ended; " + std::string(o.exit_at_end ? "done" : "the page stays until Ctrl-C"));
     }
     if (done && o.exit_at_end) break;
-    std::this_thread::sleep_until(tick + std::chrono::duration<double, std::milli>(o.poll_ms));
+    // Each poll reads and decodes the whole journal (about 2 ms per second of a 1 kHz
+    // session on the development VM): the period grows with it so that reading takes at
+    // most a third of a core, and the latency grows instead (docs/watch.md "Cost").
+    const double period_ms = std::max(o.poll_ms, 3 * read_ms);
+    if (period_ms > 2.5 * o.poll_ms && !told_slow) {
+      told_slow = true;
+      loop.say(fmt::format("watch: reading the journal takes {:.0f} ms now; polling every {:.0f} ms, so the page lags "
+                           "more as the session grows (docs/watch.md \"Cost\")", read_ms, period_ms));
+    }
+    std::this_thread::sleep_until(tick + std::chrono::duration<double, std::milli>(period_ms));
   }
   server.stop();
   return loop.sum;

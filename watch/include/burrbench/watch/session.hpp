@@ -40,6 +40,11 @@ struct WatchSummary {
 
 WatchSummary run_watch(const WatchOptions& options);
 
+// Which points the page gets while the replay is `behind_s` behind the journal: every one
+// up to half a second behind, else every n-th, n = ⌈2 × behind_s⌉ (the replay itself takes
+// every sample; only the display is thinned until it has caught up).
+std::size_t display_every(double behind_s);
+
 // The page: watch/page/watch.html with its script and uPlot (from the report's assets,
 // analysis::default_assets_dir()) inlined. InputError naming a missing file.
 std::string watch_page_html();
