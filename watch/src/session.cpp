@@ -151,7 +151,7 @@ WatchSummary run_watch(const WatchOptions& opt) {
   ServerOptions so = o.server;
   so.page_html = watch_page_html();
   WatchServer server(feed, so);
-  feed.publish(hello(live, o).dump());
+  feed.publish_first(hello(live, o).dump());
   if (o.on_url) o.on_url(server.url());
   // Stage 3: follow the journal.
   JournalFollower follower(o.journal);
