@@ -20,12 +20,14 @@ TEST(WatchAlarms, BandIsKSigmaOnAnyAxis) {
 
 TEST(WatchAlarms, ContactMismatchBothWays) {
   const double s = 0.02, k = 5;  // |F| > 0.1 N reads as contact
-  EXPECT_EQ(bw::contact_mismatch({0, 0, 0.05}, {0, 0, 1.0}, s, k), bw::ContactMismatch::kPredictedOnly);
+  EXPECT_EQ(bw::contact_mismatch({0, 0, 0.05}, {0, 0, 1.0}, s, k),
+            bw::ContactMismatch::kPredictedOnly);
   EXPECT_EQ(bw::contact_mismatch({0, 0, 1.0}, {0, 0, 0}, s, k), bw::ContactMismatch::kMeasuredOnly);
   EXPECT_EQ(bw::contact_mismatch({0, 0, 1.0}, {0, 0, 0.5}, s, k), bw::ContactMismatch::kNone);
   EXPECT_EQ(bw::contact_mismatch({0.01, 0, 0}, {0, 0, 0}, s, k), bw::ContactMismatch::kNone);
   // The norm decides: 0.06 N on each axis is 0.104 N.
-  EXPECT_EQ(bw::contact_mismatch({0.06, 0.06, 0.06}, {0, 0, 0}, s, k), bw::ContactMismatch::kMeasuredOnly);
+  EXPECT_EQ(bw::contact_mismatch({0.06, 0.06, 0.06}, {0, 0, 0}, s, k),
+            bw::ContactMismatch::kMeasuredOnly);
 }
 
 TEST(WatchAlarms, SustainedFiresOnceAfterTheHold) {
@@ -111,10 +113,9 @@ TEST(WatchAlarms, SettingsValidated) {
   EXPECT_NE(s.invalid().find("contact_hold_ms"), std::string::npos);
 }
 
-
 TEST(WatchDisplay, ThinnedOnlyWhenBehindByMoreThanHalfASecond) {
   EXPECT_EQ(bw::display_every(0.0), 1u);
   EXPECT_EQ(bw::display_every(0.5), 1u);
-  EXPECT_EQ(bw::display_every(0.6), 2u);   // ⌈1.2⌉
-  EXPECT_EQ(bw::display_every(3.2), 7u);   // ⌈6.4⌉
+  EXPECT_EQ(bw::display_every(0.6), 2u);  // ⌈1.2⌉
+  EXPECT_EQ(bw::display_every(3.2), 7u);  // ⌈6.4⌉
 }

@@ -47,7 +47,8 @@ TEST(WatchFollower, FollowsAGrowingJournalReadOnly) {
     EXPECT_FALSE(u.ended);
     EXPECT_FALSE(u.recording.has_value());
   }
-  const std::string map_text = read_file(fs::path(BURRBENCH_SOURCE_DIR) / "examples/rigs/virtual.toml");
+  const std::string map_text =
+      read_file(fs::path(BURRBENCH_SOURCE_DIR) / "examples/rigs/virtual.toml");
   const br::RigMap map = br::parse_rig_map(map_text, "virtual.toml");
   br::JournalWriter w(journal, header_json(map_text));
   {
@@ -98,7 +99,8 @@ TEST(WatchFollower, FollowsAGrowingJournalReadOnly) {
 TEST(WatchFollower, TellsTheEndAndARemovedJournal) {
   burrbench::test::TempDir dir("bb-watch");
   const fs::path journal = dir / "r.h5.journal";
-  const std::string map_text = read_file(fs::path(BURRBENCH_SOURCE_DIR) / "examples/rigs/virtual.toml");
+  const std::string map_text =
+      read_file(fs::path(BURRBENCH_SOURCE_DIR) / "examples/rigs/virtual.toml");
   {
     br::JournalWriter w(journal, header_json(map_text));
     bw::JournalFollower f(journal);
@@ -131,7 +133,8 @@ TEST(WatchFollower, ReadsTheLastBlocksOfAJournalRemovedBeforeItsLastPoll) {
   // journal, possibly all between two polls: the follower's open file still holds them.
   burrbench::test::TempDir dir("bb-watch");
   const fs::path journal = dir / "r.h5.journal";
-  const std::string map_text = read_file(fs::path(BURRBENCH_SOURCE_DIR) / "examples/rigs/virtual.toml");
+  const std::string map_text =
+      read_file(fs::path(BURRBENCH_SOURCE_DIR) / "examples/rigs/virtual.toml");
   const br::RigMap map = br::parse_rig_map(map_text, "virtual.toml");
   br::JournalWriter w(journal, header_json(map_text));
   bw::JournalFollower f(journal);

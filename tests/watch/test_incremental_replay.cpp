@@ -53,7 +53,8 @@ bm::Trajectory prefix(const bm::Trajectory& tr, std::size_t n) {
   bm::Trajectory p;
   p.t_s.assign(tr.t_s.begin(), tr.t_s.begin() + std::ptrdiff_t(n));
   p.centre_vol_mm.assign(tr.centre_vol_mm.begin(), tr.centre_vol_mm.begin() + std::ptrdiff_t(n));
-  p.omega_vol_rad_s.assign(tr.omega_vol_rad_s.begin(), tr.omega_vol_rad_s.begin() + std::ptrdiff_t(n));
+  p.omega_vol_rad_s.assign(tr.omega_vol_rad_s.begin(),
+                           tr.omega_vol_rad_s.begin() + std::ptrdiff_t(n));
   return p;
 }
 
@@ -93,5 +94,6 @@ TEST(WatchIncrementalReplay, EqualsTheBatchReplayBitForBit) {
 }
 
 TEST(WatchIncrementalReplay, RefusesAnUnfixedStep) {
-  EXPECT_THROW(bw::IncrementalReplay(slab(), 0.5, params(), bm::ReplayOptions{}), burrbench::InputError);
+  EXPECT_THROW(bw::IncrementalReplay(slab(), 0.5, params(), bm::ReplayOptions{}),
+               burrbench::InputError);
 }

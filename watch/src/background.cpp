@@ -46,7 +46,8 @@ BackgroundWatch::~BackgroundWatch() {
 }
 
 WatchSummary BackgroundWatch::finish(double timeout_s, std::string* error) {
-  if (result_.wait_for(std::chrono::duration<double>(timeout_s)) != std::future_status::ready) stop_ = true;
+  if (result_.wait_for(std::chrono::duration<double>(timeout_s)) != std::future_status::ready)
+    stop_ = true;
   if (thread_.joinable()) thread_.join();
   try {
     return result_.get();

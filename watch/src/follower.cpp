@@ -1,12 +1,11 @@
 #include "burrbench/watch/follower.hpp"
 
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <system_error>
-
-#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/rig/finalise.hpp"

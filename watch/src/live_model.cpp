@@ -1,9 +1,9 @@
 #include "burrbench/watch/live_model.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/fitted_nuisances.hpp"
@@ -12,15 +12,18 @@ namespace burrbench::watch {
 
 namespace {
 
-const data_schema::RecordingRef& find_ref(const data_schema::ExperimentManifest& m, const std::string& id) {
+const data_schema::RecordingRef& find_ref(const data_schema::ExperimentManifest& m,
+                                          const std::string& id) {
   for (const auto& r : m.recordings)
     if (r.id == id) return r;
   std::string ids;
   for (const auto& r : m.recordings) ids += (ids.empty() ? "" : ", ") + r.id;
-  throw InputError(m.file.string(), "--recording", fmt::format("the id of one of its recordings ({})", ids), id);
+  throw InputError(m.file.string(), "--recording",
+                   fmt::format("the id of one of its recordings ({})", ids), id);
 }
 
-const data_schema::SampleRef& find_sample(const data_schema::ExperimentManifest& m, const std::string& id) {
+const data_schema::SampleRef& find_sample(const data_schema::ExperimentManifest& m,
+                                          const std::string& id) {
   for (const auto& s : m.samples)
     if (s.id == id) return s;
   throw InputError(m.file.string(), "recordings.sample", "a sample id listed in [[samples]]", id);
@@ -28,7 +31,8 @@ const data_schema::SampleRef& find_sample(const data_schema::ExperimentManifest&
 
 // The force samples whose burr position (at t − lag) and spindle speed are already
 // logged: a later one would be paired with a position held at the stage's last sample.
-std::size_t ready_samples(const model::AlignedRecording& r, const model::Trajectory& tr, double lag_s) {
+std::size_t ready_samples(const model::AlignedRecording& r, const model::Trajectory& tr,
+                          double lag_s) {
   double last_s = r.stage_rig_mm.t_s.empty() ? -INFINITY : r.stage_rig_mm.t_s.back();
   if (!r.spindle_rpm.t_s.empty()) last_s = std::min(last_s, r.spindle_rpm.t_s.back());
   const auto it = std::upper_bound(tr.t_s.begin(), tr.t_s.end(), last_s + lag_s);
@@ -38,8 +42,8 @@ std::size_t ready_samples(const model::AlignedRecording& r, const model::Traject
 }  // namespace
 
 LiveModel::LiveModel(data_schema::ExperimentManifest manifest, const std::string& recording_id,
-                     const data_schema::ParameterSet& params, std::optional<data_schema::FitResult> fit,
-                     const LiveSettings& settings)
+                     const data_schema::ParameterSet& params,
+                     std::optional<data_schema::FitResult> fit, const LiveSettings& settings)
     : manifest_(std::move(manifest)),
       ref_(find_ref(manifest_, recording_id)),
       sample_(data_schema::read_sample(find_sample(manifest_, ref_.sample).path)),
@@ -48,7 +52,8 @@ LiveModel::LiveModel(data_schema::ExperimentManifest manifest, const std::string
       settings_(settings),
       alarms_(settings.alarms) {
   model::check_covers(params, {{ref_.sample, sample_}}, "--params");
-  if (const std::string bad = settings.alarms.invalid(); !bad.empty()) throw InputError("watch", "alarms", bad);
+  if (const std::string bad = settings.alarms.invalid(); !bad.empty())
+    throw InputError("watch", "alarms", bad);
   if (settings_.sigma_N > 0) {
     sigma_N_ = settings_.sigma_N;
     sigma_source_ = "--sigma-N";
@@ -76,7 +81,8 @@ std::size_t LiveModel::replayed() const { return replay_ ? replay_->reported() :
 void LiveModel::start(const model::AlignedRecording& r) {
   model::ReplayOptions ro;
   ro.step_s = settings_.step_s > 0 ? settings_.step_s : model::default_step_s(r.t_s);
-  replay_ = std::make_unique<IncrementalReplay>(model::Volume::from_sample(sample_), r.radius_mm, params_, ro);
+  replay_ = std::make_unique<IncrementalReplay>(model::Volume::from_sample(sample_), r.radius_mm,
+                                                params_, ro);
 }
 
 void LiveModel::tare(const LivePoint& p, const glm::dvec3& raw) {
@@ -107,8 +113,9 @@ void LiveModel::tare(const LivePoint& p, const glm::dvec3& raw) {
   free_.clear();
 }
 
-void LiveModel::wrench(const model::AlignedRecording& r, const model::ContactResult& c, const model::Trajectory& tr,
-                       const model::PoseCorrection* pose, bool fresh, LivePoint& p) {
+void LiveModel::wrench(const model::AlignedRecording& r, const model::ContactResult& c,
+                       const model::Trajectory& tr, const model::PoseCorrection* pose, bool fresh,
+                       LivePoint& p) {
   const std::size_t k = p.index;
   const bool torque = k < r.torque_sensor_Nmm.size(), spindle = !r.spindle_torque_Nmm.t_s.empty();
   const double load_Nmm = spindle ? r.spindle_torque_Nmm.at(p.t_s) : NAN;
@@ -123,7 +130,8 @@ void LiveModel::wrench(const model::AlignedRecording& r, const model::ContactRes
   }
   if (torque) {
     p.torque_measured_Nmm = r.torque_sensor_Nmm[k] - torque_bias_Nmm_.value_or(glm::dvec3(0));
-    p.torque_predicted_Nmm = r.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[k], pose);
+    p.torque_predicted_Nmm =
+        r.sensor_torque_from_burr_wrench(c.force_N, c.moment_Nmm, tr.centre_vol_mm[k], pose);
   }
   if (spindle) {
     p.spindle_measured_Nmm = load_Nmm - spindle_idle_Nmm_.value_or(0.0);
@@ -137,7 +145,8 @@ LiveStep LiveModel::advance(const data_schema::Recording& rec, std::size_t max_s
   const data_schema::Stream* stage = rec.stream_with("position_mm");
   // Alignment needs a few samples of each stream; until then there is nothing to replay.
   if (!force || !stage || force->samples() < 3 || stage->samples() < 3) return out;
-  const model::AlignedRecording r = model::align_recording(manifest_, ref_, rec, ref_.path.string() + " (journal)");
+  const model::AlignedRecording r =
+      model::align_recording(manifest_, ref_, rec, ref_.path.string() + " (journal)");
   if (r.t_s.size() < 3) return out;
   if (!replay_) start(r);
   if (!bias_known_ && rec.meta.bias.size() >= 3) {
@@ -149,7 +158,9 @@ LiveStep LiveModel::advance(const data_schema::Recording& rec, std::size_t max_s
   po.fit = fit_ ? &*fit_ : nullptr;
   model::Trajectory tr = model::prediction_trajectory(r, po);
   tr.vias.clear();  // a live view replays the straight line across a silence (docs/watch.md)
-  const double lag_s = fit_ ? model::fitted_nuisances(*fit_, ref_.id).lag_ms.value_or(r.lag_s * 1e3) * 1e-3 : r.lag_s;
+  const double lag_s =
+      fit_ ? model::fitted_nuisances(*fit_, ref_.id).lag_ms.value_or(r.lag_s * 1e3) * 1e-3
+           : r.lag_s;
   const std::size_t ready = ready_samples(r, tr, lag_s);
   const std::size_t upto = std::min(ready, replay_->reported() + max_samples);
   out.recorded_to_s = r.t_s.back();
@@ -187,7 +198,8 @@ LiveStep LiveModel::advance(const data_schema::Recording& rec, std::size_t max_s
     p.measured_N = r.force_sensor_N[k] - bias_N_;
     if (fresh) {
       judged_ = k + 1;
-      if (auto a = alarms_.update(p.t_s, p.measured_N, p.predicted_N, bias_known_ ? sigma_N_ : 0)) out.alarms.push_back(*a);
+      if (auto a = alarms_.update(p.t_s, p.measured_N, p.predicted_N, bias_known_ ? sigma_N_ : 0))
+        out.alarms.push_back(*a);
     }
     out.points.push_back(p);
   }

@@ -34,7 +34,8 @@ std::string read_text(const fs::path& p, const std::string& what) {
 
 void fill(std::string& s, const std::string& key, const std::string& value) {
   const auto pos = s.find(key);
-  if (pos == std::string::npos) throw InputError("watch.html", key, "the placeholder in the watch page", "missing");
+  if (pos == std::string::npos)
+    throw InputError("watch.html", key, "the placeholder in the watch page", "missing");
   s.replace(pos, key.size(), value);
 }
 
@@ -44,8 +45,10 @@ std::string watch_page_html() {
   const fs::path dir = page_dir();
   const fs::path uplot = analysis::default_assets_dir() / "node_modules" / "uplot" / "dist";
   std::string html = read_text(dir / "watch.html", "the watch page");
-  fill(html, "/*BURRBENCH:UPLOT_CSS*/", read_text(uplot / "uPlot.min.css", "uPlot CSS (npm ci in analysis/report)"));
-  fill(html, "/*BURRBENCH:UPLOT_JS*/", read_text(uplot / "uPlot.iife.min.js", "uPlot (npm ci in analysis/report)"));
+  fill(html, "/*BURRBENCH:UPLOT_CSS*/",
+       read_text(uplot / "uPlot.min.css", "uPlot CSS (npm ci in analysis/report)"));
+  fill(html, "/*BURRBENCH:UPLOT_JS*/",
+       read_text(uplot / "uPlot.iife.min.js", "uPlot (npm ci in analysis/report)"));
   fill(html, "/*BURRBENCH:WATCH_JS*/", read_text(dir / "watch.js", "the watch page's script"));
   return html;
 }

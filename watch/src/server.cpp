@@ -1,11 +1,11 @@
 #include "burrbench/watch/server.hpp"
 
+#include <fmt/format.h>
 #include <httplib.h>
 
+#include <atomic>
 #include <random>
 #include <thread>
-
-#include <fmt/format.h>
 
 #include "burrbench/data_schema/error.hpp"
 
@@ -44,7 +44,8 @@ struct WatchServer::Impl {
   Impl(Feed& f, ServerOptions o) : feed(f), opt(std::move(o)) {}
 };
 
-WatchServer::WatchServer(Feed& feed, ServerOptions options) : impl_(std::make_unique<Impl>(feed, std::move(options))) {
+WatchServer::WatchServer(Feed& feed, ServerOptions options)
+    : impl_(std::make_unique<Impl>(feed, std::move(options))) {
   Impl& s = *impl_;
   if (s.opt.token.empty()) s.opt.token = random_token();
   // Read-only and token-bound before any route: a request without the URL's token, or
@@ -57,7 +58,8 @@ WatchServer::WatchServer(Feed& feed, ServerOptions options) : impl_(std::make_un
     }
     if (!same_token(req.get_param_value("token"), s.opt.token)) {
       res.status = 403;
-      res.set_content("forbidden: open the URL burrbench watch printed (its token)\n", "text/plain");
+      res.set_content("forbidden: open the URL burrbench watch printed (its token)\n",
+                      "text/plain");
       return httplib::Server::HandlerResponse::Handled;
     }
     return httplib::Server::HandlerResponse::Unhandled;
@@ -70,21 +72,24 @@ WatchServer::WatchServer(Feed& feed, ServerOptions options) : impl_(std::make_un
   // second keeps proxies and the browser from timing the stream out.
   s.server.Get("/events", [&s](const httplib::Request&, httplib::Response& res) {
     res.set_header("Cache-Control", "no-store");
-    res.set_chunked_content_provider("text/event-stream", [&s, next = std::size_t(0)](std::size_t, httplib::DataSink& sink) mutable {
-      if (s.stopping || !sink.is_writable()) return false;
-      const auto messages = s.feed.since(next, std::chrono::milliseconds(500));
-      std::string out;
-      for (const auto& m : messages) out += "data: " + m + "\n\n";
-      if (out.empty()) out = ": idle\n\n";
-      if (!sink.write(out.data(), out.size())) return false;
-      if (messages.empty() && s.feed.closed()) sink.done();
-      return true;
-    });
+    res.set_chunked_content_provider(
+        "text/event-stream",
+        [&s, next = std::size_t(0)](std::size_t, httplib::DataSink& sink) mutable {
+          if (s.stopping || !sink.is_writable()) return false;
+          const auto messages = s.feed.since(next, std::chrono::milliseconds(500));
+          std::string out;
+          for (const auto& m : messages) out += "data: " + m + "\n\n";
+          if (out.empty()) out = ": idle\n\n";
+          if (!sink.write(out.data(), out.size())) return false;
+          if (messages.empty() && s.feed.closed()) sink.done();
+          return true;
+        });
   });
-  s.port = s.opt.port == 0 ? s.server.bind_to_any_port(s.opt.bind) : (s.server.bind_to_port(s.opt.bind, s.opt.port) ? s.opt.port : -1);
+  s.port = s.opt.port == 0 ? s.server.bind_to_any_port(s.opt.bind)
+                           : (s.server.bind_to_port(s.opt.bind, s.opt.port) ? s.opt.port : -1);
   if (s.port <= 0)
-    throw InputError("--bind/--port", fmt::format("{}:{}", s.opt.bind, s.opt.port), "an address and port this host can listen on",
-                     "cannot bind");
+    throw InputError("--bind/--port", fmt::format("{}:{}", s.opt.bind, s.opt.port),
+                     "an address and port this host can listen on", "cannot bind");
   s.thread = std::thread([&s] { s.server.listen_after_bind(); });
 }
 
@@ -94,8 +99,11 @@ int WatchServer::port() const { return impl_->port; }
 const std::string& WatchServer::token() const { return impl_->opt.token; }
 
 std::string WatchServer::url() const {
-  const std::string host = impl_->opt.bind.find(':') != std::string::npos ? "[" + impl_->opt.bind + "]" : impl_->opt.bind;
-  return fmt::format("http://{}:{}/?token={}", host == "0.0.0.0" ? "HOST" : host, impl_->port, impl_->opt.token);
+  const std::string host = impl_->opt.bind.find(':') != std::string::npos
+                               ? "[" + impl_->opt.bind + "]"
+                               : impl_->opt.bind;
+  return fmt::format("http://{}:{}/?token={}", host == "0.0.0.0" ? "HOST" : host, impl_->port,
+                     impl_->opt.token);
 }
 
 void WatchServer::stop() {

@@ -1,11 +1,11 @@
 #include "burrbench/watch/session.hpp"
 
+#include <fmt/format.h>
+
 #include <chrono>
 #include <cmath>
-#include <thread>
-
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/data_schema/fit_result.hpp"
@@ -19,10 +19,11 @@ using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 std::string WatchSummary::text() const {
-  return fmt::format("watch: {} samples replayed ({:.1f} s of recording in {:.1f} s), {} alarm(s), {} event(s), "
-                     "at most {:.2f} s behind the journal{}",
-                     samples, session_s, replay_wall_s, alarms, events, max_behind_s,
-                     ended ? "; the session ended" : "");
+  return fmt::format(
+      "watch: {} samples replayed ({:.1f} s of recording in {:.1f} s), {} alarm(s), {} event(s), "
+      "at most {:.2f} s behind the journal{}",
+      samples, session_s, replay_wall_s, alarms, events, max_behind_s,
+      ended ? "; the session ended" : "");
 }
 
 std::size_t display_every(double behind_s) {
@@ -50,10 +51,17 @@ json hello(const LiveModel& live, const WatchOptions& o) {
   return {{"type", "hello"},
           {"recording", live.ref().id},
           {"journal", o.journal.string()},
-          {"top", {{"nx", nx}, {"ny", ny}, {"origin_mm", {s.origin_mm.x, s.origin_mm.y}},
-                   {"cell_mm", s.voxel_mm * double(f)}, {"values", top}}},
-          {"alarms", {{"residual_k", a.residual_k}, {"residual_hold_ms", a.residual_hold_ms},
-                      {"contact_k", a.contact_k}, {"contact_hold_ms", a.contact_hold_ms}}}};
+          {"top",
+           {{"nx", nx},
+            {"ny", ny},
+            {"origin_mm", {s.origin_mm.x, s.origin_mm.y}},
+            {"cell_mm", s.voxel_mm * double(f)},
+            {"values", top}}},
+          {"alarms",
+           {{"residual_k", a.residual_k},
+            {"residual_hold_ms", a.residual_hold_ms},
+            {"contact_k", a.contact_k},
+            {"contact_hold_ms", a.contact_hold_ms}}}};
 }
 
 // One SSE message per poll: the new points, every `every`-th one when behind (the replay
@@ -63,14 +71,34 @@ json batch(const LiveStep& st, const LiveModel& live, std::size_t every, double 
   for (std::size_t i = 0; i < st.points.size(); ++i) {
     const LivePoint& p = st.points[i];
     if (i + 1 != st.points.size() && p.index % every != 0) continue;
-    pts.push_back({p.index, p.t_s, p.wall_ms, p.measured_N.x, p.measured_N.y, p.measured_N.z, p.predicted_N.x,
-                   p.predicted_N.y, p.predicted_N.z, p.depth_b_mm, p.centre_vol_mm.x, p.centre_vol_mm.y,
-                   p.centre_vol_mm.z, p.torque_measured_Nmm.x, p.torque_measured_Nmm.y, p.torque_measured_Nmm.z,
-                   p.torque_predicted_Nmm.x, p.torque_predicted_Nmm.y, p.torque_predicted_Nmm.z,
-                   p.spindle_measured_Nmm, p.spindle_predicted_Nmm});  // NaN (not logged) → null
+    pts.push_back({p.index,
+                   p.t_s,
+                   p.wall_ms,
+                   p.measured_N.x,
+                   p.measured_N.y,
+                   p.measured_N.z,
+                   p.predicted_N.x,
+                   p.predicted_N.y,
+                   p.predicted_N.z,
+                   p.depth_b_mm,
+                   p.centre_vol_mm.x,
+                   p.centre_vol_mm.y,
+                   p.centre_vol_mm.z,
+                   p.torque_measured_Nmm.x,
+                   p.torque_measured_Nmm.y,
+                   p.torque_measured_Nmm.z,
+                   p.torque_predicted_Nmm.x,
+                   p.torque_predicted_Nmm.y,
+                   p.torque_predicted_Nmm.z,
+                   p.spindle_measured_Nmm,
+                   p.spindle_predicted_Nmm});  // NaN (not logged) → null
   }
-  return {{"type", "batch"}, {"points", pts}, {"sigma_N", live.band_known() ? live.sigma_N() : 0.0}, {"behind_s", behind_s},
-          {"every", every}, {"sigma_source", live.sigma_source()}};
+  return {{"type", "batch"},
+          {"points", pts},
+          {"sigma_N", live.band_known() ? live.sigma_N() : 0.0},
+          {"behind_s", behind_s},
+          {"every", every},
+          {"sigma_source", live.sigma_source()}};
 }
 
 struct Loop {
@@ -87,11 +115,19 @@ struct Loop {
   void events(const FollowUpdate& u) {
     for (const auto& e : u.new_events) {
       ++sum.events;
-      feed.publish(json{{"type", "event"}, {"t_ns", e.t_ns}, {"device", e.device}, {"kind", e.kind}, {"detail", e.detail}}.dump());
+      feed.publish(json{
+          {"type", "event"},
+          {"t_ns", e.t_ns},
+          {"device", e.device},
+          {"kind", e.kind},
+          {"detail",
+           e.detail}}.dump());
     }
     for (const auto& p : u.new_problems) {
       say("watch: journal " + p);
-      feed.publish(json{{"type", "event"}, {"kind", "journal_damage"}, {"detail", p}, {"device", -1}, {"t_ns", 0}}.dump());
+      feed.publish(json{
+          {"type", "event"}, {"kind", "journal_damage"}, {"detail", p}, {"device", -1}, {"t_ns", 0}}
+                       .dump());
     }
   }
   // Replays what the poll brought, in pieces, for at most one poll period; what is left
@@ -108,21 +144,32 @@ struct Loop {
       // Behind by more than half a second: the page gets every n-th point until caught up.
       const std::size_t every = display_every(behind_s);
       if (every > 1 && !told_behind)
-        say(fmt::format("watch: the replay is {:.1f} s behind the journal; the page shows every {}th sample until it "
-                        "catches up (every sample is replayed)", behind_s, every));
+        say(
+            fmt::format("watch: the replay is {:.1f} s behind the journal; the page shows every "
+                        "{}th sample until it "
+                        "catches up (every sample is replayed)",
+                        behind_s, every));
       if (every == 1 && told_behind) say("watch: caught up with the journal");
       told_behind = every > 1;
       if (!st.points.empty()) feed.publish(batch(st, live, every, behind_s).dump());
       if (live.band_known() && !told_band) {
         told_band = true;
-        say(fmt::format("watch: alarms armed (by t = {:.3f} s): sigma {:.3g} N ({}), bias [{:.3g}, {:.3g}, {:.3g}] N ({})",
-                        st.replayed_to_s, live.sigma_N(), live.sigma_source(), live.bias_N().x, live.bias_N().y,
-                        live.bias_N().z, live.bias_source()));
+        say(
+            fmt::format("watch: alarms armed (by t = {:.3f} s): sigma {:.3g} N ({}), bias [{:.3g}, "
+                        "{:.3g}, {:.3g}] N ({})",
+                        st.replayed_to_s, live.sigma_N(), live.sigma_source(), live.bias_N().x,
+                        live.bias_N().y, live.bias_N().z, live.bias_source()));
       }
       for (const Alarm& a : st.alarms) {
         ++sum.alarms;
         say(fmt::format("ALARM t = {:.3f} s: {}", a.t_s, a.message));
-        feed.publish(json{{"type", "alarm"}, {"t_s", a.t_s}, {"since_s", a.since_s}, {"kind", a.kind}, {"message", a.message}}.dump());
+        feed.publish(json{
+            {"type", "alarm"},
+            {"t_s", a.t_s},
+            {"since_s", a.since_s},
+            {"kind", a.kind},
+            {"message",
+             a.message}}.dump());
       }
       sum.samples = live.replayed();
       sum.session_s = st.replayed_to_s;
@@ -168,8 +215,10 @@ WatchSummary run_watch(const WatchOptions& opt) {
     const double read_ms = std::chrono::duration<double, std::milli>(Clock::now() - tick).count();
     present = present || u.present;
     if (!present && std::chrono::duration<double>(tick - started).count() > o.wait_journal_s)
-      throw InputError(o.journal.string(), "(journal)", fmt::format("a journal that acquire writes, within {:g} s", o.wait_journal_s),
-                       "it did not appear");
+      throw InputError(
+          o.journal.string(), "(journal)",
+          fmt::format("a journal that acquire writes, within {:g} s", o.wait_journal_s),
+          "it did not appear");
     loop.events(u);
     if (u.recording) rec = std::move(u.recording);
     if (rec) loop.replay(*rec);
@@ -177,7 +226,8 @@ WatchSummary run_watch(const WatchOptions& opt) {
     if (done && !loop.sum.ended) {
       loop.sum.ended = true;
       feed.publish(json{{"type", "status"}, {"ended", true}, {"samples", live.replayed()}}.dump());
-      loop.say("watch: the session ended; " + std::string(o.exit_at_end ? "done" : "the page stays until Ctrl-C"));
+      loop.say("watch: the session ended; " +
+               std::string(o.exit_at_end ? "done" : "the page stays until Ctrl-C"));
     }
     if (done && o.exit_at_end) break;
     // Each poll reads and decodes the whole journal (about 2 ms per second of a 1 kHz
@@ -186,8 +236,11 @@ WatchSummary run_watch(const WatchOptions& opt) {
     const double period_ms = std::max(o.poll_ms, 3 * read_ms);
     if (period_ms > 2.5 * o.poll_ms && !told_slow) {
       told_slow = true;
-      loop.say(fmt::format("watch: reading the journal takes {:.0f} ms now; polling every {:.0f} ms, so the page lags "
-                           "more as the session grows (docs/watch.md \"Cost\")", read_ms, period_ms));
+      loop.say(
+          fmt::format("watch: reading the journal takes {:.0f} ms now; polling every {:.0f} ms, so "
+                      "the page lags "
+                      "more as the session grows (docs/watch.md \"Cost\")",
+                      read_ms, period_ms));
     }
     std::this_thread::sleep_until(tick + std::chrono::duration<double, std::milli>(period_ms));
   }

@@ -1,10 +1,9 @@
 #pragma once
 // The live view's alarms (docs/watch.md "Alarms"): pure functions of a sample plus a
 // small state machine for "longer than t ms", so each is tested with closed-form cases.
+#include <glm/glm.hpp>
 #include <optional>
 #include <string>
-
-#include <glm/glm.hpp>
 
 namespace burrbench::watch {
 
@@ -23,8 +22,8 @@ bool beyond_band(const glm::dvec3& residual_N, double sigma_N, double k);
 enum class ContactMismatch { kNone, kPredictedOnly, kMeasuredOnly };
 // The burr predicted in bone (|predicted| > k σ) while the sensor, bias removed, reads
 // nothing (|measured| ≤ k σ), or the reverse.
-ContactMismatch contact_mismatch(const glm::dvec3& measured_minus_bias_N, const glm::dvec3& predicted_N,
-                                 double sigma_N, double k);
+ContactMismatch contact_mismatch(const glm::dvec3& measured_minus_bias_N,
+                                 const glm::dvec3& predicted_N, double sigma_N, double k);
 
 // A condition that must hold, sample after sample, for longer than `hold_s`.
 class Sustained {
@@ -42,9 +41,9 @@ class Sustained {
 };
 
 struct Alarm {
-  double t_s = 0;     // recording clock: the sample at which it fired
-  double since_s = 0; // when the condition began
-  std::string kind;   // "residual", "predicted_contact_only", "measured_contact_only"
+  double t_s = 0;      // recording clock: the sample at which it fired
+  double since_s = 0;  // when the condition began
+  std::string kind;    // "residual", "predicted_contact_only", "measured_contact_only"
   std::string message;
 };
 
@@ -53,8 +52,8 @@ class AlarmMonitor {
  public:
   explicit AlarmMonitor(const AlarmSettings& s);
   // σ ≤ 0 or NaN: the band is not known yet, nothing fires.
-  std::optional<Alarm> update(double t_s, const glm::dvec3& measured_minus_bias_N, const glm::dvec3& predicted_N,
-                              double sigma_N);
+  std::optional<Alarm> update(double t_s, const glm::dvec3& measured_minus_bias_N,
+                              const glm::dvec3& predicted_N, double sigma_N);
 
  private:
   AlarmSettings s_;
@@ -63,6 +62,7 @@ class AlarmMonitor {
 };
 
 // What the operator is told with every alarm.
-inline constexpr const char* kStopAndCheck = "registration, burr radius or model off — stop and check";
+inline constexpr const char* kStopAndCheck =
+    "registration, burr radius or model off — stop and check";
 
 }  // namespace burrbench::watch

@@ -3,8 +3,9 @@
 // is opened for reading only, never locked, and each poll reads it afresh through the
 // same reader `recover` uses (rig::read_journal), so the writer never waits for the
 // watcher. The follower keeps the file open, so when acquire removes the journal after
-// writing the recording, the last poll still reads all of it. The writer appends whole 4096-byte blocks (one page) and never rewrites
-// them, so a poll sees whole blocks plus at most a torn tail, which it ignores.
+// writing the recording, the last poll still reads all of it. The writer appends whole 4096-byte
+// blocks (one page) and never rewrites them, so a poll sees whole blocks plus at most a torn tail,
+// which it ignores.
 #include <cstddef>
 #include <filesystem>
 #include <optional>

@@ -5,12 +5,11 @@
 // what the page and the alarms need per sample.
 #include <cmath>
 #include <cstddef>
+#include <glm/glm.hpp>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <glm/glm.hpp>
 
 #include "burrbench/data_schema/fit_result.hpp"
 #include "burrbench/data_schema/manifest.hpp"
@@ -24,16 +23,17 @@
 namespace burrbench::watch {
 
 struct LiveSettings {
-  double step_s = 0;              // 0: half the median interval of the first force samples
-  double sigma_N = 0;             // the band's σ per axis; 0: the fit's, else the live tare's
-  std::size_t tare_samples = 50;  // the session's first force samples the live tare takes (burr in air)
+  double step_s = 0;   // 0: half the median interval of the first force samples
+  double sigma_N = 0;  // the band's σ per axis; 0: the fit's, else the live tare's
+  std::size_t tare_samples =
+      50;  // the session's first force samples the live tare takes (burr in air)
   AlarmSettings alarms;
 };
 
 struct LivePoint {
-  std::size_t index = 0;  // force sample (aligned recording)
-  double t_s = 0;         // recording clock (0 = first force sample)
-  double wall_ms = 0;     // when it was acquired, ms since the Unix epoch
+  std::size_t index = 0;                     // force sample (aligned recording)
+  double t_s = 0;                            // recording clock (0 = first force sample)
+  double wall_ms = 0;                        // when it was acquired, ms since the Unix epoch
   glm::dvec3 measured_N{0}, predicted_N{0};  // sensor frame; measured minus the bias
   double depth_b_mm = 0;
   glm::dvec3 centre_vol_mm{0};
@@ -47,7 +47,7 @@ struct LiveStep {
   std::vector<LivePoint> points;  // newly replayed (the first may revise the previous last)
   std::vector<Alarm> alarms;
   double replayed_to_s = 0, recorded_to_s = 0;  // how far the model and the journal are
-  std::size_t waiting = 0;        // force samples ready (position logged), not replayed yet
+  std::size_t waiting = 0;  // force samples ready (position logged), not replayed yet
 };
 
 class LiveModel {
@@ -64,9 +64,9 @@ class LiveModel {
 
   const data_schema::RecordingRef& ref() const { return ref_; }
   const data_schema::SampleVolume& sample() const { return sample_; }
-  double sigma_N() const { return sigma_N_; }       // 0 until known
+  double sigma_N() const { return sigma_N_; }  // 0 until known
   const glm::dvec3& bias_N() const { return bias_N_; }
-  double step_s() const;                            // 0 until chosen
+  double step_s() const;  // 0 until chosen
   std::size_t replayed() const;
   const std::string& sigma_source() const { return sigma_source_; }
   const std::string& bias_source() const { return bias_source_; }
@@ -78,8 +78,9 @@ class LiveModel {
   void tare(const LivePoint& p, const glm::dvec3& raw_measured_N);
   // The moment's bias and the spindle's idle load: the fit's, else the mean of the
   // session's first tare_samples samples (the burr spinning in air).
-  void wrench(const model::AlignedRecording& r, const model::ContactResult& c, const model::Trajectory& tr,
-              const model::PoseCorrection* pose, bool fresh, LivePoint& p);
+  void wrench(const model::AlignedRecording& r, const model::ContactResult& c,
+              const model::Trajectory& tr, const model::PoseCorrection* pose, bool fresh,
+              LivePoint& p);
 
   data_schema::ExperimentManifest manifest_;
   data_schema::RecordingRef ref_;

@@ -10,9 +10,9 @@ namespace burrbench::watch {
 
 struct ServerOptions {
   std::string bind = "127.0.0.1";
-  int port = 0;            // 0: a free port
-  std::string token;       // empty: a random one (random_token())
-  std::string page_html;   // served at /
+  int port = 0;           // 0: a free port
+  std::string token;      // empty: a random one (random_token())
+  std::string page_html;  // served at /
 };
 
 // 128 random bits as 32 hex digits (std::random_device: the kernel's generator).

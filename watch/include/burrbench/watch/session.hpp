@@ -19,9 +19,9 @@ struct WatchOptions {
   std::filesystem::path journal;  // empty: the recording's path + ".journal" (acquire's)
   LiveSettings live;
   ServerOptions server;
-  double poll_ms = 100;           // how often the journal is read
-  double wait_journal_s = 60;     // how long a journal that does not exist yet is waited for
-  bool exit_at_end = false;       // return once the session ended and all of it is replayed
+  double poll_ms = 100;        // how often the journal is read
+  double wait_journal_s = 60;  // how long a journal that does not exist yet is waited for
+  bool exit_at_end = false;    // return once the session ended and all of it is replayed
   // Printed once the page is served (the URL with its token).
   std::function<void(const std::string& url)> on_url;
   // One line each (alarms, falling behind, the end): the terminal.
@@ -31,11 +31,11 @@ struct WatchOptions {
 
 struct WatchSummary {
   std::size_t samples = 0, alarms = 0, events = 0;
-  double max_behind_s = 0;     // the most the replay was behind the journal
-  double replay_wall_s = 0;    // the time the replay took
-  double session_s = 0;        // recording time replayed
-  bool ended = false;          // the journal's session ended
-  std::string text() const;    // one line
+  double max_behind_s = 0;   // the most the replay was behind the journal
+  double replay_wall_s = 0;  // the time the replay took
+  double session_s = 0;      // recording time replayed
+  bool ended = false;        // the journal's session ended
+  std::string text() const;  // one line
 };
 
 WatchSummary run_watch(const WatchOptions& options);
