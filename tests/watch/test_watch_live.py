@@ -92,6 +92,9 @@ class Browser:
         v = asyncio.run(_evaluate(self.ws, "JSON.stringify(window.watchStats || null)"))
         return json.loads(v) if v else None
 
+    def text(self, element_id):
+        return asyncio.run(_evaluate(self.ws, f"document.getElementById('{element_id}').textContent"))
+
     def close(self):
         self.proc.terminate()
         try:
@@ -133,6 +136,7 @@ def watch_session(syn, manifest, workdir, checks=None):
         deadline = time.monotonic() + 10
         while not (final := browser.stats())["ended"] and time.monotonic() < deadline:
             time.sleep(0.2)
+        final["events_text"] = browser.text("events")
     finally:
         if browser:
             browser.close()
@@ -190,6 +194,8 @@ def test_page_follows_the_acquisition(syn, tmp_path):
     assert final["points"] == replayed and replayed > 3000, (final, err)
     assert final["predicted_in_contact"] > 1000 and final["measured_in_contact"] > 1000, final
     assert final["alarms"] == [] and "ALARM" not in err, err
+    # The recording's events as they happened, named by stream: the session's stop at least.
+    assert final["events"] > 0 and "session: stop" in final["events_text"], final["events_text"][-500:]
     lat = final["median_latency_ms"]
     print(f"\nwatch: median latency from a sample's acquisition to its point on the page: {lat} ms "
           f"over {len(final['latency_ms'])} redraws ({replayed} samples)")

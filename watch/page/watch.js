@@ -138,7 +138,7 @@
       document.getElementById("rec").textContent = m.recording;
       top = m.top; k = m.alarms.residual_k; drawTop();
     } else if (m.type === "batch") onBatch(m);
-    else if (m.type === "event") { stats.events++; line(`event ${m.kind} (device ${m.device}): ${m.detail}`); }
+    else if (m.type === "event") { stats.events++; line(`${m.stream}: ${m.kind}: ${m.detail}`); }
     else if (m.type === "alarm") {
       stats.alarms.push(m);
       alarmEl.textContent = `ALARM at t = ${m.t_s.toFixed(3)} s: ${m.message}`;

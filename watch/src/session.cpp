@@ -115,10 +115,15 @@ struct Loop {
   void events(const FollowUpdate& u) {
     for (const auto& e : u.new_events) {
       ++sum.events;
+      // The recording has one stream per device of the map, in its order.
+      const auto& streams = u.recording ? u.recording->streams : std::vector<data_schema::Stream>{};
+      const std::string stream = e.device >= 0 && std::size_t(e.device) < streams.size()
+                                     ? streams[std::size_t(e.device)].name
+                                     : (e.device < 0 ? "session" : std::to_string(e.device));
       feed.publish(json{
           {"type", "event"},
           {"t_ns", e.t_ns},
-          {"device", e.device},
+          {"stream", stream},
           {"kind", e.kind},
           {"detail",
            e.detail}}.dump());
@@ -126,8 +131,11 @@ struct Loop {
     for (const auto& p : u.new_problems) {
       say("watch: journal " + p);
       feed.publish(json{
-          {"type", "event"}, {"kind", "journal_damage"}, {"detail", p}, {"device", -1}, {"t_ns", 0}}
-                       .dump());
+          {"type", "event"},
+          {"kind", "journal_damage"},
+          {"detail", p},
+          {"stream", "journal"},
+          {"t_ns", 0}}.dump());
     }
   }
   // Replays what the poll brought, in pieces, for at most one poll period; what is left
