@@ -262,3 +262,29 @@ def test_acquire_watch_bad_input_before_acquiring(syn, tmp_path):
                        capture_output=True, text=True, timeout=60)
     assert p.returncode == 2, p.stderr
     assert "nope" in p.stderr and not (tmp_path / "r.h5.journal").exists(), p.stderr
+
+
+def test_bind_serves_the_lab_network_with_a_warning(syn, tmp_path):
+    """--bind 0.0.0.0: reachable at this host's network address (still token-bound), with a
+    warning; SIGTERM ends it cleanly while it still waits for the journal."""
+    addr = non_loopback_address()
+    if addr is None:
+        pytest.skip("this host has no network address besides loopback")
+    watch = subprocess.Popen([BURRBENCH, "watch", str(syn / "experiment.toml"), "--recording", "sweep", "--params",
+                              str(syn / "params_true.toml"), "--journal", str(tmp_path / "none.journal"),
+                              "--bind", "0.0.0.0"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = watch.stdout.readline()
+        assert line.startswith("watch: open http://HOST:"), line
+        port, token = int(line.split(":")[-1].split("/")[0]), line.split("token=")[1].strip()
+        assert get(f"http://{addr}:{port}/")[0] == 403
+        status, page = get(f"http://{addr}:{port}/?token={token}")
+        assert status == 200 and "uPlot" in page
+        watch.send_signal(15)
+        _, err = watch.communicate(timeout=30)
+    finally:
+        if watch.poll() is None:
+            watch.kill()
+            watch.wait()
+    assert watch.returncode == 0, err
+    assert "WARNING: --bind 0.0.0.0" in err, err
