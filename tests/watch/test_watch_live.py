@@ -231,14 +231,16 @@ def test_bad_recording_id_is_bad_input(syn):
 
 def test_acquire_with_watch(syn, tmp_path):
     """`acquire --watch`: the page is served from the acquiring process, which still writes
-    the whole recording; the watch replays every force sample the stage covered."""
+    the whole recording; the watch replays every force sample the stage covered. As in a
+    lab, the manifest lists the recording being acquired, whose file does not exist yet."""
     rec = tmp_path / "live.h5"
+    manifest = write_variant(syn, "acquiring", ('path = "sweep.h5"', f'path = "{rec}"'))
     with start_virtual_rig(["--recording", str(syn / "played.h5"), "--ft-fifo-depth", "96",
                             "--stage-fifo-depth", "96"]) as (_, host, port):
         rig = (SRC / "examples/rigs/virtual-fifo-deep.toml").read_text().replace("port = 5020", f"port = {port}")
         (tmp_path / "rig.toml").write_text(rig)
         p = subprocess.run([BURRBENCH, "acquire", "--rig", str(tmp_path / "rig.toml"), "--out", str(rec),
-                            "--duration", "3", "--sample-id", "S1", "--watch", str(syn / "experiment.toml"),
+                            "--duration", "3", "--sample-id", "S1", "--watch", str(manifest),
                             "--watch-recording", "sweep", "--watch-params", str(syn / "params_true.toml")],
                            capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
@@ -253,6 +255,13 @@ def test_acquire_with_watch(syn, tmp_path):
     lost = [l for l in p.stderr.splitlines() if "lost" in l and l.startswith("warning:")]
     print(f"\nacquire --watch: {fresh} force samples recorded, {replayed} replayed live; "
           f"FIFO losses: {lost or 'none'}")
+
+
+def test_other_listed_recordings_must_exist(syn, tmp_path):
+    manifest = write_variant(syn, "missing", ('path = "plunge.h5"', 'path = "missing.h5"'))
+    p = subprocess.run([BURRBENCH, "watch", str(manifest), "--recording", "sweep", "--params",
+                        str(syn / "params_true.toml"), "--wait-s", "1"], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2 and "missing.h5" in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
 
 
 def test_acquire_watch_bad_input_before_acquiring(syn, tmp_path):

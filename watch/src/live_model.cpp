@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "burrbench/data_schema/error.hpp"
 #include "burrbench/model/fitted_nuisances.hpp"
@@ -51,7 +52,12 @@ LiveModel::LiveModel(data_schema::ExperimentManifest manifest, const std::string
       fit_(std::move(fit)),
       settings_(settings),
       alarms_(settings.alarms) {
-  model::check_covers(params, {{ref_.sample, sample_}}, "--params");
+  {  // check_covers takes a map of samples: lend it ours rather than copy the volume
+    std::map<std::string, data_schema::SampleVolume> one;
+    one.emplace(ref_.sample, std::move(sample_));
+    model::check_covers(params, one, "--params");
+    sample_ = std::move(one.at(ref_.sample));
+  }
   if (const std::string bad = settings.alarms.invalid(); !bad.empty())
     throw InputError("watch", "alarms", bad);
   if (settings_.sigma_N > 0) {

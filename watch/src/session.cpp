@@ -194,7 +194,7 @@ fs::path journal_of(const WatchOptions& o, const LiveModel& live) {
 
 WatchSummary run_watch(const WatchOptions& opt) {
   // Stage 1: the model, from the experiment's manifest, sample and constants.
-  const auto manifest = data_schema::read_manifest(opt.experiment);
+  const auto manifest = read_manifest_while_acquiring(opt.experiment, opt.recording_id);
   const auto params = data_schema::read_params(opt.params);
   std::optional<data_schema::FitResult> fit;
   if (!opt.fit.empty()) fit = data_schema::read_fit(opt.fit);

@@ -5,6 +5,7 @@
 // what the page and the alarms need per sample.
 #include <cmath>
 #include <cstddef>
+#include <filesystem>
 #include <glm/glm.hpp>
 #include <memory>
 #include <optional>
@@ -21,6 +22,12 @@
 #include "burrbench/watch/incremental_replay.hpp"
 
 namespace burrbench::watch {
+
+// The experiment manifest, where the recording `recording_id` may not exist yet (it is
+// being acquired; read_manifest refuses a listed file that does not exist). Every other
+// check is read_manifest's, and every other listed file must exist.
+data_schema::ExperimentManifest read_manifest_while_acquiring(const std::filesystem::path& manifest,
+                                                              const std::string& recording_id);
 
 struct LiveSettings {
   double step_s = 0;   // 0: half the median interval of the first force samples
