@@ -7,6 +7,7 @@
 #include <chrono>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <thread>
 #include <typeinfo>
 
@@ -21,6 +22,7 @@
 #include "burrbench/rig/modbus_link.hpp"
 #include "burrbench/rig/session.hpp"
 #include "burrbench/rig/tools.hpp"
+#include "burrbench/watch/background.hpp"
 #include "burr_options.hpp"
 #include "output_paths.hpp"
 #include "verb_registry.hpp"
@@ -36,6 +38,8 @@ struct Options {
   double duration_s = 0;
   bool keep_journal = false;
   bool overwrite = false;
+  // --watch: the live view beside the acquisition (docs/watch.md).
+  std::string watch, watch_recording, watch_params, watch_fit, watch_bind = "127.0.0.1";
 };
 
 std::string live_line(const burrbench::rig::SessionStatus& s) {
@@ -236,6 +240,27 @@ void print_session(const burrbench::rig::SessionStatus& status, const burrbench:
                              status.realtime_denied, status.threads, status.realtime_reason);
 }
 
+// acquire --watch: the live view follows the journal this session writes, on a thread of
+// its own below the acquisition's (watch/background.hpp); bad watch inputs stop here.
+std::unique_ptr<burrbench::watch::BackgroundWatch> start_watch(const Options& o, const std::filesystem::path& journal) {
+  using namespace burrbench;
+  if (o.watch.empty()) return nullptr;
+  if (o.watch_recording.empty() || o.watch_params.empty())
+    throw InputError("--watch", "--watch-recording, --watch-params", "both given with --watch");
+  watch::WatchOptions w;
+  w.experiment = o.watch;
+  w.recording_id = o.watch_recording;
+  w.params = o.watch_params;
+  w.fit = o.watch_fit;
+  w.journal = journal;
+  w.server.bind = o.watch_bind;
+  if (!watch::is_loopback(w.server.bind))
+    std::cerr << fmt::format("WARNING: --watch-bind {}: the page is served beyond this host (read-only)\n", w.server.bind);
+  w.on_url = [](const std::string& url) { std::cout << "watch: open " << url << std::endl; };
+  w.say = [](const std::string& line) { std::cerr << line << std::endl; };
+  return std::make_unique<watch::BackgroundWatch>(std::move(w));
+}
+
 void run(const Options& o) {
   using namespace burrbench;
   const auto map = rig::load_rig_map(o.rig);
@@ -246,6 +271,7 @@ void run(const Options& o) {
   o.burr.apply(burr);  // checked before the session, not after it
   const rig::SessionHeader h = session_header(o, map, burr);
   catch_stop_signals();
+  const auto live = start_watch(o, journal);
   rig::Session session(map, journal, rig::to_json(h).dump());
   const auto status = acquire(session, map, o, journal);
   const auto contents = rig::read_journal(journal);
@@ -256,6 +282,11 @@ void run(const Options& o) {
   rig::FinaliseReport rep;
   const auto rec = write_recording_from(contents, o, journal, rep);
   print_session(status, rep, rec, o);
+  if (live) {
+    std::string error;
+    const auto summary = live->finish(30, &error);
+    std::cerr << (error.empty() ? summary.text() : "watch stopped: " + error) << "\n";
+  }
 }
 
 void setup(CLI::App& root) {
@@ -271,6 +302,11 @@ void setup(CLI::App& root) {
   cmd->add_option("--journal", o->journal, "journal path (default: OUT.journal)");
   cmd->add_flag("--keep-journal", o->keep_journal, "keep the journal after the recording is written");
   cmd->add_flag("--overwrite", o->overwrite, "replace an existing --out recording (refused otherwise)");
+  cmd->add_option("--watch", o->watch, "experiment manifest: serve the live view beside the acquisition (docs/watch.md)");
+  cmd->add_option("--watch-recording", o->watch_recording, "with --watch: the manifest's recording id this session is");
+  cmd->add_option("--watch-params", o->watch_params, "with --watch: parameter set (.toml)");
+  cmd->add_option("--watch-fit", o->watch_fit, "with --watch: fit.json whose nuisances and sigma apply");
+  cmd->add_option("--watch-bind", o->watch_bind, "with --watch: address to serve on")->capture_default_str();
   cmd->callback([o] { run(*o); });
 }
 BURRBENCH_VERB("acquire", setup);
